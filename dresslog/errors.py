@@ -1,0 +1,47 @@
+"""One error family: every user-facing failure is a `DresslogError` naming what and where.
+
+The CLI turns these into one line and exit code 1; anything else is a bug.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class DresslogError(Exception):
+    """Root of dresslog's errors; `path` names the file concerned, when there is one."""
+
+    def __init__(self, message: str, *, path: str | Path | None = None) -> None:
+        self.path = Path(path) if path is not None else None
+        self.message = message
+        super().__init__(f"{self.path}: {message}" if self.path is not None else message)
+
+
+class TrialFormatError(DresslogError):
+    """A file is not a readable dresslog trial (missing, truncated, foreign, wrong schema)."""
+
+    def __init__(
+        self, message: str, *, path: str | Path | None = None, channel: str | None = None
+    ) -> None:
+        self.channel = channel
+        super().__init__(f"channel {channel}: {message}" if channel else message, path=path)
+
+
+class TrialWriteError(DresslogError):
+    """A trial could not be written (exists, folder missing, bad values)."""
+
+
+class SimulationError(DresslogError):
+    """A simulation went unstable or was given an impossible spec."""
+
+
+class ModelError(DresslogError):
+    """A model file is missing, foreign, tampered with, or for another task."""
+
+
+class ConversionError(DresslogError):
+    """An external log cannot be converted (no topics, ambiguous topics, bad timestamps)."""
+
+
+class DatasetError(DresslogError):
+    """A dataset folder has no manifest, or missing or corrupt trials."""

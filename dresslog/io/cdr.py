@@ -1,0 +1,267 @@
+"""Vectorised CDR codec for dresslog's fixed schemas, compiled from the `.msg` texts.
+
+A ROS 2 message whose variable-length parts (strings, sequences) have known
+lengths has a fixed byte layout. `layout()` walks the `.msg` definition with
+those lengths and returns a numpy structured dtype whose fields sit at the CDR
+offsets (little endian, alignment relative to the end of the 4-byte
+encapsulation header). Encoding T messages is then filling one array and
+slicing its bytes; decoding is one `frombuffer`. Because the layout comes from
+the `.msg` text, the codec cannot drift from the schema the file registers.
+
+Leaf naming: nested fields join with dots (`header.stamp.sec`); a sequence
+adds a `<name>.len` count; a nested message whose fields are all one
+primitive type (Vector3, Point, Quaternion) collapses into a sub-array.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from functools import cache
+
+import numpy as np
+
+from dresslog.io.msgdefs import _full_name, fields
+
+_NUMPY = {
+    "bool": "u1", "byte": "u1", "char": "u1", "int8": "i1", "uint8": "u1",
+    "int16": "<i2", "uint16": "<u2", "int32": "<i4", "uint32": "<u4",
+    "int64": "<i8", "uint64": "<u8", "float32": "<f4", "float64": "<f8",
+}  # fmt: skip
+ENCAPSULATION = b"\x00\x01\x00\x00"  # CDR, little endian
+_ORIGIN = len(ENCAPSULATION)
+
+#: Lengths of the variable parts: a count for a sequence, the byte length for
+#: a string, a tuple of byte lengths for a string sequence; keyed by dotted path.
+Sizes = Mapping[str, "int | tuple[int, ...]"]
+
+
+def _align(offset: int, size: int) -> int:
+    rel = offset - _ORIGIN
+    return _ORIGIN + (rel + size - 1) // size * size
+
+
+def _uniform_primitive(msg: str) -> tuple[str, int] | None:
+    """(primitive, count) when every field of `msg` is the same fixed primitive."""
+    types = {t for t, _ in fields(msg)}
+    if len(types) == 1 and (t := types.pop()) in _NUMPY:
+        return t, len(fields(msg))
+    return None
+
+
+class _Builder:
+    """Walks a definition, placing fields; reads unknown lengths from `payload` if given."""
+
+    def __init__(self, sizes: Sizes, payload: bytes | None = None) -> None:
+        self.sizes = dict(sizes)
+        self.payload = payload
+        self.names: list[str] = []
+        self.formats: list[object] = []
+        self.offsets: list[int] = []
+        self.offset = _ORIGIN
+
+    def add(self, name: str, fmt: object, align: int) -> None:
+        self.offset = _align(self.offset, align)
+        self.names.append(name)
+        self.formats.append(fmt)
+        self.offsets.append(self.offset)
+        self.offset += np.dtype(fmt).itemsize
+
+    def message(self, msg: str, prefix: str) -> None:
+        package = msg.split("/")[0]
+        for type_, name in fields(msg):
+            path = f"{prefix}{name}"
+            match = re.fullmatch(r"(.+?)(\[(\d*)\])?", type_)
+            assert match is not None
+            base, is_array, fixed = match.group(1), match.group(2), match.group(3)
+            if is_array:
+                count = int(fixed) if fixed else self._size(path, base == "string")
+                if not fixed:
+                    self.add(f"{path}.len", "<u4", 4)
+                self.array(base, package, path, count)
+            else:
+                self.single(base, package, path)
+
+    def single(self, base: str, package: str, path: str) -> None:
+        if base == "string":
+            length = self._size(path, False, string=True)
+            self.add(f"{path}.len", "<u4", 4)
+            self.add(path, f"S{length + 1}", 1)
+        elif base in _NUMPY:
+            fmt = np.dtype(_NUMPY[base])
+            self.add(path, fmt, fmt.itemsize)
+        else:
+            full = _full_name(base, package)
+            uniform = _uniform_primitive(full)
+            if uniform:
+                fmt = np.dtype(_NUMPY[uniform[0]])
+                self.add(path, (fmt, (uniform[1],)), fmt.itemsize)
+            else:
+                self.message(full, f"{path}.")
+
+    def array(self, base: str, package: str, path: str, count: int | tuple[int, ...]) -> None:
+        if base == "string":
+            for i, length in enumerate(count if isinstance(count, tuple) else ()):
+                self.add(f"{path}.{i}.len", "<u4", 4)
+                self.add(f"{path}.{i}", f"S{length + 1}", 1)
+            return
+        assert isinstance(count, int)
+        if base in _NUMPY:
+            fmt = np.dtype(_NUMPY[base])
+            self.add(path, (fmt, (count,)), fmt.itemsize)
+            return
+        full = _full_name(base, package)
+        if uniform := _uniform_primitive(full):
+            fmt = np.dtype(_NUMPY[uniform[0]])
+            self.add(path, (fmt, (count, uniform[1])), fmt.itemsize)
+            return
+        elem = element_dtype(full)
+        self.add(path, (elem, (count,)), _max_align(elem))
+
+    def _size(self, path: str, strings: bool, string: bool = False) -> int | tuple[int, ...]:
+        if path in self.sizes:
+            return self.sizes[path]
+        if self.payload is None:
+            raise KeyError(f"layout needs the length of {path!r}")
+        at = _align(self.offset, 4)
+        count = self._u32(at)
+        size: int | tuple[int, ...] = count - 1 if string else count
+        if strings:
+            lengths = []
+            at += 4
+            for _ in range(count):
+                at = _align(at, 4)
+                length = self._u32(at)
+                lengths.append(length - 1)
+                at += 4 + length
+            size = tuple(lengths)
+        self.sizes[path] = size
+        return size
+
+    def _u32(self, at: int) -> int:
+        assert self.payload is not None
+        if at + 4 > len(self.payload):
+            raise ValueError("message is shorter than its schema needs")
+        return int.from_bytes(self.payload[at : at + 4], "little")
+
+    def dtype(self) -> np.dtype:
+        names = ["encapsulation", *self.names]
+        formats = [("u1", (4,)), *self.formats]
+        offsets = [0, *self.offsets]
+        return np.dtype({"names": names, "formats": formats, "offsets": offsets,
+                         "itemsize": self.offset})  # fmt: skip
+
+
+def _max_align(dtype: np.dtype) -> int:
+    if dtype.fields is None:
+        return dtype.base.itemsize if dtype.subdtype else dtype.itemsize
+    return max(_max_align(f[0]) for f in dtype.fields.values())
+
+
+@cache
+def element_dtype(msg: str) -> np.dtype:
+    """The fixed layout of one element of a `msg[]` sequence (no strings or sequences inside)."""
+    builder = _Builder({})
+    builder.offset = _ORIGIN
+    builder.message(msg, "")
+    raw = builder.dtype()
+    names = raw.names[1:]
+    offsets = [raw.fields[n][1] - _ORIGIN for n in names]
+    formats = [raw.fields[n][0] for n in names]
+    size = builder.offset - _ORIGIN
+    align = max(_max_align(f) for f in formats)
+    if size % align:
+        raise ValueError(f"{msg} has trailing padding; its elements do not tile")
+    return np.dtype({"names": list(names), "formats": formats, "offsets": offsets,
+                     "itemsize": size})  # fmt: skip
+
+
+def _key(sizes: Sizes) -> tuple:
+    return tuple(sorted(sizes.items()))
+
+
+@cache
+def _layout(msg: str, key: tuple) -> np.dtype:
+    builder = _Builder(dict(key))
+    builder.message(msg, "")
+    return builder.dtype()
+
+
+def layout(msg: str, sizes: Sizes) -> np.dtype:
+    """The CDR byte layout of `msg` (e.g. `geometry_msgs/msg/WrenchStamped`) for these sizes."""
+    return _layout(msg, _key(sizes))
+
+
+def sizes_of(msg: str, payload: bytes) -> dict[str, int | tuple[int, ...]]:
+    """The variable-part lengths of one encoded message, read from its bytes."""
+    builder = _Builder({}, payload)
+    builder.message(msg, "")
+    if builder.offset - len(payload) > 7:  # a payload may omit trailing padding only
+        raise ValueError(f"message of {len(payload)} bytes is shorter than its schema needs")
+    return builder.sizes
+
+
+def decode(msg: str, payloads: Sequence[bytes]) -> list[np.ndarray]:
+    """Decode payloads of any lengths: one array per run of equal layout, in order."""
+    out: list[np.ndarray] = []
+    run: list[bytes] = []
+    run_key: tuple | None = None
+    for payload in payloads:
+        key = _key(sizes_of(msg, payload))
+        if key != run_key and run:
+            out.append(from_payloads(run, _layout(msg, run_key)))
+            run = []
+        run_key = key
+        run.append(payload)
+    if run:
+        out.append(from_payloads(run, _layout(msg, run_key)))
+    return out
+
+
+def new_messages(msg: str, sizes: Sizes, count: int) -> np.ndarray:
+    """`count` zeroed messages with the header and every length field filled in."""
+    dtype = layout(msg, sizes)
+    out = np.zeros(count, dtype=dtype)
+    out["encapsulation"] = np.frombuffer(ENCAPSULATION, dtype="u1")
+    for path, size in sizes.items():
+        if isinstance(size, tuple):
+            out[f"{path}.len"] = len(size)
+            for i, length in enumerate(size):
+                out[f"{path}.{i}.len"] = length + 1
+        elif f"{path}.len" in dtype.names:
+            out[f"{path}.len"] = size + 1 if dtype[path].kind == "S" else size
+    return out
+
+
+def set_stamp(messages: np.ndarray, t_ns: np.ndarray, frame_id: str) -> None:
+    """Fill `header.stamp` from integer nanoseconds and `header.frame_id`."""
+    t_ns = np.asarray(t_ns, dtype=np.int64)
+    messages["header.stamp.sec"] = t_ns // 1_000_000_000
+    messages["header.stamp.nanosec"] = t_ns % 1_000_000_000
+    messages["header.frame_id"] = frame_id.encode()
+
+
+def stamp_ns(messages: np.ndarray) -> np.ndarray:
+    """`header.stamp` as integer nanoseconds."""
+    sec = messages["header.stamp.sec"].astype(np.int64)
+    return sec * 1_000_000_000 + messages["header.stamp.nanosec"].astype(np.int64)
+
+
+def to_payloads(messages: np.ndarray) -> list[bytes]:
+    """One bytes object per message, cut from a single buffer."""
+    buf = messages.tobytes()
+    size = messages.dtype.itemsize
+    return [buf[i : i + size] for i in range(0, len(buf), size)]
+
+
+def from_payloads(payloads: Sequence[bytes], dtype: np.dtype) -> np.ndarray:
+    """Decode equal-layout payloads in one `frombuffer` (a payload may omit trailing padding)."""
+    size = dtype.itemsize
+    if all(len(p) == size for p in payloads):
+        return np.frombuffer(b"".join(payloads), dtype=dtype)
+    return np.frombuffer(b"".join(p.ljust(size, b"\0") for p in payloads), dtype=dtype)
+
+
+def string_length(payload: bytes, offset: int) -> int:
+    """Byte length (without NUL) of the CDR string whose length field is at `offset`."""
+    return int.from_bytes(payload[offset : offset + 4], "little") - 1

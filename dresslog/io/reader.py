@@ -1,0 +1,325 @@
+"""`TrialReader`: a dresslog MCAP trial back as numpy streams and its metadata.
+
+Opening reads the file once, checks it is a trial (our channels with our
+schemas, the metadata record) and keeps the raw payloads; each stream is
+decoded on first use with the vectorised codec. Every problem becomes one
+`TrialFormatError` naming the file, and the channel where there is one.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from types import TracebackType
+from typing import Self
+
+import numpy as np
+from mcap.exceptions import McapError
+from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+from pydantic import ValidationError
+
+from dresslog.errors import TrialFormatError
+from dresslog.io import cdr
+from dresslog.io import well_known as wk
+from dresslog.spec import TrialMetadata
+from dresslog.trial import (
+    CONTACT_DTYPE,
+    Contacts,
+    ForceMaps,
+    GarmentStates,
+    LimbPoints,
+    Measurements,
+    Stream,
+    Trial,
+    measurements,
+)
+
+MAGIC = b"\x89MCAP0\r\n"
+CONVERT_HINT = "for a ROS bag or a force/torque CSV, run `dresslog convert` first"
+
+
+@dataclass(frozen=True)
+class ChannelInfo:
+    """One channel of the file: its schema, encoding and message count."""
+
+    topic: str
+    schema: str
+    encoding: str
+    count: int
+
+
+@dataclass
+class _Raw:
+    info: ChannelInfo
+    times: list[int]
+    payloads: list[bytes]
+
+
+class TrialReader:
+    """Read one trial; use as a context manager."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._raw: dict[str, _Raw] | None = None
+        self._metadata: TrialMetadata | None = None
+        self.profile = ""
+
+    # -- lifecycle -------------------------------------------------------------
+    def open(self) -> Self:
+        if not self.path.exists():
+            raise TrialFormatError("no such file", path=self.path)
+        if self.path.is_dir():
+            raise TrialFormatError(f"is a folder, not an MCAP file; {CONVERT_HINT}", path=self.path)
+        with self.path.open("rb") as stream:
+            head = stream.read(len(MAGIC))
+            if not head:
+                raise TrialFormatError("file is empty", path=self.path)
+            if head != MAGIC:
+                raise TrialFormatError(f"not an MCAP file; {CONVERT_HINT}", path=self.path)
+            stream.seek(0)
+            self._raw, metadata = self._scan(stream)
+        self._check(metadata)
+        return self
+
+    def close(self) -> None:
+        self._raw = None
+
+    def __enter__(self) -> Self:
+        return self.open()
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def _scan(self, stream) -> tuple[dict[str, _Raw], dict[str, str] | None]:
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+        messages: dict[int, tuple[list[int], list[bytes]]] = {}
+        metadata: dict[str, str] | None = None
+        complete = False
+        try:
+            for record in StreamReader(stream).records:
+                if isinstance(record, Message):
+                    times, payloads = messages.setdefault(record.channel_id, ([], []))
+                    times.append(record.log_time)
+                    payloads.append(record.data)
+                elif isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Metadata) and record.name == wk.METADATA_NAME:
+                    metadata = record.metadata
+                elif isinstance(record, DataEnd | Footer):
+                    complete = True
+                    break
+        except (McapError, ValueError, EOFError) as err:
+            raise TrialFormatError(
+                f"MCAP file is damaged or truncated ({type(err).__name__}: {err}); "
+                "re-record it, or salvage it with `mcap recover`",
+                path=self.path,
+            ) from None
+        if not complete:
+            raise TrialFormatError(
+                "MCAP file is truncated (no end record); it was not closed cleanly: "
+                "re-record it, or salvage it with `mcap recover`",
+                path=self.path,
+            )
+        raw = {}
+        for cid, channel in channels.items():
+            times, payloads = messages.get(cid, ([], []))
+            schema = schemas.get(channel.schema_id)
+            info = ChannelInfo(
+                channel.topic,
+                schema.name if schema else "",
+                channel.message_encoding,
+                len(times),
+            )
+            raw[channel.topic] = _Raw(info, times, payloads)
+        return raw, metadata
+
+    def _check(self, metadata: dict[str, str] | None) -> None:
+        assert self._raw is not None
+        missing = [t for t in wk.REQUIRED if t not in self._raw]
+        if missing and not any(t in self._raw for t in wk.SCHEMAS):
+            topics = ", ".join(sorted(self._raw)) or "none"
+            raise TrialFormatError(
+                f"not a dresslog trial (channels: {topics}); {CONVERT_HINT}", path=self.path
+            )
+        if missing:
+            raise TrialFormatError(
+                f"missing channel {missing[0]}; the model needs end-effector wrench and twist",
+                path=self.path,
+            )
+        for topic, raw in self._raw.items():
+            expected = wk.SCHEMAS.get(topic)
+            if expected and (raw.info.schema, raw.info.encoding) != (expected, wk.MESSAGE_ENCODING):
+                raise TrialFormatError(
+                    f"has schema {raw.info.schema or 'none'} ({raw.info.encoding}), "
+                    f"expected {expected} (cdr)",
+                    path=self.path,
+                    channel=topic,
+                )
+        if metadata is None:
+            raise TrialFormatError(
+                f"has no `{wk.METADATA_NAME}` metadata record; {CONVERT_HINT}", path=self.path
+            )
+        try:
+            self._metadata = TrialMetadata.model_validate(json.loads(metadata["trial"]))
+        except (KeyError, json.JSONDecodeError, ValidationError) as err:
+            first = str(err).splitlines()[0]
+            raise TrialFormatError(f"metadata record is invalid: {first}", path=self.path) from None
+
+    # -- contents --------------------------------------------------------------
+    def _channel(self, topic: str) -> _Raw:
+        if self._raw is None:
+            raise TrialFormatError("reader is not open", path=self.path)
+        return self._raw[topic]
+
+    @property
+    def metadata(self) -> TrialMetadata:
+        self._channel(wk.WRENCH)
+        assert self._metadata is not None
+        return self._metadata
+
+    @property
+    def channels(self) -> dict[str, ChannelInfo]:
+        """Every channel in the file, ours or not, by topic."""
+        if self._raw is None:
+            raise TrialFormatError("reader is not open", path=self.path)
+        return {topic: raw.info for topic, raw in sorted(self._raw.items())}
+
+    def has(self, topic: str) -> bool:
+        return topic in self.channels and self.channels[topic].count > 0
+
+    def messages(self, topic: str) -> tuple[np.ndarray, list[bytes]]:
+        """Raw log times (int64 ns) and CDR payloads of one channel, in file order."""
+        raw = self._channel(topic)
+        return np.asarray(raw.times, dtype=np.int64), raw.payloads
+
+    def _decode(self, topic: str) -> list[np.ndarray]:
+        _, payloads = self.messages(topic)
+        try:
+            return cdr.decode(wk.SCHEMAS[topic], payloads)
+        except (ValueError, KeyError) as err:
+            raise TrialFormatError(
+                f"message does not match its schema: {err}", path=self.path, channel=topic
+            ) from None
+
+    def _vectors(self, topic: str, a: str, b: str) -> Stream:
+        msgs = np.concatenate(self._decode(topic)) if self.has(topic) else None
+        if msgs is None:
+            return Stream(np.zeros(0, np.int64), np.zeros((0, 6)))
+        values = np.concatenate([msgs[a], msgs[b]], axis=1)
+        bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+        if len(bad):
+            raise TrialFormatError(
+                f"NaN or infinite value in message {bad[0]} of {len(values)}; "
+                "the recording is corrupt, re-record or re-convert it",
+                path=self.path,
+                channel=topic,
+            )
+        return Stream(cdr.stamp_ns(msgs), values)
+
+    @cached_property
+    def wrench(self) -> Stream:
+        """(T, 6) force and torque the garment applies at the end effector."""
+        return self._vectors(wk.WRENCH, "wrench.force", "wrench.torque")
+
+    @cached_property
+    def twist(self) -> Stream:
+        """(T, 6) end-effector linear and angular velocity."""
+        return self._vectors(wk.TWIST, "twist.linear", "twist.angular")
+
+    @cached_property
+    def pose(self) -> Stream | None:
+        """(T, 7) end-effector position and quaternion x y z w."""
+        if not self.has(wk.POSE):
+            return None
+        return self._vectors(wk.POSE, "pose.position", "pose.orientation")
+
+    @cached_property
+    def measurements(self) -> Measurements:
+        """The network input phi_t (T, 9) on the steps that have both wrench and twist."""
+        return measurements(self.wrench, self.twist)
+
+    def force_maps(self, *, estimate: bool = False) -> ForceMaps | None:
+        """Ground-truth force maps, or a model's estimate with its contact map."""
+        topic = wk.ESTIMATE if estimate else wk.FORCE_MAP
+        if not self.has(topic):
+            return None
+        runs = self._decode(topic)
+        widths = {run["forces"].shape[1] for run in runs}
+        if len(widths) != 1:
+            raise TrialFormatError(
+                f"force maps change size ({sorted(widths)})", path=self.path, channel=topic
+            )
+        msgs = np.concatenate(runs)
+        return ForceMaps(cdr.stamp_ns(msgs), msgs["forces"].copy(), msgs["contact"].copy())
+
+    @cached_property
+    def force_map(self) -> ForceMaps | None:
+        return self.force_maps()
+
+    @cached_property
+    def estimate(self) -> ForceMaps | None:
+        return self.force_maps(estimate=True)
+
+    @cached_property
+    def contacts(self) -> Contacts | None:
+        """Per-step garment-limb contacts (CONTACT_DTYPE arrays)."""
+        if not self.has(wk.CONTACTS):
+            return None
+        items: list[np.ndarray] = []
+        times: list[np.ndarray] = []
+        for run in self._decode(wk.CONTACTS):
+            times.append(cdr.stamp_ns(run))
+            items.extend(np.asarray(c, dtype=CONTACT_DTYPE) for c in run["contacts"])
+        return Contacts(np.concatenate(times), items)
+
+    @cached_property
+    def limb_points(self) -> LimbPoints | None:
+        """The force-map sites, from the first `/limb/points` message."""
+        if not self.has(wk.LIMB_POINTS):
+            return None
+        msg = self._decode(wk.LIMB_POINTS)[0][0]
+        count = int(msg["segment_names.len"])
+        names = tuple(msg[f"segment_names.{i}"].decode() for i in range(count))
+        return LimbPoints(msg["limb"].decode(), msg["points"].copy(), msg["segment"].copy(), names)
+
+    @cached_property
+    def garment(self) -> GarmentStates | None:
+        """Garment vertices over time and the triangles from the first message."""
+        if not self.has(wk.GARMENT):
+            return None
+        runs = self._decode(wk.GARMENT)
+        msgs = [m for run in runs for m in run]
+        triangles = msgs[0]["triangles"].reshape(-1, 3).astype(np.int64)
+        vertices = np.stack([m["vertices"] for m in msgs]).astype(np.float32)
+        return GarmentStates(np.concatenate([cdr.stamp_ns(r) for r in runs]), vertices, triangles)
+
+    def read(self) -> Trial:
+        """Every stream in memory at once."""
+        return Trial(
+            metadata=self.metadata,
+            wrench=self.wrench,
+            twist=self.twist,
+            pose=self.pose,
+            force_map=self.force_map,
+            estimate=self.estimate,
+            contacts=self.contacts,
+            limb_points=self.limb_points,
+            garment=self.garment,
+        )
+
+
+def read_trial(path: str | Path) -> Trial:
+    """Read a whole trial file."""
+    with TrialReader(path) as reader:
+        return reader.read()

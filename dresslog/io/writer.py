@@ -1,0 +1,232 @@
+"""`TrialWriter`: a dresslog trial as an MCAP file (profile ros2, CDR, zstd chunks).
+
+The file appears under its final name only when the writer closes cleanly;
+until then it is a hidden temporary beside it, removed if anything fails.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Self
+
+import numpy as np
+from mcap.writer import CompressionType, Writer
+
+from dresslog import __version__
+from dresslog.errors import TrialWriteError
+from dresslog.io import cdr
+from dresslog.io import well_known as wk
+from dresslog.io.msgdefs import schema_text
+from dresslog.spec import TrialMetadata
+from dresslog.trial import CONTACT_DTYPE, LimbPoints
+
+CHUNK_SIZE = 4 * 1024 * 1024
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of the packages that shape a recording's content."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {"dresslog": __version__}
+    for name in ("numpy", "mcap", "pybullet", "torch"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            continue
+    return out
+
+
+def temporary_path(path: Path) -> Path:
+    """The hidden name a file is written under before it is renamed into place."""
+    return path.with_name(f".{path.name}.{os.getpid()}.partial")
+
+
+class TrialWriter:
+    """Write one trial; use as a context manager. Times are integer nanoseconds."""
+
+    def __init__(
+        self, path: str | Path, metadata: TrialMetadata, *, overwrite: bool = False
+    ) -> None:
+        self.path = Path(path)
+        self.metadata = metadata
+        self.overwrite = overwrite
+        self._tmp = temporary_path(self.path)
+        self._stream: IO[bytes] | None = None
+        self._writer: Writer | None = None
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, int] = {}
+        self._sequence: dict[str, int] = {}
+
+    # -- lifecycle -------------------------------------------------------------
+    def open(self) -> Self:
+        if not self.path.parent.is_dir():
+            raise TrialWriteError("folder does not exist; create it first", path=self.path)
+        if self.path.exists() and not self.overwrite:
+            raise TrialWriteError("file exists; pass overwrite to replace it", path=self.path)
+        self._stream = self._tmp.open("wb")
+        self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
+        self._writer.start(profile=wk.PROFILE, library=f"{wk.LIBRARY} {__version__}")
+        return self
+
+    def close(self) -> None:
+        """Write the metadata and summary, then move the file into place."""
+        writer, stream = self._writer, self._stream
+        if writer is None or stream is None:
+            return
+        metadata = self.metadata.model_copy(
+            update={"software": self.metadata.software or software_versions()}
+        )
+        writer.add_metadata(
+            wk.METADATA_NAME, {"task": metadata.task.value, "trial": metadata.model_dump_json()}
+        )
+        writer.finish()
+        stream.close()
+        self._writer = self._stream = None
+        self._tmp.replace(self.path)
+
+    def abort(self) -> None:
+        """Drop everything written so far; nothing appears under the final name."""
+        if self._stream is not None:
+            self._stream.close()
+        self._writer = self._stream = None
+        self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self) -> Self:
+        return self.open()
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+    # -- channels --------------------------------------------------------------
+    def _channel(self, topic: str) -> int:
+        if self._writer is None:
+            raise TrialWriteError("writer is not open", path=self.path)
+        if topic not in self._channels:
+            name = wk.SCHEMAS[topic]
+            if name not in self._schemas:
+                self._schemas[name] = self._writer.register_schema(
+                    name, wk.SCHEMA_ENCODING, schema_text(name).encode()
+                )
+            self._channels[topic] = self._writer.register_channel(
+                topic, wk.MESSAGE_ENCODING, self._schemas[name]
+            )
+            self._sequence[topic] = 0
+        return self._channels[topic]
+
+    def _write(self, topic: str, t_ns: np.ndarray, messages: np.ndarray) -> None:
+        channel = self._channel(topic)
+        assert self._writer is not None
+        seq = self._sequence[topic]
+        for t, payload in zip(t_ns.tolist(), cdr.to_payloads(messages), strict=True):
+            self._writer.add_message(channel, t, payload, t, seq)
+            seq += 1
+        self._sequence[topic] = seq
+
+    def _stamped(
+        self, topic: str, t_ns: int | np.ndarray, sizes: dict, count: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        times = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
+        frame = wk.FRAMES[topic]
+        messages = cdr.new_messages(
+            wk.SCHEMAS[topic], {"header.frame_id": len(frame), **sizes}, count or len(times)
+        )
+        cdr.set_stamp(messages, times, frame)
+        return times, messages
+
+    def _rows(self, topic: str, values: np.ndarray, width: int) -> np.ndarray:
+        rows = np.asarray(values, dtype=np.float64)
+        rows = rows.reshape(-1, width) if rows.ndim == 1 else rows
+        if rows.shape[1] != width:
+            raise TrialWriteError(f"{topic} needs {width} values per message", path=self.path)
+        if not np.isfinite(rows).all():
+            raise TrialWriteError(f"{topic} has NaN or infinite values", path=self.path)
+        return rows
+
+    # -- streams ---------------------------------------------------------------
+    def write_wrench(self, t_ns: int | np.ndarray, wrench: np.ndarray) -> None:
+        """Force (N) and torque (N m) the garment applies at the end effector, (6,) or (T, 6)."""
+        rows = self._rows(wk.WRENCH, wrench, 6)
+        times, msgs = self._stamped(wk.WRENCH, t_ns, {})
+        msgs["wrench.force"], msgs["wrench.torque"] = rows[:, :3], rows[:, 3:]
+        self._write(wk.WRENCH, times, msgs)
+
+    def write_twist(self, t_ns: int | np.ndarray, twist: np.ndarray) -> None:
+        """End-effector linear (m/s) and angular (rad/s) velocity, (6,) or (T, 6)."""
+        rows = self._rows(wk.TWIST, twist, 6)
+        times, msgs = self._stamped(wk.TWIST, t_ns, {})
+        msgs["twist.linear"], msgs["twist.angular"] = rows[:, :3], rows[:, 3:]
+        self._write(wk.TWIST, times, msgs)
+
+    def write_pose(self, t_ns: int | np.ndarray, pose: np.ndarray) -> None:
+        """End-effector position (m) and quaternion x y z w, (7,) or (T, 7)."""
+        rows = self._rows(wk.POSE, pose, 7)
+        times, msgs = self._stamped(wk.POSE, t_ns, {})
+        msgs["pose.position"], msgs["pose.orientation"] = rows[:, :3], rows[:, 3:]
+        self._write(wk.POSE, times, msgs)
+
+    def write_force_map(
+        self,
+        t_ns: int | np.ndarray,
+        forces: np.ndarray,
+        contact: np.ndarray | None = None,
+        *,
+        estimate: bool = False,
+    ) -> None:
+        """Force map(s) (N,) or (T, N); an estimate also carries its contact map."""
+        topic = wk.ESTIMATE if estimate else wk.FORCE_MAP
+        forces = np.asarray(forces, dtype=np.float32)
+        forces = forces[None] if forces.ndim == 1 else forces
+        if not np.isfinite(forces).all():
+            raise TrialWriteError(f"{topic} has NaN or infinite values", path=self.path)
+        n_contact = 0 if contact is None else forces.shape[1]
+        times, msgs = self._stamped(topic, t_ns, {"forces": forces.shape[1], "contact": n_contact})
+        msgs["forces"] = forces
+        if contact is not None:
+            msgs["contact"] = np.asarray(contact, dtype=np.float32).reshape(forces.shape)
+        self._write(topic, times, msgs)
+
+    def write_contacts(self, t_ns: int, contacts: np.ndarray) -> None:
+        """Every garment-limb contact at one step, a CONTACT_DTYPE array (possibly empty)."""
+        contacts = np.asarray(contacts, dtype=CONTACT_DTYPE)
+        times, msgs = self._stamped(wk.CONTACTS, t_ns, {"contacts": len(contacts)}, 1)
+        msgs["contacts"][0] = contacts
+        self._write(wk.CONTACTS, times, msgs)
+
+    def write_limb_points(self, t_ns: int, limb_points: LimbPoints) -> None:
+        """The force-map sites, once at the start."""
+        names = tuple(n.encode() for n in limb_points.segment_names)
+        sizes = {
+            "limb": len(limb_points.limb),
+            "points": len(limb_points),
+            "segment": len(limb_points),
+            "segment_names": tuple(len(n) for n in names),
+        }
+        times, msgs = self._stamped(wk.LIMB_POINTS, t_ns, sizes, 1)
+        msgs["limb"] = limb_points.limb.encode()
+        msgs["points"][0] = limb_points.points
+        msgs["segment"][0] = limb_points.segment
+        for i, name in enumerate(names):
+            msgs[f"segment_names.{i}"] = name
+        self._write(wk.LIMB_POINTS, times, msgs)
+
+    def write_garment(
+        self, t_ns: int, vertices: np.ndarray, triangles: np.ndarray | Sequence | None = None
+    ) -> None:
+        """Garment vertex positions (V, 3); the triangles (F, 3) in the first message only."""
+        tris = np.zeros((0,), np.uint32) if triangles is None else np.asarray(triangles).ravel()
+        sizes = {"vertices": len(vertices), "triangles": len(tris)}
+        times, msgs = self._stamped(wk.GARMENT, t_ns, sizes, 1)
+        msgs["vertices"][0] = vertices
+        msgs["triangles"][0] = tris
+        self._write(wk.GARMENT, times, msgs)

@@ -1,0 +1,100 @@
+"""Trial specification and metadata: what a trial was asked to be and what it became.
+
+A `TrialSpec` fully determines a simulated trial (same spec, same bytes); a
+`TrialMetadata` is what a recording carries about itself: the spec (or, for a
+converted log, its source), the outcome and the software that wrote it.
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Vec3 = tuple[float, float, float]
+
+
+class Task(StrEnum):
+    """The two dressing tasks of the paper; each has its own limb and garment."""
+
+    GOWN = "gown"
+    SHORTS = "shorts"
+
+    @property
+    def limb(self) -> str:
+        return "arm" if self is Task.GOWN else "leg"
+
+
+class Outcome(StrEnum):
+    """How a trial ended, decided from where the garment ends up on the limb."""
+
+    DRESSED = "dressed"
+    MISSED = "missed"
+    CAUGHT = "caught"
+    FAILED = "failed"
+    UNKNOWN = "unknown"
+
+
+class LimbRotation(BaseModel):
+    """A rotation of the distal limb part: forearm about the elbow, foot about the ankle."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    axis: Literal["x", "y", "z"] = "z"
+    degrees: float = 0.0
+
+
+class SimParams(BaseModel):
+    """Physics settings of the pybullet simulation (SI units)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    physics_hz: int = Field(300, description="physics steps per second")
+    record_hz: int = Field(100, description="recorded measurements per second")
+    settle_s: float = Field(1.0, description="time the garment hangs before the motion")
+    wind_s: float = Field(0.3, description="duration of the random perturbing force")
+    wind_accel: float = Field(2.0, description="peak random acceleration per vertex, m/s^2")
+    garment_mass: float = Field(0.25, description="kg")
+    elastic_stiffness: float = 40.0
+    damping_stiffness: float = 0.1
+    bending_stiffness: float = 2.0
+    friction: float = 0.5
+    collision_margin: float = 0.006
+    max_limb_force: float = Field(200.0, description="instability guard, N")
+
+
+class TrialSpec(BaseModel):
+    """Everything that determines one simulated dressing trial."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    task: Task
+    seed: int = 0
+    speed: Annotated[float, Field(gt=0, description="end-effector speed, m/s")] = 0.125
+    limb_offset: Vec3 = Field((0.0, 0.0, 0.0), description="limb offset from nominal, m")
+    limb_rotation: LimbRotation = LimbRotation()
+    duration: Annotated[float, Field(gt=0, description="recorded motion, s")] = 7.0
+    control_points: list[Vec3] = Field(
+        default_factory=list,
+        description="end-effector path control points in the world frame, m; "
+        "empty means drawn from the seed",
+    )
+    sim: SimParams = SimParams()
+
+
+class TrialMetadata(BaseModel):
+    """What a recording says about itself (the MCAP metadata record `dresslog`)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    format_version: int = 1
+    task: Task
+    spec: TrialSpec | None = Field(None, description="the spec of a simulated trial")
+    outcome: Outcome = Outcome.UNKNOWN
+    failure_reason: str | None = None
+    source: dict[str, object] = Field(
+        default_factory=dict,
+        description="for converted logs: source file, topics, rates, processing",
+    )
+    software: dict[str, str] = Field(default_factory=dict)

@@ -1,0 +1,132 @@
+"""In-memory trial data: numpy arrays with integer-nanosecond timestamps.
+
+These are what `TrialReader` returns and what the simulator, converters and
+the replay engine pass around; no I/O happens here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dresslog.spec import TrialMetadata
+
+#: One garment-limb contact; the memory layout equals the CDR layout of
+#: `dresslog_msgs/msg/Contact`, so a contact array is encoded by a byte copy.
+CONTACT_DTYPE = np.dtype(
+    [
+        ("position", "<f8", (3,)),
+        ("normal", "<f8", (3,)),
+        ("friction", "<f8", (3,)),
+        ("normal_force", "<f8"),
+        ("segment", "<u4"),
+        ("vertex", "<u4"),
+    ]
+)
+
+
+def empty_contacts(n: int = 0) -> np.ndarray:
+    """A zeroed contact array of length `n`."""
+    return np.zeros(n, dtype=CONTACT_DTYPE)
+
+
+def contact_magnitudes(contacts: np.ndarray) -> np.ndarray:
+    """Total force magnitude of each contact: |normal force + friction|."""
+    normal = contacts["normal_force"][:, None] * contacts["normal"]
+    return np.linalg.norm(normal + contacts["friction"], axis=1)
+
+
+@dataclass(frozen=True)
+class Stream:
+    """A sampled signal: `t_ns` (T,) int64 and `values` (T, D)."""
+
+    t_ns: np.ndarray
+    values: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t_ns)
+
+
+@dataclass(frozen=True)
+class ForceMaps:
+    """Force maps over time: `forces` (T, N) float32 in N; `contact` (T, N) or (T, 0)."""
+
+    t_ns: np.ndarray
+    forces: np.ndarray
+    contact: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t_ns)
+
+
+@dataclass(frozen=True)
+class LimbPoints:
+    """The force-map sites: `points` (N, 3) m, `segment` (N,) index into `segment_names`."""
+
+    limb: str
+    points: np.ndarray
+    segment: np.ndarray
+    segment_names: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+@dataclass(frozen=True)
+class Contacts:
+    """Contacts per step: `t_ns` (T,), and for step i `items[i]`, a CONTACT_DTYPE array."""
+
+    t_ns: np.ndarray
+    items: list[np.ndarray]
+
+    def __len__(self) -> int:
+        return len(self.t_ns)
+
+
+@dataclass(frozen=True)
+class GarmentStates:
+    """Garment vertices over time: `vertices` (T, V, 3) float32, `triangles` (F, 3)."""
+
+    t_ns: np.ndarray
+    vertices: np.ndarray
+    triangles: np.ndarray
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """The network input phi_t = [force, torque, linear velocity] (T, 9) at each step."""
+
+    t_ns: np.ndarray
+    phi: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t_ns)
+
+
+@dataclass
+class Trial:
+    """A whole recording in memory; any stream but `wrench` and `twist` may be absent."""
+
+    metadata: TrialMetadata
+    wrench: Stream
+    twist: Stream
+    pose: Stream | None = None
+    force_map: ForceMaps | None = None
+    estimate: ForceMaps | None = None
+    contacts: Contacts | None = None
+    limb_points: LimbPoints | None = None
+    garment: GarmentStates | None = None
+    extras: dict[str, object] = field(default_factory=dict)
+
+    @property
+    def measurements(self) -> Measurements:
+        """phi_t on the wrench timestamps; twist is matched by timestamp."""
+        return measurements(self.wrench, self.twist)
+
+
+def measurements(wrench: Stream, twist: Stream) -> Measurements:
+    """Join wrench (T, 6) and twist (T, 6) into phi (T, 9) on their common timestamps."""
+    common, wi, ti = np.intersect1d(wrench.t_ns, twist.t_ns, return_indices=True)
+    phi = np.concatenate([wrench.values[wi, :6], twist.values[ti, :3]], axis=1)
+    return Measurements(t_ns=common, phi=phi.astype(np.float32))
