@@ -1,0 +1,30 @@
+"""What every command shares: DresslogError as one line and exit 1, never a traceback."""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import ParamSpec, TypeVar
+
+import click
+
+from dresslog.errors import DresslogError
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def reports_errors(command: Callable[P, R]) -> Callable[P, R]:
+    """Turn a `DresslogError` (a user mistake or bad input) into `Error: <one line>`, exit 1."""
+
+    @functools.wraps(command)
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        try:
+            return command(*args, **kwargs)
+        except DresslogError as err:
+            raise click.ClickException(str(err)) from None
+
+    return wrapper
+
+
+existing_file = click.Path(exists=False, dir_okay=True, path_type=str)

@@ -1,0 +1,64 @@
+"""The `dresslog` command: a lazy click group, so `--help` never imports torch or pybullet."""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+
+import click
+
+from dresslog import __version__
+
+#: command name -> "module:attribute"; each module is imported only when its command runs.
+COMMANDS = {
+    "info": "dresslog.cli.info:info",
+    "record": "dresslog.cli.record:record",
+    "convert": "dresslog.cli.convert:convert",
+    "infer": "dresslog.cli.infer:infer",
+    "view": "dresslog.cli.view:view",
+    "generate": "dresslog.cli.generate:generate",
+    "train": "dresslog.cli.train:train",
+    "eval": "dresslog.cli.evaluate:evaluate",
+    "sweep": "dresslog.cli.sweep:sweep",
+}
+
+HELP = {
+    "info": "Summarise a trial file: task, duration, channels, spec.",
+    "record": "Simulate one dressing trial in pybullet and record it to MCAP.",
+    "convert": "Convert a ROS bag or force/torque CSV into a dresslog trial.",
+    "infer": "Stream a trial through the force-map LSTM; write a Rerun recording.",
+    "view": "Open a trial or .rrd in the Rerun viewer.",
+    "generate": "Simulate many trials in parallel into a dataset folder.",
+    "train": "Train a force-map LSTM on a dataset.",
+    "eval": "Evaluate a model on a dataset's test split.",
+    "sweep": "Generalisation sweeps over speed and limb rotation.",
+}
+
+
+class LazyGroup(click.Group):
+    """A group whose subcommands are imported on first use."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return [name for name in COMMANDS if self._available(name)]
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in COMMANDS or not self._available(cmd_name):
+            return None
+        module, attribute = COMMANDS[cmd_name].split(":")
+        return getattr(importlib.import_module(module), attribute)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, HELP[name]) for name in self.list_commands(ctx)]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+    @staticmethod
+    def _available(name: str) -> bool:
+        return importlib.util.find_spec(COMMANDS[name].split(":")[0]) is not None
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="dresslog")
+def main() -> None:
+    """dresslog: simulate robot-assisted dressing, record trials, infer the forces felt."""

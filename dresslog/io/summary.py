@@ -1,0 +1,92 @@
+"""What `dresslog info` reports about a trial file, as a pydantic model (prints as JSON)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pydantic import BaseModel
+
+from dresslog.io import well_known as wk
+from dresslog.io.reader import TrialReader
+from dresslog.spec import TrialMetadata
+
+
+class ChannelSummary(BaseModel):
+    topic: str
+    schema_name: str
+    count: int
+
+
+class TrialSummary(BaseModel):
+    """A trial at a glance: task, timing, channels, and what it can be used for."""
+
+    path: str
+    size_bytes: int
+    task: str
+    outcome: str
+    steps: int
+    duration_s: float
+    rate_hz: float
+    limb_points: int | None
+    has_ground_truth: bool
+    has_estimate: bool
+    channels: list[ChannelSummary]
+    metadata: TrialMetadata
+
+
+def summarize(path: str | Path) -> TrialSummary:
+    """Open a trial and describe it; raises `TrialFormatError` for anything not a trial."""
+    with TrialReader(path) as reader:
+        t_ns = reader.measurements.t_ns
+        steps = len(t_ns)
+        duration = (t_ns[-1] - t_ns[0]) / 1e9 if steps > 1 else 0.0
+        rate = float(1e9 / np.median(np.diff(t_ns))) if steps > 1 else 0.0
+        limb = reader.limb_points
+        return TrialSummary(
+            path=str(path),
+            size_bytes=Path(path).stat().st_size,
+            task=reader.metadata.task.value,
+            outcome=reader.metadata.outcome.value,
+            steps=steps,
+            duration_s=round(float(duration), 6),
+            rate_hz=round(rate, 3),
+            limb_points=len(limb) if limb is not None else None,
+            has_ground_truth=reader.has(wk.FORCE_MAP),
+            has_estimate=reader.has(wk.ESTIMATE),
+            channels=[
+                ChannelSummary(topic=c.topic, schema_name=c.schema, count=c.count)
+                for c in reader.channels.values()
+            ],
+            metadata=reader.metadata,
+        )
+
+
+def format_summary(summary: TrialSummary) -> str:
+    """The human-readable form printed by `dresslog info`."""
+    md = summary.metadata
+    lines = [
+        f"{summary.path}  ({summary.size_bytes / 1e6:.2f} MB)",
+        f"  task      {summary.task}   outcome {summary.outcome}"
+        + (f" ({md.failure_reason})" if md.failure_reason else ""),
+        f"  steps     {summary.steps} over {summary.duration_s:.2f} s at {summary.rate_hz:g} Hz",
+        f"  limb      {summary.limb_points or 'no'} limb points; ground truth "
+        f"{'yes' if summary.has_ground_truth else 'no'}; estimate "
+        f"{'yes' if summary.has_estimate else 'no'}",
+        "  channels",
+    ]
+    width = max(len(c.topic) for c in summary.channels)
+    lines += [f"    {c.topic:<{width}}  {c.count:>6}  {c.schema_name}" for c in summary.channels]
+    if md.spec is not None:
+        spec = md.spec
+        lines.append(
+            f"  spec      seed {spec.seed}, speed {spec.speed:.3f} m/s, offset "
+            f"({', '.join(f'{v:+.3f}' for v in spec.limb_offset)}) m, rotation "
+            f"{spec.limb_rotation.degrees:+g} deg about {spec.limb_rotation.axis}, "
+            f"duration {spec.duration:g} s"
+        )
+    if md.source:
+        lines.append(f"  source    {md.source}")
+    if md.software:
+        lines.append("  software  " + ", ".join(f"{k} {v}" for k, v in md.software.items()))
+    return "\n".join(lines)
