@@ -1,0 +1,70 @@
+"""Shared fixtures: small trials written by the real `TrialWriter`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dresslog.io.writer import TrialWriter
+from dresslog.spec import Outcome, Task, TrialMetadata, TrialSpec
+from dresslog.trial import LimbPoints, empty_contacts
+
+REPO = Path(__file__).resolve().parents[1]
+SAMPLES = REPO / "samples"
+
+N_POINTS = {Task.GOWN: 300, Task.SHORTS: 400}
+
+
+def write_synthetic_trial(path: Path, task: Task = Task.GOWN, steps: int = 50) -> dict:
+    """A trial with every channel filled from a seeded generator; returns what was written."""
+    rng = np.random.default_rng(7)
+    n = N_POINTS[task]
+    t_ns = np.arange(steps, dtype=np.int64) * 10_000_000 + 1_500_000_000
+    wrench = rng.normal(size=(steps, 6))
+    twist = rng.normal(size=(steps, 6))
+    pose = np.concatenate([rng.normal(size=(steps, 3)), np.tile([0, 0, 0, 1.0], (steps, 1))], 1)
+    forces = np.where(rng.random((steps, n)) < 0.1, rng.random((steps, n)), 0).astype(np.float32)
+    contacts = []
+    for i in range(steps):
+        c = empty_contacts(i % 4)
+        c["position"] = rng.normal(size=(len(c), 3))
+        c["normal"] = [0, 0, 1]
+        c["friction"] = rng.normal(size=(len(c), 3))
+        c["normal_force"] = rng.random(len(c))
+        c["segment"] = 1
+        c["vertex"] = np.arange(len(c))
+        contacts.append(c)
+    limb = LimbPoints(
+        task.limb, rng.normal(size=(n, 3)), (np.arange(n) % 3).astype(np.uint32), ("a", "bb", "ccc")
+    )
+    vertices = rng.normal(size=(6, 3)).astype(np.float32)
+    triangles = np.array([[0, 1, 2], [3, 4, 5]])
+    spec = TrialSpec(task=task, seed=11, speed=0.12, limb_offset=(0.01, -0.1, 0.05))
+    with TrialWriter(path, TrialMetadata(task=task, spec=spec)) as writer:
+        writer.write_limb_points(int(t_ns[0]), limb)
+        for i in range(steps):
+            writer.write_wrench(t_ns[i], wrench[i])
+            writer.write_twist(t_ns[i], twist[i])
+            writer.write_pose(t_ns[i], pose[i])
+            writer.write_force_map(t_ns[i], forces[i])
+            writer.write_contacts(int(t_ns[i]), contacts[i])
+            if i % 10 == 0:
+                writer.write_garment(int(t_ns[i]), vertices + i, triangles if i == 0 else None)
+        writer.metadata = writer.metadata.model_copy(update={"outcome": Outcome.DRESSED})
+    return {
+        "t_ns": t_ns, "wrench": wrench, "twist": twist, "pose": pose, "forces": forces,
+        "contacts": contacts, "limb": limb, "vertices": vertices, "triangles": triangles,
+        "spec": spec,
+    }  # fmt: skip
+
+
+@pytest.fixture
+def make_trial(tmp_path: Path) -> Callable[..., tuple[Path, dict]]:
+    def make(task: Task = Task.GOWN, steps: int = 50, name: str = "trial.mcap"):
+        path = tmp_path / name
+        return path, write_synthetic_trial(path, task, steps)
+
+    return make

@@ -1,0 +1,148 @@
+"""Files that are not good trials give one clear line and exit 1, never a traceback."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from mcap.writer import Writer
+
+from dresslog.cli.main import main
+from dresslog.errors import TrialFormatError
+from dresslog.io import cdr
+from dresslog.io import well_known as wk
+from dresslog.io.msgdefs import schema_text
+from dresslog.io.reader import TrialReader
+from dresslog.spec import Task, TrialMetadata
+
+
+def _raw_mcap(path: Path, channels: dict[str, tuple[str, list[bytes]]], metadata: bool) -> None:
+    """An MCAP written with mcap's own writer: topic -> (schema name, payloads)."""
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="another tool")
+        for topic, (schema, payloads) in channels.items():
+            sid = writer.register_schema(schema, "ros2msg", schema_text(schema).encode())
+            cid = writer.register_channel(topic, "cdr", sid)
+            for i, payload in enumerate(payloads):
+                writer.add_message(cid, i * 10_000_000, payload, i * 10_000_000, i)
+        if metadata:
+            trial = TrialMetadata(task=Task.GOWN).model_dump_json()
+            writer.add_metadata(wk.METADATA_NAME, {"task": "gown", "trial": trial})
+        writer.finish()
+
+
+def _vectors(schema: str, fields: tuple[str, str], values: np.ndarray) -> list[bytes]:
+    msgs = cdr.new_messages(schema, {"header.frame_id": 2}, len(values))
+    cdr.set_stamp(msgs, np.arange(len(values)) * 10_000_000, "ee")
+    msgs[fields[0]], msgs[fields[1]] = values[:, :3], values[:, 3:]
+    return cdr.to_payloads(msgs)
+
+
+WRENCH = ("geometry_msgs/msg/WrenchStamped", ("wrench.force", "wrench.torque"))
+TWIST = ("geometry_msgs/msg/TwistStamped", ("twist.linear", "twist.angular"))
+
+
+def missing(tmp: Path, good: Path) -> Path:
+    return tmp / "nowhere.mcap"
+
+
+def empty(tmp: Path, good: Path) -> Path:
+    (path := tmp / "empty.mcap").write_bytes(b"")
+    return path
+
+
+def random_bytes(tmp: Path, good: Path) -> Path:
+    (path := tmp / "noise.mcap").write_bytes(np.random.default_rng(0).bytes(5000))
+    return path
+
+
+def json_named_mcap(tmp: Path, good: Path) -> Path:
+    (path := tmp / "trial.mcap").write_text('{"task": "gown"}')
+    return path
+
+
+def truncated(tmp: Path, good: Path) -> Path:
+    data = good.read_bytes()
+    (path := tmp / "cut.mcap").write_bytes(data[: len(data) // 2])
+    return path
+
+
+def foreign(tmp: Path, good: Path) -> Path:
+    path = tmp / "chatter.mcap"
+    _raw_mcap(path, {"/joint_states": (TWIST[0], _vectors(*TWIST, np.zeros((3, 6))))}, False)
+    return path
+
+
+def wrong_schema(tmp: Path, good: Path) -> Path:
+    path = tmp / "wrong.mcap"
+    twist = _vectors(*TWIST, np.zeros((3, 6)))
+    _raw_mcap(path, {wk.WRENCH: (TWIST[0], twist), wk.TWIST: (TWIST[0], twist)}, True)
+    return path
+
+
+def missing_twist(tmp: Path, good: Path) -> Path:
+    path = tmp / "no_twist.mcap"
+    _raw_mcap(path, {wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6))))}, True)
+    return path
+
+
+def nan_wrench(tmp: Path, good: Path) -> Path:
+    path = tmp / "nan.mcap"
+    values = np.zeros((3, 6))
+    values[1, 2] = np.nan
+    channels = {
+        wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, values)),
+        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+    }
+    _raw_mcap(path, channels, True)
+    return path
+
+
+def no_metadata(tmp: Path, good: Path) -> Path:
+    path = tmp / "bare.mcap"
+    channels = {
+        wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
+        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+    }
+    _raw_mcap(path, channels, False)
+    return path
+
+
+CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
+    (missing, "no such file"),
+    (empty, "file is empty"),
+    (random_bytes, "not an MCAP file.*dresslog convert"),
+    (json_named_mcap, "not an MCAP file"),
+    (truncated, "truncated"),
+    (foreign, "not a dresslog trial.*/joint_states.*dresslog convert"),
+    (wrong_schema, "channel /ee/wrench: has schema geometry_msgs/msg/TwistStamped"),
+    (missing_twist, "missing channel /ee/twist"),
+    (nan_wrench, "channel /ee/wrench: NaN"),
+    (no_metadata, "no `dresslog` metadata record"),
+]
+
+
+@pytest.mark.parametrize(("make", "message"), CASES, ids=[c[0].__name__ for c in CASES])
+def test_info_says_what_is_wrong_in_one_line(tmp_path: Path, make_trial, make, message) -> None:
+    good, _ = make_trial(name="good.mcap")
+    path = make(tmp_path, good)
+    result = CliRunner().invoke(main, ["info", str(path)])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1, result.output
+    assert lines[0].startswith(f"Error: {path}: ")
+    assert __import__("re").search(message, lines[0]), lines[0]
+    assert "Traceback" not in result.output
+
+
+@pytest.mark.parametrize(("make", "message"), CASES, ids=[c[0].__name__ for c in CASES])
+def test_reader_raises_a_format_error_naming_the_file(tmp_path: Path, make_trial, make, message):
+    good, _ = make_trial(name="good.mcap")
+    path = make(tmp_path, good)
+    with pytest.raises(TrialFormatError) as info, TrialReader(path) as reader:
+        reader.read()
+    assert info.value.path == path

@@ -1,0 +1,60 @@
+"""The `dresslog` command: help, version and `info` on a real trial."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from click.testing import CliRunner
+
+from dresslog import __version__
+from dresslog.cli.main import COMMANDS, main
+
+
+def test_help_lists_the_commands() -> None:
+    result = CliRunner().invoke(main, ["--help"])
+    assert result.exit_code == 0
+    listed = {line.split()[0] for line in result.output.split("Commands:")[1].splitlines() if line}
+    assert "info" in listed
+    assert listed <= set(COMMANDS)
+
+
+def test_version() -> None:
+    result = CliRunner().invoke(main, ["--version"])
+    assert result.exit_code == 0
+    assert __version__ in result.output
+
+
+def test_help_does_not_import_heavy_packages() -> None:
+    code = (
+        "import sys; from dresslog.cli.main import main\n"
+        "try: main(['--help'])\n"
+        "except SystemExit: pass\n"
+        "print(sorted(m for m in ('torch', 'pybullet', 'rerun') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_info_reports_task_steps_channels_and_spec(make_trial) -> None:
+    path, _ = make_trial(steps=120)
+    result = CliRunner().invoke(main, ["info", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "task      gown" in result.output
+    assert "steps     120 over 1.19 s at 100 Hz" in result.output
+    assert "/limb/force_map" in result.output and "ground truth yes" in result.output
+    assert "seed 11" in result.output
+
+
+def test_info_json_is_machine_readable(make_trial) -> None:
+    path, _ = make_trial(steps=30)
+    result = CliRunner().invoke(main, ["info", "--json", str(path)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary["task"] == "gown" and summary["steps"] == 30
+    assert summary["rate_hz"] == 100.0 and summary["limb_points"] == 300
+    assert summary["has_ground_truth"] and not summary["has_estimate"]
+    counts = {c["topic"]: c["count"] for c in summary["channels"]}
+    assert counts["/ee/wrench"] == 30 and counts["/limb/points"] == 1
+    assert summary["metadata"]["spec"]["seed"] == 11

@@ -1,0 +1,259 @@
+"""A trial written by TrialWriter reads back identically, here and in other tools."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dresslog.io import cdr
+from dresslog.io import well_known as wk
+from dresslog.io.msgdefs import schema_text
+from dresslog.io.reader import TrialReader, read_trial
+from dresslog.io.writer import TrialWriter, temporary_path
+from dresslog.spec import Outcome, Task, TrialMetadata
+from dresslog.trial import CONTACT_DTYPE
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_every_stream_round_trips(make_trial, task: Task) -> None:
+    path, sent = make_trial(task)
+    trial = read_trial(path)
+    np.testing.assert_array_equal(trial.wrench.t_ns, sent["t_ns"])
+    np.testing.assert_array_equal(trial.wrench.values, sent["wrench"])
+    np.testing.assert_array_equal(trial.twist.values, sent["twist"])
+    np.testing.assert_array_equal(trial.pose.values, sent["pose"])
+    np.testing.assert_array_equal(trial.force_map.forces, sent["forces"])
+    assert trial.force_map.contact.shape == (len(sent["t_ns"]), 0)
+    for got, want in zip(trial.contacts.items, sent["contacts"], strict=True):
+        np.testing.assert_array_equal(got, want)
+    assert trial.limb_points.limb == task.limb
+    assert trial.limb_points.segment_names == sent["limb"].segment_names
+    np.testing.assert_array_equal(trial.limb_points.points, sent["limb"].points)
+    np.testing.assert_array_equal(trial.garment.vertices[1], sent["vertices"] + 10)
+    np.testing.assert_array_equal(trial.garment.triangles, sent["triangles"])
+    assert trial.metadata.spec == sent["spec"]
+    assert trial.metadata.outcome is Outcome.DRESSED
+    assert trial.metadata.software["dresslog"]
+    phi = trial.measurements.phi
+    np.testing.assert_allclose(phi[:, :6], sent["wrench"], rtol=1e-6)
+    np.testing.assert_allclose(phi[:, 6:], sent["twist"][:, :3], rtol=1e-6)
+
+
+def test_file_uses_the_ros2_profile_and_registers_the_msg_files(make_trial) -> None:
+    from mcap.reader import make_reader
+
+    path, _ = make_trial()
+    with path.open("rb") as stream:
+        reader = make_reader(stream)
+        header = reader.get_header()
+        summary = reader.get_summary()
+    assert header.profile == "ros2"
+    assert {c.message_encoding for c in summary.channels.values()} == {"cdr"}
+    for channel in summary.channels.values():
+        schema = summary.schemas[channel.schema_id]
+        assert schema.encoding == "ros2msg"
+        assert schema.name == wk.SCHEMAS[channel.topic]
+        assert schema.data.decode() == schema_text(schema.name)
+    assert all(ci.compression == "zstd" for ci in summary.chunk_indexes)
+
+
+def test_estimate_carries_its_contact_map(tmp_path: Path, make_trial) -> None:
+    path, sent = make_trial()
+    out = tmp_path / "with_estimate.mcap"
+    rng = np.random.default_rng(1)
+    est = rng.random(sent["forces"].shape).astype(np.float32)
+    contact = rng.normal(size=est.shape).astype(np.float32)
+    with TrialWriter(out, read_trial(path).metadata) as writer:
+        writer.write_wrench(sent["t_ns"], sent["wrench"])
+        writer.write_twist(sent["t_ns"], sent["twist"])
+        writer.write_force_map(sent["t_ns"], est, contact, estimate=True)
+    with TrialReader(out) as reader:
+        assert reader.force_map is None
+        np.testing.assert_array_equal(reader.estimate.forces, est)
+        np.testing.assert_array_equal(reader.estimate.contact, contact)
+
+
+@pytest.mark.parametrize(
+    "msg",
+    [
+        "dresslog_msgs/msg/ForceMap",
+        "dresslog_msgs/msg/ContactArray",
+        "dresslog_msgs/msg/LimbPoints",
+        "dresslog_msgs/msg/GarmentState",
+        "geometry_msgs/msg/WrenchStamped",
+        "geometry_msgs/msg/TwistStamped",
+        "geometry_msgs/msg/PoseStamped",
+    ],
+)
+def test_numpy_codec_agrees_with_the_msg_text(msg: str) -> None:
+    """Encode with the numpy codec; mcap_ros2's decoder, built from the .msg text, agrees."""
+    from mcap_ros2._dynamic import generate_dynamic
+
+    decoder = generate_dynamic(msg, schema_text(msg))[msg]
+    sizes = {
+        "header.frame_id": 5,
+        "forces": 3,
+        "contact": 3,
+        "contacts": 2,
+        "limb": 3,
+        "points": 2,
+        "segment": 2,
+        "segment_names": (2, 4),
+        "vertices": 2,
+        "triangles": 3,
+    }
+    dtype = cdr.layout(msg, {k: v for k, v in sizes.items() if _uses(msg, k)})
+    messages = cdr.new_messages(msg, {k: v for k, v in sizes.items() if _uses(msg, k)}, 1)
+    cdr.set_stamp(messages, np.array([3_000_000_007]), "world")
+    rng = np.random.default_rng(0)
+    for name in dtype.names:
+        field = dtype.fields[name][0]
+        if name.endswith(".len") or name.startswith(("encapsulation", "header")):
+            continue
+        if field.kind == "S":
+            messages[name] = b"xyzw"[: field.itemsize - 1]
+        elif field.subdtype and field.subdtype[0].names:  # array of Contact
+            arr = np.zeros(field.shape, CONTACT_DTYPE)
+            arr["position"] = rng.normal(size=(*field.shape, 3))
+            arr["normal_force"] = 2.5
+            arr["segment"] = 3
+            messages[name] = arr
+        else:
+            messages[name] = rng.integers(0, 9, size=messages[name].shape)
+    payload = cdr.to_payloads(messages)[0]
+    decoded = decoder(payload)
+    assert decoded.header.stamp.sec == 3 and decoded.header.stamp.nanosec == 7
+    assert decoded.header.frame_id == "world"
+    back = cdr.decode(msg, [payload])[0][0]
+    assert back.tobytes() == messages[0].tobytes()
+    _compare(decoded, messages[0], dtype)
+
+
+def _uses(msg: str, key: str) -> bool:
+    return key == "header.frame_id" or key in {f for _, f in _fields(msg)}
+
+
+def _fields(msg: str) -> list[tuple[str, str]]:
+    from dresslog.io.msgdefs import fields
+
+    return fields(msg)
+
+
+def _compare(decoded: object, message: np.void, dtype: np.dtype) -> None:
+    for name in dtype.names:
+        if name == "encapsulation" or name.endswith(".len") or name.startswith("header"):
+            continue
+        parts = name.split(".")
+        value = decoded
+        for part in parts:
+            value = value[int(part)] if part.isdigit() else getattr(value, part)
+        mine = message[name]
+        if isinstance(value, str):
+            assert value.encode() == bytes(mine)
+        elif isinstance(value, list) and value and hasattr(value[0], "x"):
+            np.testing.assert_array_equal([[v.x, v.y, v.z] for v in value], mine)
+        elif isinstance(value, list) and value and hasattr(value[0], "position"):
+            np.testing.assert_array_equal(
+                [[v.position.x, v.position.y, v.position.z] for v in value], mine["position"]
+            )
+            assert [v.segment for v in value] == mine["segment"].tolist()
+        elif hasattr(value, "x"):
+            coords = [value.x, value.y, value.z] + ([value.w] if hasattr(value, "w") else [])
+            np.testing.assert_array_equal(coords, mine)
+        else:
+            np.testing.assert_array_equal(np.asarray(value), mine)
+
+
+def test_mcap_ros2_decodes_identical_values(make_trial) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    path, sent = make_trial()
+    wrench, forces, contacts = [], [], []
+    with path.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        for _, channel, _, msg in reader.iter_decoded_messages():
+            if channel.topic == wk.WRENCH:
+                f, t = msg.wrench.force, msg.wrench.torque
+                wrench.append([f.x, f.y, f.z, t.x, t.y, t.z])
+            elif channel.topic == wk.FORCE_MAP:
+                forces.append(msg.forces)
+            elif channel.topic == wk.CONTACTS:
+                contacts.append([c.normal_force for c in msg.contacts])
+    np.testing.assert_array_equal(wrench, sent["wrench"])
+    np.testing.assert_array_equal(np.array(forces, np.float32), sent["forces"])
+    assert contacts == [c["normal_force"].tolist() for c in sent["contacts"]]
+
+
+def test_rosbags_anyreader_decodes_identical_values(make_trial) -> None:
+    from rosbags.highlevel import AnyReader
+
+    path, sent = make_trial(Task.SHORTS)
+    with AnyReader([path]) as reader:
+        assert {c.topic: c.msgtype for c in reader.connections} == {
+            t: wk.SCHEMAS[t] for t in reader.topics
+        }
+        twist, points = [], None
+        for conn, t_ns, raw in reader.messages():
+            msg = reader.deserialize(raw, conn.msgtype)
+            if conn.topic == wk.TWIST:
+                twist.append(
+                    [
+                        msg.twist.linear.x,
+                        msg.twist.linear.y,
+                        msg.twist.linear.z,
+                        msg.twist.angular.x,
+                        msg.twist.angular.y,
+                        msg.twist.angular.z,
+                    ]
+                )
+                assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == t_ns
+            elif conn.topic == wk.LIMB_POINTS:
+                points = msg
+    np.testing.assert_array_equal(twist, sent["twist"])
+    assert points.limb == "leg" and points.segment_names == ["a", "bb", "ccc"]
+    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in points.points], sent["limb"].points)
+
+
+def test_rerun_imports_the_file(make_trial) -> None:
+    from rerun.chunk import McapReader
+
+    path, _ = make_trial()
+    reader = McapReader(path, timeline_type="duration_ns")
+    assert reader.info().profile == "ros2"
+    entities = {str(chunk.entity_path) for chunk in reader.stream()}
+    assert {wk.WRENCH, wk.TWIST, wk.FORCE_MAP, wk.CONTACTS} <= entities
+
+
+def test_interrupted_write_leaves_nothing_under_the_final_name(tmp_path: Path) -> None:
+    path = tmp_path / "t.mcap"
+    with pytest.raises(RuntimeError), TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_wrench(0, np.zeros(6))
+        assert temporary_path(path).exists()
+        raise RuntimeError("simulation blew up")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_writer_refuses_to_overwrite_unless_asked(make_trial) -> None:
+    from dresslog.errors import TrialWriteError
+
+    path, _ = make_trial()
+    with pytest.raises(TrialWriteError, match="exists"):
+        TrialWriter(path, TrialMetadata(task=Task.GOWN)).open()
+    with TrialWriter(path, TrialMetadata(task=Task.SHORTS), overwrite=True) as writer:
+        writer.write_wrench(0, np.zeros(6))
+        writer.write_twist(0, np.zeros(6))
+    assert read_trial(path).metadata.task is Task.SHORTS
+
+
+def test_writer_rejects_nan(tmp_path: Path) -> None:
+    from dresslog.errors import TrialWriteError
+
+    with (
+        pytest.raises(TrialWriteError, match="NaN"),
+        TrialWriter(tmp_path / "t.mcap", TrialMetadata(task=Task.GOWN)) as writer,
+    ):
+        writer.write_wrench(0, [0, 0, np.nan, 0, 0, 0])
+    assert not (tmp_path / "t.mcap").exists()

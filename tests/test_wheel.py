@@ -1,0 +1,57 @@
+"""An installed, non-editable wheel works outside the checkout: command and schemas."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import write_synthetic_trial
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("wheel")
+    source = root / "src"
+    shutil.copytree(
+        REPO, source, ignore=shutil.ignore_patterns(".git", "data", "runs", "*.egg-info", "build")
+    )
+    run = {"check": True, "capture_output": True, "text": True}
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
+         "-w", str(root / "dist"), str(source)], **run,
+    )  # fmt: skip
+    wheel = next((root / "dist").glob("dresslog-*.whl"))
+    subprocess.run(
+        [sys.executable, "-m", "venv", "--system-site-packages", str(root / "venv")], **run
+    )
+    pip = root / "venv" / "bin" / "pip"
+    subprocess.run([pip, "install", "--no-deps", "--no-index", str(wheel)], **run)
+    return root / "venv"
+
+
+def test_wheel_holds_the_cli_and_schemas_inside_the_package(venv: Path) -> None:
+    site = next(venv.glob("lib/python*/site-packages"))
+    assert (site / "dresslog" / "cli" / "main.py").is_file()
+    assert (site / "dresslog" / "schemas" / "dresslog_msgs" / "msg" / "ForceMap.msg").is_file()
+    assert not (site / "cli").exists()
+
+
+def test_installed_command_reads_a_trial_outside_the_checkout(venv: Path, tmp_path: Path) -> None:
+    path = tmp_path / "trial.mcap"
+    write_synthetic_trial(path, steps=20)
+    where = subprocess.run(
+        [venv / "bin" / "python", "-c", "import dresslog; print(dresslog.__file__)"],
+        cwd=tmp_path, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    assert where.stdout.startswith(str(venv))
+    result = subprocess.run(
+        [venv / "bin" / "dresslog", "info", str(path)], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stderr
+    assert "steps     20" in result.stdout
