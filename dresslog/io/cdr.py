@@ -202,7 +202,17 @@ def sizes_of(msg: str, payload: bytes) -> dict[str, int | tuple[int, ...]]:
 
 
 def decode(msg: str, payloads: Sequence[bytes]) -> list[np.ndarray]:
-    """Decode payloads of any lengths: one array per run of equal layout, in order."""
+    """Decode payloads of any lengths: one array per run of equal layout, in order.
+
+    The common case, every message with the same layout (a force-map channel),
+    takes one `frombuffer` and a vectorised check of the length fields.
+    """
+    if payloads and len({len(p) for p in payloads}) == 1:
+        dtype = _layout(msg, _key(sizes_of(msg, payloads[0])))
+        whole = from_payloads(payloads, dtype)
+        lengths = [n for n in dtype.names if n.endswith(".len")]
+        if all((whole[n] == whole[n][0]).all() for n in lengths):
+            return [whole]
     out: list[np.ndarray] = []
     run: list[bytes] = []
     run_key: tuple | None = None

@@ -38,7 +38,8 @@ def msg_text(name: str) -> str:
     return path.read_text(encoding="utf-8")
 
 
-def fields(name: str) -> list[tuple[str, str]]:
+@cache
+def fields(name: str) -> tuple[tuple[str, str], ...]:
     """(type, field name) pairs of a message, comments and constants removed."""
     out = []
     for line in msg_text(name).splitlines():
@@ -47,7 +48,7 @@ def fields(name: str) -> list[tuple[str, str]]:
             continue
         type_, field_name = line.split()[:2]
         out.append((type_, field_name))
-    return out
+    return tuple(out)
 
 
 def dependencies(name: str) -> list[str]:
