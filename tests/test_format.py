@@ -257,3 +257,27 @@ def test_writer_rejects_nan(tmp_path: Path) -> None:
     ):
         writer.write_wrench(0, [0, 0, np.nan, 0, 0, 0])
     assert not (tmp_path / "t.mcap").exists()
+
+
+def test_metadata_json_schema_in_schemas_is_current() -> None:
+    import json
+    from importlib import resources
+
+    from dresslog.spec import SCHEMA_FILE, metadata_json_schema
+
+    kept = resources.files("dresslog.schemas").joinpath(SCHEMA_FILE).read_text()
+    assert json.loads(kept) == metadata_json_schema(), "run `python -m dresslog.spec`"
+
+
+def test_metadata_record_validates_against_the_json_schema(make_trial) -> None:
+    import json
+
+    import jsonschema
+    from mcap.reader import make_reader
+
+    from dresslog.spec import metadata_json_schema
+
+    path, _ = make_trial()
+    with path.open("rb") as stream:
+        (record,) = [m for m in make_reader(stream).iter_metadata() if m.name == "dresslog"]
+    jsonschema.validate(json.loads(record.metadata["trial"]), metadata_json_schema())
