@@ -1,0 +1,44 @@
+"""The force-map LSTM: numpy inference, model files, the paper's metrics (no torch here).
+
+Inference and model files import no torch (`dresslog infer` starts fast); the torch
+network and training live in `dresslog.model.network` and `dresslog.model.train` and are
+imported explicitly by the code that trains. Each module's docstring lists its API.
+"""
+
+from dresslog.model.files import (
+    DataProvenance,
+    Hyperparameters,
+    LoadedModel,
+    ModelCard,
+    Normalisation,
+    check_task,
+    load_model,
+    save_model,
+)
+from dresslog.model.numpy_lstm import NumpyEstimator
+from dresslog.model.postprocess import (
+    apply_contact,
+    contact_targets,
+    network_targets,
+    rmse,
+    sequence_rmse,
+    zero_baseline_rmse,
+)
+
+__all__ = [
+    "DataProvenance",
+    "Hyperparameters",
+    "LoadedModel",
+    "ModelCard",
+    "Normalisation",
+    "NumpyEstimator",
+    "apply_contact",
+    "check_task",
+    "contact_targets",
+    "load_model",
+    "network_targets",
+    "rmse",
+    "save_model",
+    "sequence_rmse",
+    "zero_baseline_rmse",
+]

@@ -1,0 +1,255 @@
+"""Model folders: `model.safetensors` (weights) + `card.json` (what they are); safe to load.
+
+A model is a folder, conventionally ``models/<task>/``. Loading never unpickles
+(safetensors holds raw arrays only), checks the weights file against the sha256 in the
+card and every array against the shapes the card promises, and imports no torch.
+
+Public API
+----------
+``ModelCard`` (pydantic): ``format`` ("dresslog-model"), ``format_version``, ``task``,
+    ``n_points``, ``hidden``, ``layers``, ``input_dim``, ``normalisation``
+    (``Normalisation(mean, std)`` or None for identity), ``hyperparameters``
+    (``Hyperparameters``), ``data`` (``DataProvenance``: manifest sha256, sequence counts),
+    ``metrics`` (name -> float, e.g. "rmse", "zero_rmse", "ratio"), ``weights_sha256``,
+    ``dresslog_version``, ``created``.
+``save_model(path, weights, card, *, overwrite=False) -> ModelCard``
+    Writes both files into a temporary sibling folder, then renames it into place, so an
+    interrupted save never leaves a half model. Fills ``weights_sha256``; returns that card.
+``load_model(path) -> LoadedModel``: ``.path``, ``.card``, ``.weights`` (dict of float32
+    numpy arrays), ``.estimator() -> NumpyEstimator``. Raises ``ModelError`` (one line,
+    ``.path`` set) for a missing folder or file, a foreign or unreadable card, weights whose
+    hash differs from the card (tampered or replaced), and missing or mis-shaped arrays.
+``check_task(model, task, n_points=None)``: ``ModelError`` when the model was trained for
+    another task (or, given ``n_points``, for another number of limb points).
+``sha256_file(path) -> str``
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from dresslog import __version__
+from dresslog.errors import ModelError
+from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
+from dresslog.spec import Task
+
+WEIGHTS_FILE = "model.safetensors"
+CARD_FILE = "card.json"
+FORMAT = "dresslog-model"
+FORMAT_VERSION = 1
+
+
+class Normalisation(BaseModel):
+    """Per-channel input standardisation, (phi - mean) / std; the paper used none."""
+
+    model_config = ConfigDict(extra="forbid")
+    mean: list[float] = Field(min_length=9, max_length=9)
+    std: list[float] = Field(min_length=9, max_length=9)
+
+
+class Hyperparameters(BaseModel):
+    """How the weights were trained (defaults: the paper's)."""
+
+    model_config = ConfigDict(extra="forbid")
+    epochs: int = 10
+    batch_size: int = 16
+    lr: float = 1e-3
+    optimizer: str = "rmsprop"
+    loss: str = "mse[force, contact]"
+    seed: int = 0
+    window: int | None = None
+    val_fraction: float = 0.1
+
+
+class DataProvenance(BaseModel):
+    """Which data trained the model: enough to tell two models' training sets apart."""
+
+    model_config = ConfigDict(extra="forbid")
+    manifest_sha256: str | None = None
+    n_train: int = 0
+    n_val: int = 0
+    description: str = ""
+
+
+class ModelCard(BaseModel):
+    """What a weights file is: task, sizes, normalisation, training, data, metrics, hash."""
+
+    model_config = ConfigDict(extra="forbid")
+    format: Literal["dresslog-model"] = FORMAT
+    format_version: int = FORMAT_VERSION
+    task: Task
+    n_points: int = Field(gt=0)
+    hidden: int = Field(50, gt=0)
+    layers: int = Field(3, gt=0)
+    input_dim: int = 9
+    normalisation: Normalisation | None = None
+    hyperparameters: Hyperparameters = Field(default_factory=Hyperparameters)
+    data: DataProvenance = Field(default_factory=DataProvenance)
+    metrics: dict[str, float] = Field(default_factory=dict)
+    weights_sha256: str = ""
+    dresslog_version: str = __version__
+    created: str = Field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"))
+
+    @model_validator(mode="after")
+    def _supported(self) -> ModelCard:
+        if self.format_version > FORMAT_VERSION:
+            raise ValueError(
+                f"format version {self.format_version} is newer than this dresslog "
+                f"reads ({FORMAT_VERSION}); upgrade dresslog"
+            )
+        return self
+
+
+@dataclass(frozen=True)
+class LoadedModel:
+    """A verified model: its card and float32 weights, ready for numpy inference."""
+
+    path: Path
+    card: ModelCard
+    weights: dict[str, np.ndarray]
+
+    def estimator(self) -> NumpyEstimator:
+        """A fresh stateful estimator (each caller gets its own recurrent state)."""
+        return NumpyEstimator(self.weights)
+
+
+def sha256_file(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard) -> None:
+    expected = expected_shapes(card.n_points, card.hidden, card.layers, card.input_dim)
+    for name, shape in expected.items():
+        if name not in weights:
+            raise ModelError(f"weights lack {name}; not a force-map LSTM", path=path)
+        got = tuple(weights[name].shape)
+        if got != shape:
+            raise ModelError(
+                f"{name} has shape {got} but the card ({card.n_points} limb points, "
+                f"hidden {card.hidden}, {card.layers} layers) needs {shape}",
+                path=path,
+            )
+    extra = sorted(set(weights) - set(expected))
+    if extra:
+        raise ModelError(f"unexpected arrays in weights: {', '.join(extra)}", path=path)
+
+
+def save_model(
+    path: str | Path,
+    weights: Mapping[str, np.ndarray],
+    card: ModelCard,
+    *,
+    overwrite: bool = False,
+) -> ModelCard:
+    """Write a model folder atomically; returns the card with the weights hash filled in."""
+    from safetensors.numpy import save_file
+
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise ModelError("model folder exists; pass overwrite to replace it", path=path)
+    if not path.parent.is_dir():
+        raise ModelError(f"parent folder {path.parent} does not exist", path=path)
+    arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in weights.items()}
+    _check_shapes(path, arrays, card)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir()
+    try:
+        save_file(arrays, str(tmp / WEIGHTS_FILE), metadata={"format": FORMAT})
+        card = card.model_copy(update={"weights_sha256": sha256_file(tmp / WEIGHTS_FILE)})
+        (tmp / CARD_FILE).write_text(card.model_dump_json(indent=2) + "\n")
+        if path.exists():
+            old = path.with_name(f".{path.name}.{os.getpid()}.old")
+            path.rename(old)
+            tmp.rename(path)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            tmp.rename(path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return card
+
+
+def _read_card(path: Path) -> ModelCard:
+    card_path = path / CARD_FILE
+    if not card_path.is_file():
+        raise ModelError(f"no {CARD_FILE}; not a dresslog model folder", path=path)
+    try:
+        raw = json.loads(card_path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ModelError(f"{CARD_FILE} is not readable JSON: {err}", path=path) from None
+    if not isinstance(raw, dict) or raw.get("format") != FORMAT:
+        raise ModelError(f"{CARD_FILE} is not a dresslog model card", path=path)
+    try:
+        return ModelCard.model_validate(raw)
+    except ValidationError as err:
+        first = err.errors()[0]
+        where = ".".join(str(p) for p in first["loc"]) or "card"
+        raise ModelError(f"{CARD_FILE}: {where}: {first['msg']}", path=path) from None
+
+
+def load_model(path: str | Path) -> LoadedModel:
+    """Load and verify a model folder; every failure is one `ModelError` line."""
+    from safetensors import SafetensorError
+    from safetensors.numpy import load_file
+
+    path = Path(path)
+    if not path.exists():
+        raise ModelError("no such model folder", path=path)
+    if not path.is_dir():
+        raise ModelError("a model is a folder with model.safetensors and card.json", path=path)
+    card = _read_card(path)
+    weights_path = path / WEIGHTS_FILE
+    if not weights_path.is_file():
+        raise ModelError(f"no {WEIGHTS_FILE}", path=path)
+    if sha256_file(weights_path) != card.weights_sha256:
+        raise ModelError(
+            f"{WEIGHTS_FILE} does not match the sha256 in {CARD_FILE} (modified or replaced)",
+            path=path,
+        )
+    try:
+        weights = load_file(str(weights_path))
+    except (SafetensorError, OSError, ValueError) as err:
+        raise ModelError(f"{WEIGHTS_FILE} is unreadable: {err}", path=path) from None
+    _check_shapes(path, weights, card)
+    weights = {k: np.asarray(v, dtype=np.float32) for k, v in weights.items()}
+    norm = card.normalisation
+    stats = (
+        np.array([norm.mean, norm.std], np.float32)
+        if norm is not None
+        else np.array([np.zeros(card.input_dim), np.ones(card.input_dim)], np.float32)
+    )
+    if not np.allclose(stats, [weights["input_mean"], weights["input_std"]], rtol=1e-6):
+        raise ModelError(f"input normalisation in {CARD_FILE} differs from the weights", path=path)
+    return LoadedModel(path=path, card=card, weights=weights)
+
+
+def check_task(model: LoadedModel, task: Task | str, n_points: int | None = None) -> None:
+    """Refuse to run a model on a trial of another task (its limb points differ)."""
+    task = Task(task)
+    if model.card.task != task:
+        raise ModelError(
+            f"model is for {model.card.task} but the trial is {task}; "
+            f"pass --model with a {task} model (e.g. models/{task})",
+            path=model.path,
+        )
+    if n_points is not None and n_points != model.card.n_points:
+        raise ModelError(
+            f"model has {model.card.n_points} limb points but the trial has {n_points}",
+            path=model.path,
+        )

@@ -1,0 +1,305 @@
+"""Train the force-map LSTM on (phi, force map) sequences, with the paper's defaults.
+
+Public API
+----------
+``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
+seed=0, window=None, val_fraction=0.1, val=None, normalise=False, threads=None,
+progress=True, checkpoint=None, on_epoch=None) -> (weights, TrainHistory)``
+    ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
+    maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
+    the optimiser RMSprop, as in the paper. ``weights`` is the float32 dict that
+    ``save_model`` writes; ``history.settings`` is the card's ``Hyperparameters``.
+
+    Lengths may differ: a batch is zero-padded at the end to its longest sequence and the
+    padded steps are masked out of the loss; the LSTM is causal, so padding never changes
+    a valid step's output. ``window=W`` instead trains on one random W-step crop per
+    sequence per epoch (faster on long trials, but the network then learns to start
+    mid-trial from a zero state, unlike inference; full sequences are the default).
+
+    ``val``: (sequences, forces) to validate on; otherwise ``val_fraction`` of the
+    sequences (chosen by the seed) is held out. Same data, seed and threads give the same
+    weights. ``checkpoint``: a file written after every epoch (torch's weights-only
+    format) from which an interrupted run resumes. ``threads``: torch CPU threads,
+    default min(2, cores), restored afterwards.
+
+``make_card(task, weights, history, *, data=None, metrics=None) -> ModelCard``
+    The card for freshly trained weights: sizes and normalisation read from the weights,
+    hyperparameters and final losses from the history; ``save_model`` adds the hash.
+
+``TrainHistory``: ``settings``, ``epochs`` (list of ``EpochRecord(epoch, train_loss,
+    val_loss, seconds)``), ``n_train``, ``n_val``, ``final_train_loss``, ``final_val_loss``.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from dresslog.errors import ModelError
+from dresslog.model.files import DataProvenance, Hyperparameters, ModelCard, Normalisation
+from dresslog.model.network import ForceMapLSTM
+from dresslog.model.numpy_lstm import infer_sizes
+from dresslog.model.postprocess import network_targets
+from dresslog.spec import Task
+
+Batch = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
+
+
+@dataclass(frozen=True)
+class EpochRecord:
+    epoch: int
+    train_loss: float
+    val_loss: float | None
+    seconds: float
+
+
+@dataclass
+class TrainHistory:
+    """Per-epoch losses and the settings that produced them (for the model card)."""
+
+    settings: Hyperparameters
+    n_train: int
+    n_val: int
+    epochs: list[EpochRecord] = field(default_factory=list)
+
+    @property
+    def final_train_loss(self) -> float:
+        return self.epochs[-1].train_loss if self.epochs else float("nan")
+
+    @property
+    def final_val_loss(self) -> float | None:
+        return self.epochs[-1].val_loss if self.epochs else None
+
+
+def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -> int:
+    """Validate shapes up front so a bad dataset fails in one line, not deep in torch."""
+    if len(sequences) != len(forces):
+        raise ModelError(f"{len(sequences)} input sequences but {len(forces)} force maps")
+    if not sequences:
+        raise ModelError("no training sequences")
+    n_points = forces[0].shape[-1]
+    for k, (phi, f) in enumerate(zip(sequences, forces, strict=True)):
+        if phi.ndim != 2 or phi.shape[1] != 9 or len(phi) == 0:
+            raise ModelError(f"sequence {k}: phi has shape {phi.shape}, expected (T, 9)")
+        if f.shape != (len(phi), n_points):
+            raise ModelError(
+                f"sequence {k}: force map has shape {f.shape}, expected ({len(phi)}, {n_points})"
+            )
+    return n_points
+
+
+def _batch(
+    phis: Sequence[np.ndarray], targets: Sequence[np.ndarray], idx: np.ndarray, length: int
+) -> Batch:
+    """Zero-pad the chosen sequences to `length` steps; mask marks the real steps."""
+    n = len(idx)
+    x = np.zeros((n, length, phis[0].shape[1]), np.float32)
+    y = np.zeros((n, length, targets[0].shape[1]), np.float32)
+    mask = np.zeros((n, length, 1), np.float32)
+    for row, k in enumerate(idx):
+        t = min(len(phis[k]), length)
+        x[row, :t], y[row, :t], mask[row, :t] = phis[k][:t], targets[k][:t], 1.0
+    return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
+
+
+def _crop(phi: np.ndarray, y: np.ndarray, window: int, rng: np.random.Generator):
+    if len(phi) <= window:
+        return phi, y
+    start = int(rng.integers(0, len(phi) - window + 1))
+    return phi[start : start + window], y[start : start + window]
+
+
+def _masked_mse(out: torch.Tensor, y: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean squared error over real steps and all 2N outputs (Keras's MSE when unpadded)."""
+    return ((out - y) ** 2 * mask).sum() / (mask.sum() * out.shape[-1])
+
+
+def _evaluate_loss(
+    net: ForceMapLSTM, phis: list[np.ndarray], targets: list[np.ndarray], batch_size: int
+) -> float:
+    total, count = 0.0, 0.0
+    order = np.argsort([len(p) for p in phis])  # similar lengths together: less padding
+    with torch.no_grad():
+        for start in range(0, len(order), batch_size):
+            idx = order[start : start + batch_size]
+            x, y, mask = _batch(phis, targets, idx, max(len(phis[k]) for k in idx))
+            out, _ = net(x)
+            total += float(((out - y) ** 2 * mask).sum())
+            count += float(mask.sum()) * out.shape[-1]
+    return total / count
+
+
+def _save_checkpoint(path: Path, net, optim, history: TrainHistory) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    state = {
+        "model": net.state_dict(),
+        "optim": optim.state_dict(),
+        "settings": history.settings.model_dump(),
+        "arch": [net.n_points, net.hidden, net.layers],
+        "epochs": [asdict(e) for e in history.epochs],
+    }
+    torch.save(state, tmp)
+    tmp.replace(path)
+
+
+def _resume(path: Path, net, optim, history: TrainHistory) -> None:
+    """Continue from a checkpoint of the same settings; refuse one from another run."""
+    try:
+        state = torch.load(path, weights_only=True)
+    except Exception as err:  # any unreadable file is a user-facing error here
+        raise ModelError(f"unreadable checkpoint: {err}", path=path) from None
+    same_arch = state.get("arch") == [net.n_points, net.hidden, net.layers]
+    if state.get("settings") != history.settings.model_dump() or not same_arch:
+        raise ModelError("checkpoint is from a run with other settings", path=path)
+    net.load_state_dict(state["model"])
+    optim.load_state_dict(state["optim"])
+    history.epochs = [EpochRecord(**e) for e in state["epochs"]]
+
+
+def train(
+    sequences: Sequence[np.ndarray],
+    forces: Sequence[np.ndarray],
+    *,
+    epochs: int = 10,
+    batch_size: int = 16,
+    lr: float = 1e-3,
+    hidden: int = 50,
+    layers: int = 3,
+    seed: int = 0,
+    window: int | None = None,
+    val_fraction: float = 0.1,
+    val: tuple[Sequence[np.ndarray], Sequence[np.ndarray]] | None = None,
+    normalise: bool = False,
+    threads: int | None = None,
+    progress: bool = True,
+    checkpoint: str | Path | None = None,
+    on_epoch: Callable[[EpochRecord], None] | None = None,
+) -> tuple[dict[str, np.ndarray], TrainHistory]:
+    """Train a ForceMapLSTM; returns (float32 weights, history). See the module docstring."""
+    n_points = _check_data(sequences, forces)
+    phis = [np.asarray(p, np.float32) for p in sequences]
+    targets = [network_targets(f) for f in forces]
+    rng = np.random.default_rng(seed)
+    if val is not None:
+        _check_data(val[0], val[1])
+        val_phis = [np.asarray(p, np.float32) for p in val[0]]
+        val_targets = [network_targets(f) for f in val[1]]
+    else:
+        n_val = min(round(val_fraction * len(phis)), len(phis) - 1)
+        perm = rng.permutation(len(phis))
+        held, kept = perm[:n_val], perm[n_val:]
+        val_phis, val_targets = [phis[k] for k in held], [targets[k] for k in held]
+        phis, targets = [phis[k] for k in kept], [targets[k] for k in kept]
+
+    settings = Hyperparameters(
+        epochs=epochs,
+        batch_size=batch_size,
+        lr=lr,
+        seed=seed,
+        window=window,
+        val_fraction=0.0 if val is not None else val_fraction,
+    )
+    history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
+    previous_threads = torch.get_num_threads()
+    torch.set_num_threads(threads or min(2, os.cpu_count() or 1))
+    try:
+        torch.manual_seed(seed)
+        net = ForceMapLSTM(n_points, hidden=hidden, layers=layers)
+        if normalise:
+            steps = np.concatenate(phis)
+            net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
+        optim = torch.optim.RMSprop(net.parameters(), lr=lr)
+        ckpt = Path(checkpoint) if checkpoint is not None else None
+        if ckpt is not None and ckpt.exists():
+            _resume(ckpt, net, optim, history)
+        _fit(net, optim, phis, targets, val_phis, val_targets, history, progress, ckpt, on_epoch)
+    finally:
+        torch.set_num_threads(previous_threads)
+    return net.weights(), history
+
+
+def _fit(
+    net: ForceMapLSTM,
+    optim: torch.optim.Optimizer,
+    phis: list[np.ndarray],
+    targets: list[np.ndarray],
+    val_phis: list[np.ndarray],
+    val_targets: list[np.ndarray],
+    history: TrainHistory,
+    progress: bool,
+    ckpt: Path | None,
+    on_epoch: Callable[[EpochRecord], None] | None,
+) -> None:
+    from tqdm import tqdm
+
+    s = history.settings
+    bar = tqdm(total=s.epochs, initial=len(history.epochs), unit="epoch", disable=not progress)
+    for epoch in range(len(history.epochs), s.epochs):
+        started = time.perf_counter()
+        # Each epoch's shuffle depends only on (seed, epoch), so a resumed run matches.
+        rng = np.random.default_rng([s.seed, epoch])
+        order = rng.permutation(len(phis))
+        net.train()
+        total, count = 0.0, 0
+        for start in range(0, len(order), s.batch_size):
+            idx = order[start : start + s.batch_size]
+            if s.window is not None:
+                pairs = [_crop(phis[k], targets[k], s.window, rng) for k in idx]
+                bp, bt = [p for p, _ in pairs], [t for _, t in pairs]
+                x, y, mask = _batch(bp, bt, np.arange(len(idx)), max(len(p) for p in bp))
+            else:
+                x, y, mask = _batch(phis, targets, idx, max(len(phis[k]) for k in idx))
+            out, _ = net(x)
+            loss = _masked_mse(out, y, mask)
+            optim.zero_grad(set_to_none=True)
+            loss.backward()
+            optim.step()
+            total += loss.item() * len(idx)
+            count += len(idx)
+        net.eval()
+        val_loss = _evaluate_loss(net, val_phis, val_targets, 64) if val_phis else None
+        record = EpochRecord(epoch + 1, total / count, val_loss, time.perf_counter() - started)
+        history.epochs.append(record)
+        if ckpt is not None:
+            _save_checkpoint(ckpt, net, optim, history)
+        bar.set_postfix(loss=f"{record.train_loss:.3g}", val=f"{val_loss or float('nan'):.3g}")
+        bar.update()
+        if on_epoch is not None:
+            on_epoch(record)
+    bar.close()
+
+
+def make_card(
+    task: Task | str,
+    weights: dict[str, np.ndarray],
+    history: TrainHistory,
+    *,
+    data: DataProvenance | None = None,
+    metrics: dict[str, float] | None = None,
+) -> ModelCard:
+    """A model card for trained weights; evaluation metrics can be added later."""
+    n_points, hidden, layers, input_dim = infer_sizes(weights)
+    mean, std = weights["input_mean"], weights["input_std"]
+    identity = not mean.any() and bool(np.all(std == 1.0))
+    data = data or DataProvenance()
+    data = data.model_copy(update={"n_train": history.n_train, "n_val": history.n_val})
+    losses = {"train_loss": history.final_train_loss}
+    if history.final_val_loss is not None:
+        losses["val_loss"] = history.final_val_loss
+    return ModelCard(
+        task=Task(task),
+        n_points=n_points,
+        hidden=hidden,
+        layers=layers,
+        input_dim=input_dim,
+        normalisation=None if identity else Normalisation(mean=mean.tolist(), std=std.tolist()),
+        hyperparameters=history.settings,
+        data=data,
+        metrics={**losses, **(metrics or {})},
+    )

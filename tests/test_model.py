@@ -1,0 +1,281 @@
+"""The model layer: numpy inference equals torch, training learns, model files are safe."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from dresslog.errors import ModelError
+from dresslog.io.reader import TrialReader
+from dresslog.model import (
+    ModelCard,
+    NumpyEstimator,
+    apply_contact,
+    check_task,
+    contact_targets,
+    load_model,
+    network_targets,
+    rmse,
+    save_model,
+    zero_baseline_rmse,
+)
+from dresslog.model.evaluate import evaluate
+from dresslog.model.network import ForceMapLSTM
+from dresslog.model.postprocess import sequence_rmse
+from dresslog.model.train import EpochRecord, make_card, train
+from dresslog.spec import Task
+
+N = 24
+
+
+def random_network(n_points: int = N, seed: int = 0) -> ForceMapLSTM:
+    """Weights larger than Glorot's so every gate leaves its linear range."""
+    torch.manual_seed(seed)
+    net = ForceMapLSTM(n_points)
+    with torch.no_grad():
+        for p in net.parameters():
+            p.normal_(std=0.4)
+    net.set_normalisation(np.linspace(-1, 1, 9), np.linspace(0.5, 2, 9))
+    return net
+
+
+def torch_forward(net: ForceMapLSTM, phi: np.ndarray) -> np.ndarray:
+    with torch.no_grad():
+        return net(torch.from_numpy(phi))[0].numpy()
+
+
+def synthetic(n: int, seed: int, n_points: int = 8) -> tuple[list, list]:
+    """Sequences whose force map follows the running sum of phi's first channel."""
+    rng = np.random.default_rng(seed)
+    phis, forces = [], []
+    for _ in range(n):
+        phi = rng.normal(scale=0.5, size=(int(rng.integers(20, 40)), 9)).astype(np.float32)
+        progress = np.cumsum(phi[:, 0]) / 4
+        centres = np.linspace(-1, 1, n_points)
+        f = np.maximum(0.0, 0.3 - np.abs(progress[:, None] - centres[None]))
+        phis.append(phi)
+        forces.append(f.astype(np.float32))
+    return phis, forces
+
+
+@pytest.fixture(scope="module")
+def trained() -> tuple[dict[str, np.ndarray], object]:
+    phis, forces = synthetic(32, seed=1)
+    return train(phis, forces, epochs=6, batch_size=8, lr=3e-3, hidden=12, layers=2, seed=3,
+                 progress=False)  # fmt: skip
+
+
+# -- numpy inference equals torch ---------------------------------------------------------
+def test_numpy_forward_equals_torch_on_a_batch_of_sequences():
+    net = random_network()
+    phi = np.random.default_rng(0).normal(size=(3, 120, 9)).astype(np.float32)
+    est = NumpyEstimator(net.weights())
+    np.testing.assert_allclose(est.forward(phi), torch_forward(net, phi), atol=1e-5, rtol=0)
+    np.testing.assert_allclose(est.forward(phi[1]), torch_forward(net, phi)[1], atol=1e-5)
+
+
+def test_one_step_at_a_time_equals_the_whole_sequence_and_reset_starts_over():
+    net = random_network()
+    phi = np.random.default_rng(1).normal(size=(80, 9)).astype(np.float32)
+    est = NumpyEstimator(net.weights())
+    whole_f, whole_c = est.run(phi)
+    for _ in range(2):  # the second pass checks reset()
+        est.reset()
+        steps = [est.step(p) for p in phi]
+        np.testing.assert_allclose(np.stack([f for f, _ in steps]), whole_f, atol=1e-5)
+        np.testing.assert_allclose(np.stack([c for _, c in steps]), whole_c, atol=1e-5)
+    np.testing.assert_allclose(est.step_raw(phi[0]).shape, (2 * N,))
+
+
+def test_run_applies_eq2_to_the_raw_output():
+    net = random_network()
+    phi = np.random.default_rng(2).normal(size=(30, 9)).astype(np.float32)
+    est = NumpyEstimator(net.weights())
+    raw = est.forward(phi)
+    forces, contact = est.run(phi)
+    np.testing.assert_array_equal(forces, apply_contact(raw[:, :N], raw[:, N:]))
+    np.testing.assert_array_equal(contact, raw[:, N:])
+    assert (forces >= 0).all() and (forces[contact < 0] == 0).all()
+
+
+def test_importing_the_inference_side_does_not_import_torch():
+    code = "import sys, dresslog.model, dresslog.model.evaluate; print('torch' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+# -- post-processing and metric ------------------------------------------------------------
+def test_eq2_zeroes_forces_without_contact_or_below_zero():
+    forces_u = np.array([0.5, 0.5, -0.2, 0.3], np.float32)
+    contact = np.array([0.1, -0.1, 0.1, 0.0], np.float32)
+    np.testing.assert_array_equal(apply_contact(forces_u, contact), np.float32([0.5, 0, 0, 0.3]))
+
+
+def test_contact_targets_and_network_targets_follow_eq1():
+    forces = np.array([[0.0, 0.2], [0.01, 0.0]], np.float32)
+    np.testing.assert_allclose(contact_targets(forces), [[-0.1, 0.1], [0.1, -0.1]])
+    target = network_targets(forces)
+    assert target.shape == (2, 4) and target.dtype == np.float32
+    np.testing.assert_array_equal(target[:, :2], forces)
+
+
+def test_rmse_is_per_sequence_then_averaged():
+    trues = [np.full((1, 2), 3.0), np.zeros((4, 2))]
+    ests = [np.zeros((1, 2)), np.zeros((4, 2))]
+    # Per sequence 3 and 0, averaged: 1.5 (pooling all steps would give 3 / sqrt(5)).
+    assert rmse(trues, ests) == pytest.approx(1.5)
+    assert zero_baseline_rmse(trues) == pytest.approx(1.5)
+    assert sequence_rmse(np.ones((2, 2)), np.zeros((2, 2))) == pytest.approx(1.0)
+
+
+# -- training ----------------------------------------------------------------------------
+def test_training_lowers_the_loss(trained):
+    _, history = trained
+    losses = [e.train_loss for e in history.epochs]
+    assert len(losses) == 6 and history.n_train + history.n_val == 32
+    assert losses[-1] < 0.7 * losses[0]
+    assert history.final_val_loss is not None and np.isfinite(history.final_val_loss)
+
+
+def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: Path):
+    phis, forces = synthetic(8, seed=2, n_points=4)
+    kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
+    reference, _ = train(phis, forces, **kwargs)
+
+    def stop_after_first(record: EpochRecord) -> None:
+        if record.epoch == 1:
+            raise KeyboardInterrupt
+
+    ckpt = tmp_path / "run.ckpt"
+    with pytest.raises(KeyboardInterrupt):
+        train(phis, forces, checkpoint=ckpt, on_epoch=stop_after_first, **kwargs)
+    resumed, history = train(phis, forces, checkpoint=ckpt, **kwargs)
+    assert [e.epoch for e in history.epochs] == [1, 2, 3]
+    for name, value in reference.items():
+        np.testing.assert_array_equal(resumed[name], value, err_msg=name)
+    with pytest.raises(ModelError, match="other settings"):
+        train(phis, forces, checkpoint=ckpt, **{**kwargs, "epochs": 4})
+
+
+def test_training_rejects_mismatched_data_in_one_line():
+    with pytest.raises(ModelError, match="sequence 0"):
+        train([np.zeros((5, 9), np.float32)], [np.zeros((4, 3), np.float32)], progress=False)
+
+
+def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
+    weights, _ = trained
+    est = NumpyEstimator(weights)
+    phis, forces = synthetic(5, seed=9)
+    result = evaluate(est, phis, forces, batch_size=2)
+    ests = [est.run(p)[0] for p in phis]
+    assert result.rmse == pytest.approx(rmse(forces, ests), rel=1e-5)
+    assert result.zero_rmse == pytest.approx(zero_baseline_rmse(forces))
+    assert result.ratio == pytest.approx(result.rmse / result.zero_rmse)
+    assert 0 <= result.contact_recall <= 1 and result.n_sequences == 5
+    assert set(result.as_metrics()) >= {"rmse", "zero_rmse", "ratio"}
+
+
+# -- model files -------------------------------------------------------------------------
+@pytest.fixture
+def saved(tmp_path: Path, trained) -> Path:
+    weights, history = trained
+    save_model(tmp_path / "gown", weights, make_card(Task.GOWN, weights, history))
+    return tmp_path / "gown"
+
+
+def test_save_load_round_trip_gives_identical_outputs(saved: Path, trained):
+    weights, _ = trained
+    model = load_model(saved)
+    assert model.card.task is Task.GOWN and model.card.n_points == 8
+    assert model.card.hidden == 12 and model.card.layers == 2 and "val_loss" in model.card.metrics
+    phi = np.random.default_rng(4).normal(size=(25, 9)).astype(np.float32)
+    loaded = model.estimator().forward(phi)
+    np.testing.assert_array_equal(loaded, NumpyEstimator(weights).forward(phi))
+    net = ForceMapLSTM.from_weights(model.weights)
+    np.testing.assert_allclose(model.estimator().forward(phi), torch_forward(net, phi), atol=1e-5)
+
+
+def test_save_refuses_to_overwrite_unless_asked(saved: Path, trained):
+    weights, history = trained
+    card = make_card(Task.GOWN, weights, history)
+    with pytest.raises(ModelError, match="exists"):
+        save_model(saved, weights, card)
+    save_model(saved, weights, card, overwrite=True)
+    assert sorted(p.name for p in saved.parent.iterdir()) == ["gown"]
+
+
+def test_tampered_weights_are_refused(saved: Path):
+    data = bytearray((saved / "model.safetensors").read_bytes())
+    data[-1] ^= 0x01
+    (saved / "model.safetensors").write_bytes(bytes(data))
+    with pytest.raises(ModelError, match="sha256"):
+        load_model(saved)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        ({"format": "keras"}, "not a dresslog model card"),
+        ({"format_version": 99}, "newer"),
+        ({"n_points": 9}, "has shape"),
+        ({"task": "socks"}, "task"),
+    ],
+)
+def test_foreign_or_inconsistent_cards_are_refused(saved: Path, edit: dict, message: str):
+    card = json.loads((saved / "card.json").read_text())
+    (saved / "card.json").write_text(json.dumps({**card, **edit}))
+    with pytest.raises(ModelError, match=message) as info:
+        load_model(saved)
+    assert "\n" not in str(info.value)
+
+
+def test_missing_pieces_are_refused(tmp_path: Path, saved: Path):
+    with pytest.raises(ModelError, match="no such model folder"):
+        load_model(tmp_path / "absent")
+    (saved / "model.safetensors").unlink()
+    with pytest.raises(ModelError, match=r"no model\.safetensors"):
+        load_model(saved)
+    (saved / "card.json").write_text("{not json")
+    with pytest.raises(ModelError, match="not readable JSON"):
+        load_model(saved)
+
+
+def test_a_model_refuses_a_trial_of_the_other_task(saved: Path, make_trial):
+    model = load_model(saved)
+    path, _ = make_trial(Task.SHORTS, steps=10)
+    with TrialReader(path) as reader:
+        task = reader.metadata.task
+    with pytest.raises(ModelError, match="model is for gown but the trial is shorts"):
+        check_task(model, task)
+    check_task(model, "gown", n_points=8)
+    with pytest.raises(ModelError, match="8 limb points"):
+        check_task(model, Task.GOWN, n_points=300)
+
+
+def test_a_card_needs_its_task():
+    with pytest.raises(ValueError, match="task"):
+        ModelCard(n_points=3)  # type: ignore[call-arg]
+
+
+def test_input_normalisation_is_learned_saved_and_checked(tmp_path: Path):
+    phis, forces = synthetic(6, seed=5, n_points=4)
+    weights, history = train(phis, forces, epochs=1, hidden=4, layers=1, normalise=True,
+                             progress=False)  # fmt: skip
+    card = save_model(tmp_path / "m", weights, make_card("shorts", weights, history))
+    assert card.normalisation is not None
+    assert all(s > 0 for s in card.normalisation.std) and any(card.normalisation.mean)
+    model = load_model(tmp_path / "m")
+    net = ForceMapLSTM.from_weights(model.weights)
+    np.testing.assert_allclose(model.estimator().forward(phis[0]), torch_forward(net, phis[0]),
+                               atol=1e-5)  # fmt: skip
+    raw = json.loads((tmp_path / "m" / "card.json").read_text())
+    raw["normalisation"] = None
+    (tmp_path / "m" / "card.json").write_text(json.dumps(raw))
+    with pytest.raises(ModelError, match="normalisation"):
+        load_model(tmp_path / "m")
