@@ -40,6 +40,10 @@ def test_wheel_holds_the_cli_and_schemas_inside_the_package(venv: Path) -> None:
     assert (site / "dresslog" / "cli" / "main.py").is_file()
     assert (site / "dresslog" / "schemas" / "dresslog_msgs" / "msg" / "ForceMap.msg").is_file()
     assert not (site / "cli").exists()
+    in_repo = {p.relative_to(REPO).as_posix() for p in (REPO / "dresslog").rglob("*.py")}
+    in_repo |= {f"dresslog/{p.relative_to(REPO).as_posix()}" for p in (REPO / "cli").glob("*.py")}
+    installed = {p.relative_to(site).as_posix() for p in (site / "dresslog").rglob("*.py")}
+    assert in_repo <= installed, f"missing from the wheel: {sorted(in_repo - installed)}"
 
 
 def test_installed_command_reads_a_trial_outside_the_checkout(venv: Path, tmp_path: Path) -> None:
