@@ -1,0 +1,43 @@
+"""`dresslog convert INPUT -o trial.mcap --task gown|shorts [topics, CSV columns, tare, rotate]`."""
+
+from __future__ import annotations
+
+import warnings
+
+import click
+
+from dresslog.cli.common import reports_errors
+
+
+@click.command("convert")
+@click.argument("source", type=click.Path(path_type=str))
+@click.option("-o", "--output", required=True, type=click.Path(path_type=str), help="Trial file.")
+@click.option("--task", required=True, type=click.Choice(["gown", "shorts"]))
+@click.option("--wrench-topic", help="WrenchStamped topic, when the bag has several.")
+@click.option("--twist-topic", help="TwistStamped topic for the velocity.")
+@click.option("--pose-topic", help="PoseStamped topic (velocity by differentiation if no twist).")
+@click.option("--motion", type=click.Path(path_type=str), help="CSV with velocity or position.")
+@click.option("--column", "columns", multiple=True, metavar="ROLE=HEADER",
+              help="Map a CSV column: time, fx..tz, vx..vz, wx..wz, x..z, qx..qw.")  # fmt: skip
+@click.option("--time-unit", type=click.Choice(["s", "ms", "us", "ns"]), help="CSV time unit.")
+@click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
+              help="Rotate every vector into the model's frame.")  # fmt: skip
+@click.option("--tare", "tare_s", type=float, default=0.0, metavar="SECONDS",
+              help="Subtract the mean wrench of the first SECONDS.")  # fmt: skip
+@click.option("--overwrite", is_flag=True, help="Replace OUTPUT if it exists.")
+@reports_errors
+def convert(source: str, output: str, columns: tuple[str, ...], **options: object) -> None:
+    """Convert a ROS 1/2 bag, ROS 2 MCAP file or force/torque CSV into a dresslog trial."""
+    from dresslog.convert import convert as run
+    from dresslog.errors import ConversionError
+
+    if bad := [c for c in columns if "=" not in c]:
+        raise ConversionError(f"--column {bad[0]}: expected ROLE=HEADER")
+    mapping = dict(c.split("=", 1) for c in columns)
+    with warnings.catch_warnings():  # warnings come back in the report, printed below
+        warnings.simplefilter("ignore")
+        report = run(source, output, columns=mapping, **options)  # type: ignore[arg-type]
+    for message in report.warnings:
+        click.echo(f"Warning: {message}", err=True)
+    click.echo(f"{output}: {report.steps} steps ({report.duration_s:.2f} s at 100 Hz) "
+               f"from {report.messages_in} messages in {report.elapsed_s:.2f} s")  # fmt: skip

@@ -1,0 +1,254 @@
+"""`convert()`: an external log (ROS 1/2 bag, bare ROS 2 MCAP, F/T CSV) as a dresslog trial.
+
+The steps: read the wrench, twist and pose streams on the source's clock
+(`rosbag.read_bag`, `csv.read_csv`), check their timestamps, resample them
+onto one 100 Hz grid over the span they all cover (`resample`), optionally
+tare and rotate, and write a trial with `TrialWriter`, which only puts the
+file in place when everything succeeded.
+
+Time: the output starts at 0 ns; the source time of output time t is
+`t + source["start_ns"]`, recorded in the metadata with the topics, rates
+and every processing step, so a converted trial says where it came from.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+from pydantic import BaseModel
+
+from dresslog.convert import resample as rs
+from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
+from dresslog.errors import ConversionError
+from dresslog.io.writer import TrialWriter
+from dresslog.spec import Outcome, Task, TrialMetadata
+
+MAX_GAP_S = 0.1
+CSV_SUFFIXES = (".csv", ".tsv", ".txt")
+Quaternion = tuple[float, float, float, float]
+
+
+class ConversionWarning(UserWarning):
+    """Something in the log deserves a look but does not stop the conversion (e.g. a gap)."""
+
+
+class ConversionReport(BaseModel):
+    """What `convert` did: the output, its size, the source description and any warnings."""
+
+    output: str
+    steps: int
+    duration_s: float
+    messages_in: int
+    elapsed_s: float
+    source: dict[str, object]
+    warnings: list[str]
+
+    @property
+    def messages_per_s(self) -> float:
+        return self.messages_in / self.elapsed_s if self.elapsed_s > 0 else 0.0
+
+
+def load(
+    path: Path,
+    *,
+    wrench_topic: str | None = None,
+    twist_topic: str | None = None,
+    pose_topic: str | None = None,
+    motion: Path | None = None,
+    columns: Mapping[str, str] | None = None,
+    time_unit: str | None = None,
+) -> Source:
+    """Read an external log of any supported kind, chosen by what `path` is."""
+    if not path.exists():
+        raise ConversionError("no such file or folder", path=path)
+    suffix = path.suffix.lower()
+    if suffix in CSV_SUFFIXES and path.is_file():
+        from dresslog.convert.csv import read_csv
+
+        return read_csv(path, motion=motion, columns=columns, time_unit=time_unit)
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise ConversionError("folder has no metadata.yaml, so it is not a ROS 2 bag", path=path)
+    if suffix == ".db3":
+        raise ConversionError(
+            "pass the ROS 2 bag folder (with metadata.yaml), not its .db3 file", path=path
+        )
+    if not (path.is_dir() or suffix in (".bag", ".mcap")):
+        raise ConversionError(
+            "unknown input; expected a ROS 1 .bag, a ROS 2 bag folder, an .mcap file or a CSV",
+            path=path,
+        )
+    from dresslog.convert.rosbag import read_bag
+
+    return read_bag(path, wrench_topic=wrench_topic, twist_topic=twist_topic, pose_topic=pose_topic)
+
+
+def check_stream(stream: SourceStream, path: Path) -> None:
+    """Enough samples, finite values, strictly increasing times: else a ConversionError."""
+    if len(stream) < 2:
+        raise ConversionError(f"{stream.name}: {len(stream)} {stream.kind} samples", path=path)
+    if (bad := rs.first_disorder(stream.t_ns)) is not None:
+        raise ConversionError(
+            f"{stream.name}: timestamps not increasing at sample {bad} of {len(stream)} "
+            f"({stream.t_ns[bad - 1]} then {stream.t_ns[bad]} ns, {stream.clock} clock); "
+            "the log is out of order or has repeated stamps",
+            path=path,
+        )
+    if not np.isfinite(stream.values).all():
+        row = int(np.flatnonzero(~np.isfinite(stream.values).all(axis=1))[0])
+        raise ConversionError(f"{stream.name}: NaN or infinite value at sample {row}", path=path)
+
+
+def _span(stream: SourceStream) -> str:
+    return f"{stream.name} {stream.t_ns[0] / 1e9:.3f}-{stream.t_ns[-1] / 1e9:.3f} s"
+
+
+def common_grid(source: Source, averaged: bool) -> np.ndarray:
+    """The 100 Hz grid over the time every stream covers (averaging needs half a bin spare)."""
+    half = rs.PERIOD_NS // 2 if averaged else 0
+    start = max(int(s.t_ns[0]) + (half if s is source.wrench else 0) for s in source.streams)
+    stop = min(int(s.t_ns[-1]) - (half if s is source.wrench else 0) for s in source.streams)
+    grid = rs.grid(start, stop)
+    if len(grid) < 2:
+        spans = "; ".join(_span(s) for s in source.streams)
+        raise ConversionError(
+            f"streams do not overlap in time ({spans}); they must share one clock",
+            path=source.path,
+        )
+    return grid
+
+
+def _describe(stream: SourceStream, source: Source) -> dict[str, object]:
+    out: dict[str, object] = {
+        "messages": len(stream),
+        "rate_hz": round(rs.median_rate(stream.t_ns), 3),
+        "clock": stream.clock,
+    }
+    if source.format == "csv":
+        out["file"] = stream.name
+    else:
+        out |= {"topic": stream.name, "type": MESSAGE_TYPES[stream.kind]}
+    if stream.frame_id:
+        out["frame_id"] = stream.frame_id
+    return out
+
+
+def convert(
+    path: str | Path,
+    output: str | Path,
+    task: Task | str,
+    *,
+    wrench_topic: str | None = None,
+    twist_topic: str | None = None,
+    pose_topic: str | None = None,
+    motion: str | Path | None = None,
+    columns: Mapping[str, str] | None = None,
+    time_unit: str | None = None,
+    rotate: Quaternion | None = None,
+    tare_s: float = 0.0,
+    max_gap_s: float = MAX_GAP_S,
+    overwrite: bool = False,
+) -> ConversionReport:
+    """Convert one external log into the trial `output` (100 Hz, times from 0, no ground truth).
+
+    `rotate` (x y z w) turns every vector (force, torque, velocities, pose)
+    into the model's frame; `tare_s` subtracts the mean wrench of the first
+    seconds. Gaps longer than `max_gap_s` are bridged by interpolation and
+    reported as `ConversionWarning`s (and in the report).
+    """
+    started = time.perf_counter()
+    path, output = Path(path), Path(output)
+    try:
+        task = Task(task)
+    except ValueError:
+        raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
+    if output.exists() and not overwrite:
+        raise ConversionError("output exists; pass --overwrite to replace it", path=output)
+    if rotate is not None and not np.linalg.norm(rotate) > 0:
+        raise ConversionError("rotation quaternion is zero")
+
+    source = load(
+        path,
+        wrench_topic=wrench_topic,
+        twist_topic=twist_topic,
+        pose_topic=pose_topic,
+        motion=Path(motion) if motion is not None else None,
+        columns=columns,
+        time_unit=time_unit,
+    )
+    for stream in source.streams:
+        check_stream(stream, path)
+    averaged = rs.median_rate(source.wrench.t_ns) > rs.AVERAGE_ABOVE_HZ
+    grid = common_grid(source, averaged)
+
+    found: list[str] = []
+    for stream in source.streams:
+        for at, length in rs.gaps(stream.t_ns, round(max_gap_s * 1e9)):
+            found.append(
+                f"gap of {length / 1e9:.3f} s in {stream.name} at {(at - grid[0]) / 1e9:.3f} s "
+                f"(output time); bridged by interpolation"
+            )
+    for message in found:
+        warnings.warn(message, ConversionWarning, stacklevel=2)
+
+    wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
+    processing: dict[str, object] = {
+        "wrench": "mean over 10 ms bins" if averaged else "linear interpolation",
+    }
+    if source.twist is not None:
+        twist = rs.interpolate(source.twist.t_ns, source.twist.values, grid)
+        processing["twist"] = "linear interpolation"
+    else:
+        assert source.pose is not None
+        velocity = rs.twist_from_pose(source.pose.t_ns, source.pose.values)
+        twist = rs.interpolate(source.pose.t_ns, velocity, grid)
+        processing["twist"] = "differentiated from pose, then linear interpolation"
+    pose = None
+    if source.pose is not None:
+        pose = rs.interpolate_pose(source.pose.t_ns, source.pose.values, grid)
+        processing["pose"] = "linear interpolation, quaternions normalised"
+    if tare_s > 0:
+        if (grid[-1] - grid[0]) / 1e9 < tare_s:
+            raise ConversionError(f"tare of {tare_s} s is longer than the log", path=path)
+        wrench = rs.tare(grid, wrench, tare_s)
+        processing["tare_s"] = tare_s
+    if rotate is not None:
+        wrench, twist = rs.rotate_vectors(wrench, rotate), rs.rotate_vectors(twist, rotate)
+        pose = rs.rotate_pose(pose, rotate) if pose is not None else None
+        processing["rotation_xyzw"] = [float(v) for v in rotate]
+
+    described = {s.kind: _describe(s, source) for s in source.streams}
+    info: dict[str, object] = {
+        "file": str(path.resolve()),
+        "format": source.format,
+        "start_ns": int(grid[0]),
+        "time": "output t = source t - start_ns",
+        "rate_hz": rs.RATE_HZ,
+        "streams": described,
+        "processing": processing,
+    }
+    if source.format == "csv" and motion is not None:
+        info["motion_file"] = str(Path(motion).resolve())
+    if source.notes:
+        info["notes"] = source.notes
+    if found:
+        info["warnings"] = found
+    metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
+    t_ns = grid - grid[0]
+    with TrialWriter(output, metadata, overwrite=overwrite) as writer:
+        writer.write_wrench(t_ns, wrench)
+        writer.write_twist(t_ns, twist)
+        if pose is not None:
+            writer.write_pose(t_ns, pose)
+    return ConversionReport(
+        output=str(output),
+        steps=len(grid),
+        duration_s=float(t_ns[-1]) / 1e9,
+        messages_in=source.message_count,
+        elapsed_s=time.perf_counter() - started,
+        source=info,
+        warnings=found,
+    )

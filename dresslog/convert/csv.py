@@ -1,0 +1,254 @@
+"""Read force/torque sensor CSV exports (and an optional motion CSV) into a `Source`.
+
+Exports name their columns every way imaginable (`Fx`, `Force X (N)`,
+`field.wrench.force.x`, `Mx`, `torque_x`); a header is reduced to a key
+(lower case, units in brackets dropped, ROS prefixes dropped, letters and
+digits only) and the key matched against a few patterns. Anything else is
+mapped by the caller (`columns={"fx": "Kraft X"}`, `--column fx="Kraft X"`).
+
+Time: seconds or nanoseconds, absolute or relative. A unit in the header
+(`time_ns`, `Time (s)`, rostopic's `%time`) wins; otherwise nanoseconds are
+recognised by size (epoch times above 1e12, or steps of 1000 or more, which
+no seconds column at a sensor rate has). Milliseconds and microseconds need
+the header to say so, or `time_unit`.
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from dresslog.convert.source import Source, SourceStream
+from dresslog.errors import ConversionError
+
+#: Roles a column can play; each group is all-or-nothing except where noted.
+FORCE, TORQUE = ("fx", "fy", "fz"), ("tx", "ty", "tz")
+LINEAR, ANGULAR = ("vx", "vy", "vz"), ("wx", "wy", "wz")
+POSITION, ORIENTATION = ("x", "y", "z"), ("qx", "qy", "qz", "qw")
+ROLES = ("time", *FORCE, *TORQUE, *LINEAR, *ANGULAR, *POSITION, *ORIENTATION)
+UNITS = {"s": 1e9, "ms": 1e6, "us": 1e3, "ns": 1.0}
+
+_PREFIX = re.compile(r"^(field|header|wrench|twist|pose|ee|ft|sensor|robot)+")
+_PATTERNS = [
+    (re.compile(r"^(f|force)([xyz])$"), "f"),
+    (re.compile(r"^(t|m|tau|torque|moment)([xyz])$"), "t"),
+    (re.compile(r"^(v|vel|velocity|linear|linearvelocity|linvel)([xyz])$"), "v"),
+    (re.compile(r"^(w|omega|angular|angularvelocity|angvel)([xyz])$"), "w"),
+    (re.compile(r"^(p|pos|position)?([xyz])$"), ""),
+    (re.compile(r"^(q|quat|quaternion|orientation|rot)([xyzw])$"), "q"),
+]
+_TIME = re.compile(
+    r"^(time|t|timestamp|stamp|rostime|elapsed|elapsedtime|sec|secs|seconds|ns|nsec)"
+    r"(s|sec|secs|seconds|ms|msec|us|usec|ns|nsec|nanoseconds)?$"
+)
+_UNIT_NAMES = {
+    "s": "s", "sec": "s", "secs": "s", "seconds": "s", "ms": "ms", "msec": "ms",
+    "us": "us", "usec": "us", "ns": "ns", "nsec": "ns", "nanoseconds": "ns",
+}  # fmt: skip
+
+
+def _unit_in(name: str) -> str | None:
+    """A time unit written in a header: `Time (s)`, `stamp[ns]`, `time_ns`, `%time`."""
+    if name.strip() == "%time" or name.strip().endswith("header.stamp"):
+        return "ns"  # rostopic echo -p / rosbag-to-CSV exports
+    bracket = re.search(r"[\(\[]\s*(\w+)\s*[\)\]]", name)
+    if bracket and bracket.group(1).lower() in _UNIT_NAMES:
+        return _UNIT_NAMES[bracket.group(1).lower()]
+    match = _TIME.match(_key(name))
+    if match and match.group(2):
+        return _UNIT_NAMES[match.group(2)]
+    if match and match.group(1) in ("sec", "secs", "seconds", "ns", "nsec"):
+        return _UNIT_NAMES[match.group(1)]
+    return None
+
+
+def _key(name: str) -> str:
+    """`Force X (N)` -> `forcex`; `field.wrench.force.x` -> `forcex`."""
+    name = re.sub(r"[\(\[].*?[\)\]]", "", name.lower())
+    return _PREFIX.sub("", re.sub(r"[^a-z0-9]", "", name))
+
+
+def role_of(name: str) -> str | None:
+    """The role a header plays, or None when it is not recognised."""
+    key = _key(name)
+    if _TIME.match(key) or name.strip() == "%time" or key == "stamp":
+        return "time"
+    for pattern, prefix in _PATTERNS:
+        if match := pattern.match(key):
+            return prefix + match.group(2)
+    return None
+
+
+def _header(path: Path) -> tuple[int, list[str], str | None]:
+    """Line number, column names and delimiter of the header (comment lines skipped)."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as stream:
+            for number, line in enumerate(stream):
+                if line.strip() and not line.lstrip().startswith("#"):
+                    delimiter = next((d for d in ",;\t" if d in line), None)
+                    names = (
+                        next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
+                    )
+                    return number, [n.strip() for n in names], delimiter
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConversionError(f"cannot read CSV: {err}", path=path) from None
+    raise ConversionError("CSV file is empty", path=path)
+
+
+def assign_columns(
+    names: list[str], columns: Mapping[str, str], path: Path
+) -> tuple[dict[str, int], list[str]]:
+    """Column index per role (explicit mapping first), and the names left unrecognised."""
+    found: dict[str, int] = {}
+    for role, name in columns.items():
+        if role not in ROLES:
+            raise ConversionError(f"unknown column role {role!r}; roles: {', '.join(ROLES)}")
+        if name in names:  # a mapping may name a column of the other file
+            found[role] = names.index(name)
+    taken = set(found.values())
+    ignored = []
+    # a sensor's header stamp beats a receive time (rostopic's `%time`) when both are there
+    order = sorted(range(len(names)), key=lambda i: "stamp" not in _key(names[i]))
+    for index in order:
+        role = role_of(names[index])
+        if index in taken:
+            continue
+        if role is None or role in found:
+            ignored.append(names[index])
+        else:
+            found[role] = index
+    return found, ignored
+
+
+def _missing_hint(missing: list[str], names: list[str]) -> str:
+    example = f"--column {missing[0]}=HEADER"
+    return (
+        f"no column recognised as {', '.join(missing)} (columns: {', '.join(names)}); "
+        f"name them with {example}"
+    )
+
+
+def _time_ns(raw: np.ndarray, unit: str | None, path: Path) -> tuple[np.ndarray, str]:
+    """Integer nanoseconds from a time column read as text, and the unit used."""
+    try:
+        values: np.ndarray = raw.astype(np.int64)
+    except ValueError:
+        try:
+            values = raw.astype(np.float64)
+        except ValueError as err:
+            raise ConversionError(f"time column is not numeric: {err}", path=path) from None
+    if unit is None:
+        steps = np.diff(values)
+        big = np.abs(values).max(initial=0) > 1e12
+        unit = "ns" if big or (len(steps) and np.median(steps) >= 1000) else "s"
+    if unit == "ns" and values.dtype == np.int64:
+        return values, unit
+    return np.round(values.astype(np.float64) * UNITS[unit]).astype(np.int64), unit
+
+
+def read_table(
+    path: Path, columns: Mapping[str, str] | None = None, time_unit: str | None = None
+) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
+    """Time (int64 ns) and one float column per recognised role; notes on what was assumed."""
+    if not path.is_file():
+        raise ConversionError("no such file", path=path)
+    line, names, delimiter = _header(path)
+    found, ignored = assign_columns(names, columns or {}, path)
+    if "time" not in found:
+        raise ConversionError(_missing_hint(["time"], names), path=path)
+    roles = sorted(found, key=found.__getitem__)
+    try:
+        text = np.loadtxt(
+            path, delimiter=delimiter, skiprows=line + 1, usecols=[found[r] for r in roles],
+            dtype=str, ndmin=2, comments="#", encoding="utf-8-sig",
+        )  # fmt: skip
+    except (ValueError, IndexError) as err:
+        raise ConversionError(f"cannot parse CSV: {err}", path=path) from None
+    if len(text) == 0:
+        raise ConversionError("CSV has a header but no rows", path=path)
+    data = dict(zip(roles, text.T, strict=True))
+    t_ns, unit = _time_ns(data.pop("time"), time_unit or _unit_in(names[found["time"]]), path)
+    try:
+        values = {role: col.astype(np.float64) for role, col in data.items()}
+    except ValueError as err:
+        raise ConversionError(f"non-numeric value: {err}", path=path) from None
+    notes = [f"{path.name}: time column {names[found['time']]!r} read as {unit}"]
+    if ignored:
+        notes.append(f"{path.name}: ignored columns {', '.join(ignored)}")
+    return t_ns, values, notes
+
+
+def _group(values: dict[str, np.ndarray], roles: tuple[str, ...]) -> np.ndarray | None:
+    if not any(r in values for r in roles):
+        return None
+    return np.stack([values[r] for r in roles], axis=1) if all(r in values for r in roles) else None
+
+
+def _incomplete(values: dict[str, np.ndarray], path: Path) -> None:
+    for group in (FORCE, TORQUE, LINEAR, ANGULAR, POSITION, ORIENTATION):
+        have = [r for r in group if r in values]
+        if have and len(have) < len(group):
+            missing = [r for r in group if r not in values]
+            raise ConversionError(
+                f"columns {', '.join(have)} found but not {', '.join(missing)}; "
+                f"name them with --column {missing[0]}=HEADER",
+                path=path,
+            )
+
+
+def _motion(
+    t_ns: np.ndarray, values: dict[str, np.ndarray], name: str
+) -> tuple[SourceStream | None, SourceStream | None]:
+    """Twist and pose streams from velocity and position columns (angular parts optional)."""
+    twist = pose = None
+    if (linear := _group(values, LINEAR)) is not None:
+        angular = _group(values, ANGULAR)
+        angular = np.zeros_like(linear) if angular is None else angular
+        twist = SourceStream("twist", name, t_ns, np.concatenate([linear, angular], axis=1))
+    if (position := _group(values, POSITION)) is not None:
+        quat = _group(values, ORIENTATION)
+        if quat is None:
+            quat = np.tile([0.0, 0.0, 0.0, 1.0], (len(t_ns), 1))
+        pose = SourceStream("pose", name, t_ns, np.concatenate([position, quat], axis=1))
+    return twist, pose
+
+
+def read_csv(
+    path: Path,
+    *,
+    motion: Path | None = None,
+    columns: Mapping[str, str] | None = None,
+    time_unit: str | None = None,
+) -> Source:
+    """Wrench from `path`; velocity or position from `path` itself or from `motion`."""
+    columns = dict(columns or {})
+    headers = set(_header(path)[1]) | (set(_header(motion)[1]) if motion else set())
+    if unknown := [f"{r}={n}" for r, n in columns.items() if n not in headers]:
+        raise ConversionError(f"--column {', '.join(unknown)}: no such column", path=path)
+    t_ns, values, notes = read_table(path, columns, time_unit)
+    if missing := [r for r in (*FORCE, *TORQUE) if r not in values]:
+        raise ConversionError(_missing_hint(missing, _header(path)[1]), path=path)
+    _incomplete(values, path)
+    wrench = SourceStream(
+        "wrench", path.name, t_ns, np.stack([values[r] for r in (*FORCE, *TORQUE)], axis=1)
+    )
+    twist, pose = _motion(t_ns, values, path.name)
+    if motion is not None:
+        m_ns, m_values, m_notes = read_table(motion, columns, time_unit)
+        _incomplete(m_values, motion)
+        notes += m_notes
+        twist, pose = _motion(m_ns, m_values, motion.name)
+        if twist is None and pose is None:
+            names = _header(motion)[1]
+            raise ConversionError(_missing_hint([*LINEAR, *POSITION], names), path=motion)
+    if twist is None and pose is None:
+        raise ConversionError(
+            "no velocity (vx vy vz) or position (x y z) columns for the end-effector velocity; "
+            "add them, or give a second file with --motion FILE",
+            path=path,
+        )
+    return Source(path=path, format="csv", wrench=wrench, twist=twist, pose=pose, notes=notes)

@@ -1,0 +1,195 @@
+"""Bring irregular, high- or low-rate sensor streams onto the model's 100 Hz grid (pure numpy).
+
+A force/torque sensor at 500-1000 Hz carries content above the grid's 50 Hz
+Nyquist limit (motor and contact vibration), so picking every tenth sample
+would alias it into the band the model sees; averaging all samples within
+each 10 ms bin (a box filter centred on the grid point, so no delay) removes
+most of it. Pose and velocity are smooth and slower, so they are
+interpolated; velocity from pose is differentiated on the source samples
+(second-order central differences) before interpolation, because the
+derivative of an interpolated pose would be piecewise constant.
+
+Times are integer nanoseconds; arithmetic is done relative to the grid start
+in float64, exact to the nanosecond for spans up to about 100 days.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+RATE_HZ = 100
+PERIOD_NS = 1_000_000_000 // RATE_HZ
+#: Above this source rate (Hz) a stream is bin-averaged rather than interpolated.
+AVERAGE_ABOVE_HZ = 1.5 * RATE_HZ
+
+
+def median_rate(t_ns: np.ndarray) -> float:
+    """Typical sample rate in Hz (0 for fewer than two samples)."""
+    if len(t_ns) < 2:
+        return 0.0
+    return float(1e9 / np.median(np.diff(t_ns)))
+
+
+def grid(start_ns: int, stop_ns: int, period_ns: int = PERIOD_NS) -> np.ndarray:
+    """Grid times from `start_ns` up to and including `stop_ns`, every `period_ns`."""
+    if stop_ns < start_ns:
+        return np.zeros(0, dtype=np.int64)
+    return start_ns + period_ns * np.arange((stop_ns - start_ns) // period_ns + 1, dtype=np.int64)
+
+
+def interpolate(t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray) -> np.ndarray:
+    """Linear interpolation of each column of `values` (T, D) at `grid_ns`."""
+    origin = grid_ns[0] if len(grid_ns) else 0
+    x = (t_ns - origin).astype(np.float64)
+    g = (grid_ns - origin).astype(np.float64)
+    values = np.asarray(values, dtype=np.float64).reshape(len(t_ns), -1)
+    return np.stack([np.interp(g, x, values[:, d]) for d in range(values.shape[1])], axis=1)
+
+
+def bin_average(
+    t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray, period_ns: int = PERIOD_NS
+) -> np.ndarray:
+    """Box-filter a fast stream: the mean of each 10 ms bin around a grid time, placed on the grid.
+
+    The mean of the samples in [g - period/2, g + period/2) belongs to their
+    mean time, which sits up to half a source sample off g; interpolating
+    the bin means from their mean times onto the grid removes that skew.
+    Empty bins (a dropout, a sensor slower than the grid) are skipped, so
+    they are bridged by interpolation and the result never holds NaN.
+    """
+    values = np.asarray(values, dtype=np.float64).reshape(len(t_ns), -1)
+    half = period_ns // 2
+    # one bin beyond each end, so the first and last grid times lie between bin mean times
+    centres = np.concatenate([[grid_ns[0] - period_ns], grid_ns, [grid_ns[-1] + period_ns]])
+    edges = np.append(centres - half, centres[-1] + period_ns - half)
+    index = np.searchsorted(t_ns, edges, side="left")
+    counts = np.diff(index)
+    full = counts > 0
+    if not full.any():
+        return interpolate(t_ns, values, grid_ns)
+    origin = grid_ns[0]
+    rel_ns = (t_ns - origin).astype(np.float64)
+    lo, hi, n = index[:-1][full], index[1:][full], counts[full]
+    sums = np.concatenate([np.zeros((1, values.shape[1])), np.cumsum(values, axis=0)])
+    time_sums = np.concatenate([[0.0], np.cumsum(rel_ns)])
+    means = (sums[hi] - sums[lo]) / n[:, None]
+    mean_t = (time_sums[hi] - time_sums[lo]) / n
+    g = (grid_ns - origin).astype(np.float64)
+    return np.stack([np.interp(g, mean_t, means[:, d]) for d in range(means.shape[1])], axis=1)
+
+
+def resample(t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray) -> np.ndarray:
+    """Bin-average a stream faster than the grid, interpolate anything slower."""
+    if median_rate(t_ns) > AVERAGE_ABOVE_HZ:
+        return bin_average(t_ns, values, grid_ns)
+    return interpolate(t_ns, values, grid_ns)
+
+
+def continuous_quaternions(quat: np.ndarray) -> np.ndarray:
+    """Flip signs so consecutive quaternions (x y z w) lie in one hemisphere.
+
+    q and -q are the same rotation; a sign flip between samples would make
+    interpolation and differentiation swing through the long way round.
+    """
+    quat = np.asarray(quat, dtype=np.float64).copy()
+    if len(quat) < 2:
+        return quat
+    flips = np.einsum("ij,ij->i", quat[1:], quat[:-1]) < 0
+    sign = np.concatenate([[1.0], np.where(np.cumsum(flips) % 2, -1.0, 1.0)])
+    return quat * sign[:, None]
+
+
+def normalize(quat: np.ndarray) -> np.ndarray:
+    """Unit quaternions; an all-zero row (an unset orientation) becomes identity."""
+    norm = np.linalg.norm(quat, axis=-1, keepdims=True)
+    out = np.divide(quat, norm, out=np.zeros_like(quat), where=norm > 0)
+    out[norm[..., 0] == 0, 3] = 1.0
+    return out
+
+
+def interpolate_pose(t_ns: np.ndarray, pose: np.ndarray, grid_ns: np.ndarray) -> np.ndarray:
+    """Position (linear) and orientation (normalised linear, i.e. nlerp) at `grid_ns`."""
+    position = interpolate(t_ns, pose[:, :3], grid_ns)
+    quat = interpolate(t_ns, continuous_quaternions(normalize(pose[:, 3:7])), grid_ns)
+    return np.concatenate([position, normalize(quat)], axis=1)
+
+
+def _multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of quaternions (x y z w), row by row."""
+    ax, ay, az, aw = np.moveaxis(a, -1, 0)
+    bx, by, bz, bw = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ],
+        axis=-1,
+    )
+
+
+def _conjugate(q: np.ndarray) -> np.ndarray:
+    return q * np.array([-1.0, -1.0, -1.0, 1.0])
+
+
+def twist_from_pose(t_ns: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """Linear (m/s) and angular (rad/s, world frame) velocity (T, 6) on the pose's own times.
+
+    Second-order differences on the (possibly irregular) source times; the
+    angular velocity is the vector part of 2 dq/dt q^-1.
+    """
+    if len(t_ns) < 3:
+        return np.zeros((len(t_ns), 6))
+    seconds = (t_ns - t_ns[0]).astype(np.float64) * 1e-9
+    linear = np.gradient(pose[:, :3], seconds, axis=0, edge_order=2)
+    quat = continuous_quaternions(normalize(pose[:, 3:7]))
+    dquat = np.gradient(quat, seconds, axis=0, edge_order=2)
+    angular = 2.0 * _multiply(dquat, _conjugate(quat))[:, :3]
+    return np.concatenate([linear, angular], axis=1)
+
+
+def tare(t_ns: np.ndarray, values: np.ndarray, seconds: float) -> np.ndarray:
+    """Subtract the mean of the first `seconds` (the sensor's offset with nothing attached)."""
+    window = t_ns < t_ns[0] + round(seconds * 1e9)
+    return values - values[window].mean(axis=0)
+
+
+def rotation_matrix(quat: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
+    """The 3x3 matrix of a quaternion (x y z w), normalised first."""
+    x, y, z, w = np.asarray(quat, dtype=np.float64) / np.linalg.norm(quat)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def rotate_vectors(values: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
+    """Rotate every 3-vector block of (T, 3k) rows (force and torque, linear and angular)."""
+    matrix = rotation_matrix(quat)
+    blocks = values.reshape(len(values), -1, 3)
+    return (blocks @ matrix.T).reshape(values.shape)
+
+
+def rotate_pose(pose: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
+    """Express poses (T, 7) in the rotated frame: position rotated, orientation pre-multiplied."""
+    q = np.asarray(quat, dtype=np.float64) / np.linalg.norm(quat)
+    position = pose[:, :3] @ rotation_matrix(q).T
+    orientation = _multiply(np.broadcast_to(q, (len(pose), 4)), pose[:, 3:7])
+    return np.concatenate([position, orientation], axis=1)
+
+
+def gaps(t_ns: np.ndarray, limit_ns: int) -> list[tuple[int, int]]:
+    """(start time, length) of each interval between samples longer than `limit_ns`."""
+    steps = np.diff(t_ns)
+    where = np.flatnonzero(steps > limit_ns)
+    return [(int(t_ns[i]), int(steps[i])) for i in where]
+
+
+def first_disorder(t_ns: np.ndarray) -> int | None:
+    """Index of the first sample not later than its predecessor, or None."""
+    bad = np.flatnonzero(np.diff(t_ns) <= 0)
+    return int(bad[0]) + 1 if len(bad) else None

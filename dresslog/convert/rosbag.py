@@ -1,0 +1,269 @@
+"""Read the wrench, twist and pose topics of a ROS 1 bag, ROS 2 bag or bare ROS 2 MCAP file.
+
+rosbags (the optional extra `dresslog[ros]`) opens every format through
+`AnyReader` and hands over raw payloads; decoding is done here in bulk with
+numpy, because the three message types are a header followed by a fixed run
+of float64: one `frombuffer` per distinct payload length replaces hundreds of
+thousands of per-message deserialisations. CDR payloads are laid out by
+`dresslog.io.cdr` from the `.msg` files in `schemas/`; ROS 1 payloads (a
+uint32 seq in the header, no encapsulation, no alignment) by `ros1_dtype`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dresslog.convert.source import MESSAGE_TYPES, WIDTHS, Source, SourceStream
+from dresslog.errors import ConversionError
+from dresslog.io import cdr
+
+INSTALL_HINT = "reading ROS bags needs rosbags: pip install 'dresslog[ros]'"
+OPTIONS = {"wrench": "--wrench-topic", "twist": "--twist-topic", "pose": "--pose-topic"}
+#: CDR field names of each kind's two value blocks.
+FIELDS = {
+    "wrench": ("wrench.force", "wrench.torque"),
+    "twist": ("twist.linear", "twist.angular"),
+    "pose": ("pose.position", "pose.orientation"),
+}
+
+
+def _rosbags() -> Any:
+    """The rosbags modules, imported only when a bag is converted."""
+    try:
+        from rosbags import highlevel, rosbag1, rosbag2, typesys
+    except ImportError:
+        raise ConversionError(INSTALL_HINT) from None
+    return highlevel, rosbag1, rosbag2, typesys
+
+
+def normalize_type(msgtype: str) -> str:
+    """`geometry_msgs/WrenchStamped` (ROS 1 style) -> `geometry_msgs/msg/WrenchStamped`."""
+    package, _, name = msgtype.rpartition("/")
+    return msgtype if package.endswith("/msg") else f"{package}/msg/{name}"
+
+
+# -- bulk decoding -------------------------------------------------------------------------
+
+
+def ros1_dtype(frame_len: int, width: int) -> np.dtype:
+    """ROS 1 layout of a stamped message whose body is `width` float64 after the header."""
+    return np.dtype(
+        {
+            "names": ["seq", "sec", "nsec", "frame_len", "values"],
+            "formats": ["<u4", "<u4", "<u4", "<u4", ("<f8", (width,))],
+            "offsets": [0, 4, 8, 12, 16 + frame_len],
+            "itemsize": 16 + frame_len + 8 * width,
+        }
+    )
+
+
+def _frame_id(message: np.void, ros1: bool) -> str:
+    if ros1:
+        return bytes(message.tobytes()[16 : 16 + int(message["frame_len"])]).decode(
+            errors="replace"
+        )
+    return message["header.frame_id"].decode(errors="replace")
+
+
+def _decode_group(
+    kind: str, payloads: list, ros1: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Decode equal-length payloads: stamps (sec, nsec) and values (T, width), plus frame_id."""
+    width = WIDTHS[kind]
+    size = len(payloads[0])
+    if ros1:
+        frame_len = size - 16 - 8 * width
+        if frame_len < 0:
+            raise ValueError(f"{size}-byte message is too short")
+        messages = np.frombuffer(b"".join(payloads), dtype=ros1_dtype(frame_len, width))
+        if (messages["frame_len"] != frame_len).any():
+            raise ValueError("header length field does not match the message size")
+        sec, nsec, values = messages["sec"], messages["nsec"], messages["values"]
+    else:
+        msgtype = MESSAGE_TYPES[kind]
+        dtype = cdr.layout(msgtype, cdr.sizes_of(msgtype, bytes(payloads[0])))
+        messages = cdr.from_payloads(payloads, dtype)
+        if (messages["encapsulation"][:, :2] != (0, 1)).any():
+            raise ValueError("not little-endian CDR (encapsulation header is not 00 01)")
+        a, b = FIELDS[kind]
+        sec, nsec = messages["header.stamp.sec"], messages["header.stamp.nanosec"]
+        values = np.concatenate([messages[a], messages[b]], axis=1)
+    return sec, nsec, values, _frame_id(messages[0], ros1)
+
+
+def decode(kind: str, payloads: Sequence, *, ros1: bool) -> tuple[np.ndarray, np.ndarray, str]:
+    """Header stamps (int64 ns), values (T, width) and the first frame_id of raw payloads."""
+    count = len(payloads)
+    lengths = np.fromiter(map(len, payloads), dtype=np.int64, count=count)
+    stamps = np.zeros(count, dtype=np.int64)
+    values = np.zeros((count, WIDTHS[kind]))
+    frame_id = ""
+    for size in np.unique(lengths):  # one group unless frame_id lengths vary
+        index = np.flatnonzero(lengths == size)
+        group = payloads if len(index) == count else [payloads[i] for i in index]
+        sec, nsec, vals, frame = _decode_group(kind, list(group), ros1)
+        stamps[index] = sec.astype(np.int64) * 1_000_000_000 + nsec.astype(np.int64)
+        values[index] = vals
+        frame_id = frame_id or frame
+    return stamps, values, frame_id
+
+
+# -- ROS 1 fast path ---------------------------------------------------------------------
+
+
+def _ros1_messages(reader: Any, connections: list) -> dict[str, tuple[list[int], list]] | None:
+    """Raw ROS 1 messages per topic, cut from each decompressed chunk by rosbags' own index.
+
+    rosbags parses a record header per message (about 10 us each); here each
+    chunk is read once and payloads are sliced at the indexed offsets. This
+    leans on rosbags' reader internals (`indexes`, `chunks`), so any surprise
+    returns None and the caller takes the ordinary per-message path.
+    """
+    try:
+        bio, chunks, indexes = reader.bio, reader.chunks, reader.indexes
+        by_chunk: dict[int, list[tuple[int, int, str]]] = {}
+        for connection in connections:
+            for entry in indexes[connection.id]:
+                by_chunk.setdefault(entry.chunk_pos, []).append(
+                    (entry.time, entry.offset, connection.topic)
+                )
+        out: dict[str, tuple[list[int], list]] = {c.topic: ([], []) for c in connections}
+        for position in sorted(by_chunk):
+            chunk = chunks[position]
+            bio.seek(chunk.datapos)
+            data = chunk.decompressor(bio.read(chunk.datasize))
+            for t_ns, offset, topic in sorted(by_chunk[position]):
+                header_len = int.from_bytes(data[offset : offset + 4], "little")
+                start = offset + 4 + header_len
+                if b"op=\x02" not in data[offset + 4 : start]:
+                    return None
+                size = int.from_bytes(data[start : start + 4], "little")
+                times, payloads = out[topic]
+                times.append(t_ns)
+                payloads.append(data[start + 4 : start + 4 + size])
+    except (AttributeError, KeyError, TypeError, ValueError, OSError):
+        return None
+    for topic, (times, payloads) in out.items():  # log-time order, as rosbags would yield
+        order = np.argsort(np.asarray(times, dtype=np.int64), kind="stable").tolist()
+        out[topic] = ([times[i] for i in order], [payloads[i] for i in order])
+    return out
+
+
+# -- topics --------------------------------------------------------------------------------
+
+
+def choose_topics(
+    types: dict[str, str], wanted: dict[str, str | None], path: Path
+) -> tuple[dict[str, str], list[str]]:
+    """Topic per kind: the one asked for, or the only candidate; errors list the candidates.
+
+    Wrench is required; velocity needs a twist or a pose (a pose topic asked
+    for alone means velocity from that pose). When a twist is found and the
+    pose is ambiguous, the pose is left out with a note.
+    """
+    candidates = {
+        kind: sorted(t for t, m in types.items() if m == msgtype)
+        for kind, msgtype in MESSAGE_TYPES.items()
+    }
+    listing = ", ".join(f"{t} ({m.split('/')[-1]})" for t, m in sorted(types.items())) or "none"
+    chosen: dict[str, str] = {}
+    notes: list[str] = []
+    for kind, topic in wanted.items():
+        if topic is None:
+            continue
+        if topic not in types:
+            raise ConversionError(f"topic {topic} not found (topics: {listing})", path=path)
+        if types[topic] != MESSAGE_TYPES[kind]:
+            raise ConversionError(
+                f"topic {topic} is {types[topic]}, {OPTIONS[kind]} needs {MESSAGE_TYPES[kind]}",
+                path=path,
+            )
+        chosen[kind] = topic
+    for kind in ("wrench", "twist", "pose"):
+        found = candidates[kind]
+        if kind in chosen or (not found and kind != "wrench"):
+            continue
+        if kind == "twist" and wanted["pose"] and not wanted["twist"]:
+            continue  # --pose-topic alone: velocity from that pose, as the option promises
+        if len(found) == 1:
+            chosen[kind] = found[0]
+            continue
+        short = MESSAGE_TYPES[kind].split("/")[-1]
+        if not found:
+            raise ConversionError(f"no {short} topic for the wrench (topics: {listing})", path=path)
+        message = (
+            f"{len(found)} {short} topics ({', '.join(found)}); choose one with {OPTIONS[kind]}"
+        )
+        if kind == "pose" and "twist" in chosen:
+            notes.append(f"pose left out: {message}")
+            continue
+        raise ConversionError(message, path=path)
+    if "twist" not in chosen and "pose" not in chosen:
+        raise ConversionError(
+            f"no TwistStamped or PoseStamped topic for the end-effector velocity "
+            f"(topics: {listing}); the model needs force, torque and velocity",
+            path=path,
+        )
+    return chosen, notes
+
+
+def read_bag(
+    path: Path,
+    *,
+    wrench_topic: str | None = None,
+    twist_topic: str | None = None,
+    pose_topic: str | None = None,
+) -> Source:
+    """Read the needed topics of one bag (any format AnyReader opens) into a `Source`."""
+    highlevel, rosbag1, rosbag2, typesys = _rosbags()
+    errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError)
+    wanted = {"wrench": wrench_topic, "twist": twist_topic, "pose": pose_topic}
+    try:
+        default = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+        with highlevel.AnyReader([path], default_typestore=default) as reader:
+            ros1 = not reader.is2
+            types = {c.topic: normalize_type(c.msgtype) for c in reader.connections}
+            if not types or reader.message_count == 0:
+                raise ConversionError("bag has no messages", path=path)
+            chosen, notes = choose_topics(types, wanted, path)
+            topics = set(chosen.values())
+            connections = [c for c in reader.connections if c.topic in topics]
+            fast = _ros1_messages(reader.readers[0], connections) if ros1 else None
+            if ros1 and len(reader.readers) == 1 and fast is not None:
+                buckets = fast
+            else:
+                buckets = {t: ([], []) for t in topics}
+                for connection, t_ns, raw in reader.messages(connections=connections):
+                    times, payloads = buckets[connection.topic]
+                    times.append(t_ns)
+                    payloads.append(raw)
+    except errors as err:
+        raise ConversionError(f"cannot read bag: {err}", path=path) from None
+    streams: dict[str, SourceStream] = {}
+    for kind, topic in chosen.items():
+        log_ns, payloads = buckets[topic]
+        if not payloads:
+            raise ConversionError(f"topic {topic} has no messages", path=path)
+        try:
+            stamps, values, frame_id = decode(kind, payloads, ros1=ros1)
+        except ValueError as err:
+            raise ConversionError(
+                f"topic {topic}: message does not match {MESSAGE_TYPES[kind]}: {err}", path=path
+            ) from None
+        clock = "header"
+        if (stamps == 0).any():  # unset header stamps: fall back to the recording time
+            stamps, clock = np.asarray(log_ns, dtype=np.int64), "log"
+            notes.append(f"{topic}: header stamps unset, used the bag's log times")
+        streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, clock)
+    return Source(
+        path=path,
+        format="ros1" if ros1 else "ros2",
+        wrench=streams["wrench"],
+        twist=streams.get("twist"),
+        pose=streams.get("pose"),
+        notes=notes,
+    )

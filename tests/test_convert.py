@@ -1,0 +1,248 @@
+"""`dresslog convert` on ROS bags: values on the 100 Hz grid match the analytic signals."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dresslog.cli.main import main
+from dresslog.convert import ConversionWarning, convert
+from dresslog.errors import ConversionError
+from dresslog.io import well_known as wk
+from dresslog.io.reader import TrialReader
+from dresslog.io.summary import summarize
+from dresslog.io.writer import TrialWriter
+from dresslog.spec import Outcome, Task, TrialMetadata
+from tests.convert_signals import (
+    pose,
+    seconds_of,
+    standard_topics,
+    twist,
+    wrench,
+    write_bag,
+)
+
+pytest.importorskip("rosbags")
+
+LAYOUTS = ["ros1", "sqlite3", "mcap", "bare-mcap"]
+
+
+def make_bag(tmp_path: Path, topics, layout: str) -> Path:
+    """A bag of `layout`; `bare-mcap` is the .mcap file inside a ROS 2 mcap bag folder."""
+    if layout == "ros1":
+        return write_bag(tmp_path / "log.bag", topics, "ros1")
+    folder = write_bag(tmp_path / "log", topics, "mcap" if layout == "bare-mcap" else layout)
+    return next(folder.glob("*.mcap")) if layout == "bare-mcap" else folder
+
+
+@pytest.fixture(scope="module")
+def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    topics = standard_topics()
+    return {layout: make_bag(tmp_path_factory.mktemp(layout), topics, layout) for layout in LAYOUTS}
+
+
+def no_partials(folder: Path) -> bool:
+    return not list(folder.glob(".*.partial"))
+
+
+@pytest.mark.parametrize("layout", LAYOUTS)
+def test_a_bag_becomes_a_100_hz_trial_matching_the_analytic_signals(
+    bags: dict[str, Path], tmp_path: Path, layout: str
+) -> None:
+    out = tmp_path / "trial.mcap"
+    report = convert(bags[layout], out, "gown")
+    with TrialReader(out) as reader:
+        wrench_out, twist_out, pose_out = reader.wrench, reader.twist, reader.pose
+        metadata = reader.metadata
+    assert wrench_out.t_ns[0] == 0
+    assert set(np.diff(wrench_out.t_ns).tolist()) == {10_000_000}
+    assert len(wrench_out) == report.steps > 290  # 3 s, less the edges the streams share
+    t = seconds_of(wrench_out.t_ns + report.source["start_ns"])
+    # the 200 Hz vibration is averaged away, not aliased into the 100 Hz samples
+    np.testing.assert_allclose(wrench_out.values, wrench(t, vibration=False), atol=5e-4)
+    np.testing.assert_allclose(twist_out.values, twist(t), atol=2e-4)
+    assert pose_out is not None
+    np.testing.assert_allclose(pose_out.values, pose(t), atol=1e-4)
+    assert metadata.spec is None and metadata.outcome is Outcome.UNKNOWN
+    assert metadata.task is Task.GOWN
+    streams = metadata.source["streams"]
+    assert streams["wrench"]["topic"] == "/ft_sensor/wrench"
+    assert streams["wrench"]["rate_hz"] == 1000.0
+    assert streams["pose"]["rate_hz"] == 50.0
+    assert "differentiated from pose" in metadata.source["processing"]["twist"]
+
+
+def test_info_describes_a_converted_trial(bags: dict[str, Path], tmp_path: Path) -> None:
+    out = tmp_path / "trial.mcap"
+    convert(bags["ros1"], out, "shorts")
+    summary = summarize(out)
+    assert summary.task == "shorts" and summary.rate_hz == 100.0
+    assert not summary.has_ground_truth
+    assert summary.metadata.source["format"] == "ros1"
+
+
+def test_tare_and_rotation_are_applied_and_recorded(bags: dict[str, Path], tmp_path: Path) -> None:
+    out = tmp_path / "trial.mcap"
+    quarter_turn_z = (0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4))
+    report = convert(bags["sqlite3"], out, "gown", tare_s=0.5, rotate=quarter_turn_z)
+    with TrialReader(out) as reader:
+        got, vel = reader.wrench.values, reader.twist.values
+        t = seconds_of(reader.wrench.t_ns + report.source["start_ns"])
+    expected = wrench(t, vibration=False)
+    expected -= expected[t - t[0] < 0.5].mean(axis=0)
+    rotated = expected.copy()  # a quarter turn about z: (x, y) -> (-y, x)
+    rotated[:, [0, 3]], rotated[:, [1, 4]] = -expected[:, [1, 4]], expected[:, [0, 3]]
+    np.testing.assert_allclose(got, rotated, atol=5e-4)
+    np.testing.assert_allclose(vel[:, 0], -twist(t)[:, 1], atol=2e-4)
+    assert report.source["processing"]["tare_s"] == 0.5
+    assert report.source["processing"]["rotation_xyzw"][3] == pytest.approx(np.cos(np.pi / 4))
+
+
+def test_a_dresslog_trial_exported_as_a_ros2_bag_converts_back_unchanged(tmp_path: Path) -> None:
+    from rosbags.rosbag2 import Writer
+
+    from tests.convert_signals import typestore
+
+    t_ns = np.arange(400, dtype=np.int64) * 10_000_000  # 4 s at 100 Hz, as the simulator records
+    t = t_ns / 1e9
+    original = tmp_path / "sim.mcap"
+    metadata = TrialMetadata(task=Task.GOWN)
+    with TrialWriter(original, metadata) as writer:
+        writer.write_wrench(t_ns, wrench(t, vibration=False))
+        writer.write_twist(t_ns, twist(t))
+        writer.write_pose(t_ns, pose(t))
+    bag = tmp_path / "exported"
+    with TrialReader(original) as reader, Writer(bag, version=9) as out:
+        for topic in (wk.WRENCH, wk.TWIST, wk.POSE):
+            connection = out.add_connection(topic, wk.SCHEMAS[topic], typestore=typestore(False))
+            for log_ns, payload in zip(*reader.messages(topic), strict=True):
+                out.write(connection, int(log_ns), payload)
+        before = reader.measurements
+    back = tmp_path / "back.mcap"
+    report = convert(bag, back, "gown")
+    with TrialReader(back) as reader:
+        after = reader.measurements
+    assert report.source["start_ns"] == 0
+    np.testing.assert_array_equal(after.t_ns, before.t_ns)
+    np.testing.assert_allclose(after.phi, before.phi, atol=1e-6)
+
+
+# -- bad input -----------------------------------------------------------------------------
+
+
+def bad(tmp_path: Path, topics, match: str, layout: str = "ros1", **options) -> None:
+    """Converting `topics` fails with a ConversionError matching `match`; nothing is written."""
+    bag = make_bag(tmp_path, topics, layout)
+    out = tmp_path / "out.mcap"
+    with pytest.raises(ConversionError, match=match):
+        convert(bag, out, "gown", **options)
+    assert not out.exists() and no_partials(tmp_path)
+
+
+def test_an_empty_bag_is_refused(tmp_path: Path) -> None:
+    bad(tmp_path, {}, "no messages")
+
+
+def test_a_bag_without_a_wrench_names_the_topics_it_has(tmp_path: Path) -> None:
+    topics = standard_topics(1.0)
+    del topics["/ft_sensor/wrench"]
+    bad(tmp_path, topics, r"no WrenchStamped topic .*/arm/ee_pose \(PoseStamped\)")
+
+
+def test_a_bag_without_velocity_or_pose_is_refused(tmp_path: Path) -> None:
+    topics = standard_topics(1.0)
+    del topics["/arm/ee_pose"]
+    bad(tmp_path, topics, "no TwistStamped or PoseStamped topic", layout="sqlite3")
+
+
+def test_two_wrench_topics_need_a_choice(tmp_path: Path) -> None:
+    topics = standard_topics(1.0)
+    topics["/ft_raw"] = topics["/ft_sensor/wrench"]
+    bad(tmp_path, topics, r"2 WrenchStamped topics \(/ft_raw, /ft_sensor/wrench\).*--wrench-topic")
+    report = convert(tmp_path / "log.bag", tmp_path / "ok.mcap", "gown", wrench_topic="/ft_raw")
+    assert report.source["streams"]["wrench"]["topic"] == "/ft_raw"
+
+
+def test_a_topic_of_the_wrong_type_is_refused(tmp_path: Path) -> None:
+    bad(tmp_path, standard_topics(1.0), "is std_msgs/msg/String", wrench_topic="/rosout_text")
+
+
+def test_timestamps_going_backwards_are_refused(tmp_path: Path) -> None:
+    topics = standard_topics(1.0)
+    kind, stamps, values = topics["/ft_sensor/wrench"]
+    stamps = stamps.copy()
+    stamps[500], stamps[501] = stamps[501], stamps[500]
+    topics["/ft_sensor/wrench"] = (kind, stamps, values)
+    bad(tmp_path, topics, "timestamps not increasing at sample 501", layout="mcap")
+
+
+def test_a_gap_longer_than_100_ms_is_named_in_a_warning(tmp_path: Path) -> None:
+    topics = standard_topics(2.0)
+    kind, stamps, values = topics["/ft_sensor/wrench"]
+    keep = (stamps < stamps[0] + 800_000_000) | (stamps >= stamps[0] + 1_100_000_000)
+    topics["/ft_sensor/wrench"] = (kind, stamps[keep], values[keep])
+    bag = make_bag(tmp_path, topics, "ros1")
+    with pytest.warns(ConversionWarning, match=r"gap of 0\.301 s in /ft_sensor/wrench"):
+        report = convert(bag, tmp_path / "out.mcap", "gown")
+    assert report.warnings and report.source["warnings"] == report.warnings
+
+
+def test_without_rosbags_the_error_says_how_to_install_it(
+    bags: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "rosbags", None)
+    with pytest.raises(ConversionError, match=r"pip install 'dresslog\[ros\]'"):
+        convert(bags["ros1"], tmp_path / "out.mcap", "gown")
+
+
+def test_inputs_that_are_not_logs_are_refused(tmp_path: Path) -> None:
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "notes.pdf").write_bytes(b"%PDF")
+    for path, match in [
+        (tmp_path / "missing.bag", "no such file"),
+        (tmp_path / "folder", "no metadata.yaml"),
+        (tmp_path / "notes.pdf", "unknown input"),
+    ]:
+        with pytest.raises(ConversionError, match=match):
+            convert(path, tmp_path / "out.mcap", "gown")
+
+
+# -- command line --------------------------------------------------------------------------
+
+
+def test_the_command_converts_and_reports_errors_in_one_line(
+    bags: dict[str, Path], tmp_path: Path
+) -> None:
+    out = tmp_path / "trial.mcap"
+    runner = CliRunner()
+    result = runner.invoke(main, ["convert", str(bags["ros1"]), "-o", str(out), "--task", "gown"])
+    assert result.exit_code == 0, result.output
+    assert "steps" in result.output and out.exists()
+    again = runner.invoke(main, ["convert", str(bags["ros1"]), "-o", str(out), "--task", "gown"])
+    assert again.exit_code == 1
+    assert again.output.strip().count("\n") == 0 and "output exists" in again.output
+    wrong = runner.invoke(
+        main,
+        ["convert", str(bags["ros1"]), "-o", str(tmp_path / "x.mcap"), "--task", "gown",
+         "--pose-topic", "/nope"],
+    )  # fmt: skip
+    assert wrong.exit_code == 1 and "topic /nope not found" in wrong.output
+    assert "Traceback" not in wrong.output
+
+
+def test_the_command_prints_gap_warnings(tmp_path: Path) -> None:
+    topics = standard_topics(1.0)
+    kind, stamps, values = topics["/arm/ee_pose"]
+    keep = np.ones(len(stamps), bool)
+    keep[20:30] = False
+    topics["/arm/ee_pose"] = (kind, stamps[keep], values[keep])
+    bag = make_bag(tmp_path, topics, "ros1")
+    result = CliRunner().invoke(
+        main, ["convert", str(bag), "-o", str(tmp_path / "t.mcap"), "--task", "gown"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "Warning: gap of 0.220 s in /arm/ee_pose" in result.output

@@ -1,0 +1,162 @@
+"""`dresslog convert` on force/torque CSV exports in common layouts, and the resampling maths."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dresslog.cli.main import main
+from dresslog.convert import convert
+from dresslog.convert import resample as rs
+from dresslog.convert.csv import role_of
+from dresslog.errors import ConversionError
+from dresslog.io.reader import TrialReader
+from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
+
+
+def write_csv(path: Path, header: list[str], columns: list[np.ndarray]) -> Path:
+    rows = np.column_stack(columns).astype(object)
+    lines = [",".join(header)] + [",".join(str(v) for v in row) for row in rows]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def ati_style(tmp_path: Path) -> Path:
+    """One file, relative seconds, units in brackets, velocity beside the wrench (1 kHz)."""
+    t_ns = times(1000, 2.0)
+    t = seconds_of(t_ns)
+    header = ["Time (s)", "Fx (N)", "Fy (N)", "Fz (N)", "Mx (Nm)", "My (Nm)", "Mz (Nm)",
+              "vx (m/s)", "vy (m/s)", "vz (m/s)", "status"]  # fmt: skip
+    columns = [np.round(t, 6), *wrench(t).T, *twist(t)[:, :3].T, np.zeros(len(t))]
+    return write_csv(tmp_path / "ati.csv", header, columns)
+
+
+def rostopic_style(tmp_path: Path) -> tuple[Path, Path]:
+    """rostopic echo -p exports: absolute ns, `%time` and `field.header.stamp`, pose file apart."""
+    tw, tp = times(1000, 2.0), times(50, 2.0, 0.003)
+    head = ["%time", "field.header.seq", "field.header.stamp", "field.header.frame_id"]
+    wrench_header = head + [f"field.wrench.{q}.{a}" for q in ("force", "torque") for a in "xyz"]
+    frame = np.full(len(tw), "ft")
+    wrench_file = write_csv(
+        tmp_path / "wrench.csv",
+        wrench_header,
+        [tw + 700_000, np.arange(len(tw)), tw, frame, *wrench(seconds_of(tw)).T],
+    )
+    pose_header = head + [f"field.pose.position.{a}" for a in "xyz"]
+    pose_header += [f"field.pose.orientation.{a}" for a in "xyzw"]
+    pose_file = write_csv(
+        tmp_path / "pose.csv",
+        pose_header,
+        [tp + 900_000, np.arange(len(tp)), tp, np.full(len(tp), "base"), *pose(seconds_of(tp)).T],
+    )
+    return wrench_file, pose_file
+
+
+def converted(out: Path, start_ns: int, relative: bool = False):
+    with TrialReader(out) as reader:
+        t = (reader.wrench.t_ns + start_ns) / 1e9 if relative else None
+        t = seconds_of(reader.wrench.t_ns + start_ns) if t is None else t
+        return t, reader.wrench.values, reader.twist.values, reader.pose
+
+
+def test_an_ati_style_csv_with_velocity_columns(tmp_path: Path) -> None:
+    report = convert(ati_style(tmp_path), tmp_path / "t.mcap", "gown")
+    t, got_wrench, got_twist, got_pose = converted(
+        tmp_path / "t.mcap", report.source["start_ns"], True
+    )
+    np.testing.assert_allclose(got_wrench, wrench(t, vibration=False), atol=5e-4)
+    np.testing.assert_allclose(got_twist[:, :3], twist(t)[:, :3], atol=1e-4)
+    assert got_pose is None
+    assert any("read as s" in n for n in report.source["notes"])
+    assert any("ignored columns status" in n for n in report.source["notes"])
+
+
+def test_rostopic_exports_with_a_motion_file(tmp_path: Path) -> None:
+    wrench_file, pose_file = rostopic_style(tmp_path)
+    report = convert(wrench_file, tmp_path / "t.mcap", "shorts", motion=pose_file)
+    t, got_wrench, got_twist, got_pose = converted(tmp_path / "t.mcap", report.source["start_ns"])
+    assert report.source["start_ns"] > T0_NS  # absolute header stamps, in ns
+    np.testing.assert_allclose(got_wrench, wrench(t, vibration=False), atol=5e-4)
+    np.testing.assert_allclose(got_twist, twist(t), atol=2e-4)
+    np.testing.assert_allclose(got_pose.values, pose(t), atol=1e-4)
+
+
+def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:
+    t = np.arange(200) / 1000.0
+    values = wrench(t)
+    header = ["zeit", "kx", "ky", "kz", "mx", "my", "mz", "vx", "vy", "vz"]
+    path = write_csv(tmp_path / "odd.csv", header, [t, *values.T, *twist(t)[:, :3].T])
+    out = tmp_path / "t.mcap"
+    with pytest.raises(ConversionError, match=r"no column recognised as time.*--column time="):
+        convert(path, out, "gown")
+    with pytest.raises(ConversionError, match=r"no column recognised as fx.*--column fx="):
+        convert(path, out, "gown", columns={"time": "zeit"})
+    assert not out.exists()
+    mapping = {"time": "zeit", "fx": "kx", "fy": "ky", "fz": "kz"}
+    result = CliRunner().invoke(
+        main,
+        ["convert", str(path), "-o", str(out), "--task", "gown"]
+        + [arg for role, name in mapping.items() for arg in ("--column", f"{role}={name}")],
+    )
+    assert result.exit_code == 0, result.output
+    with pytest.raises(ConversionError, match="no such column"):
+        convert(path, tmp_path / "u.mcap", "gown", columns={"fx": "nope"})
+
+
+def test_a_wrench_csv_without_motion_is_refused(tmp_path: Path) -> None:
+    t = np.arange(100) / 1000.0
+    path = write_csv(
+        tmp_path / "w.csv", ["t", "fx", "fy", "fz", "tx", "ty", "tz"], [t, *wrench(t).T]
+    )
+    with pytest.raises(ConversionError, match="--motion FILE"):
+        convert(path, tmp_path / "t.mcap", "gown")
+
+
+def test_csv_timestamps_going_backwards_are_refused(tmp_path: Path) -> None:
+    t = np.arange(100) / 1000.0
+    t[50] = t[10]
+    header = ["time", "fx", "fy", "fz", "tx", "ty", "tz", "x", "y", "z"]
+    path = write_csv(tmp_path / "w.csv", header, [t, *wrench(t).T, *pose(t)[:, :3].T])
+    with pytest.raises(ConversionError, match="not increasing at sample 50"):
+        convert(path, tmp_path / "t.mcap", "gown")
+
+
+@pytest.mark.parametrize(
+    ("header", "role"),
+    [("Fx", "fx"), ("Force X (N)", "fx"), ("field.wrench.torque.z", "tz"), ("Mz [Nmm]", "tz"),
+     ("%time", "time"), ("timestamp_ns", "time"), ("twist.linear.y", "vy"),
+     ("field.pose.orientation.w", "qw"), ("pos_x", "x"), ("status", None), ("seq", None)],
+)  # fmt: skip
+def test_common_headers_are_recognised(header: str, role: str | None) -> None:
+    assert role_of(header) == role
+
+
+def test_bin_averaging_removes_vibration_that_decimation_would_alias() -> None:
+    t_ns = times(1000, 1.0)
+    grid = rs.grid(int(t_ns[0]) + 5_000_000, int(t_ns[-1]) - 5_000_000)
+    noisy = wrench(seconds_of(t_ns))
+    clean = wrench(seconds_of(grid), vibration=False)
+    decimated = noisy[np.searchsorted(t_ns, grid)]
+    assert np.abs(decimated - clean)[:, 2].max() > 0.1
+    np.testing.assert_allclose(rs.bin_average(t_ns, noisy, grid), clean, atol=3e-4)
+
+
+def test_velocity_from_pose_matches_the_derivative() -> None:
+    t_ns = times(50, 2.0)
+    np.testing.assert_allclose(
+        rs.twist_from_pose(t_ns, pose(seconds_of(t_ns))), twist(seconds_of(t_ns)), atol=1e-4
+    )
+
+
+def test_quaternion_sign_flips_do_not_disturb_interpolation() -> None:
+    t_ns = times(50, 1.0)
+    q = pose(seconds_of(t_ns))
+    q[1::2, 3:] *= -1  # same rotations, alternate signs
+    grid = rs.grid(int(t_ns[0]), int(t_ns[-1]))
+    got = rs.interpolate_pose(t_ns, q, grid)
+    want = pose(seconds_of(grid))
+    sign = np.sign(np.einsum("ij,ij->i", got[:, 3:], want[:, 3:]))
+    np.testing.assert_allclose(got[:, 3:] * sign[:, None], want[:, 3:], atol=1e-4)
