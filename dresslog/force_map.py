@@ -1,0 +1,48 @@
+"""The ground-truth force map: each contact's magnitude shared among its k nearest limb points.
+
+Point l of the k nearest gets (1/(k-1)) (1 - d_l / sum_p d_p) |f_j|, so the
+shares of one contact sum to |f_j| and nearer points get more (Sec. IV-B).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Contact-map target values (Eq. 1 of the paper).
+CONTACT_ON = 0.1
+CONTACT_OFF = -0.1
+
+
+def distribute(
+    positions: np.ndarray, magnitudes: np.ndarray, limb_points: np.ndarray, k: int = 5
+) -> np.ndarray:
+    """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
+    n = len(limb_points)
+    out = np.zeros(n, dtype=np.float64)
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    magnitudes = np.asarray(magnitudes, dtype=np.float64).reshape(-1)
+    if len(positions) == 0:
+        return out.astype(np.float32)
+    k = min(k, n)
+    d2 = (
+        np.sum(positions**2, axis=1)[:, None]
+        - 2.0 * positions @ limb_points.T
+        + np.sum(limb_points**2, axis=1)[None, :]
+    )
+    idx = (
+        np.argpartition(d2, k - 1, axis=1)[:, :k] if k < n else np.tile(np.arange(n), (len(d2), 1))
+    )
+    d = np.sqrt(np.maximum(np.take_along_axis(d2, idx, axis=1), 0.0))
+    if k == 1:
+        w = np.ones_like(d)
+    else:
+        total = d.sum(axis=1, keepdims=True)
+        safe = np.where(total > 0, total, 1.0)
+        w = np.where(total > 0, (1.0 - d / safe) / (k - 1), 1.0 / k)
+    np.add.at(out, idx.ravel(), (w * magnitudes[:, None]).ravel())
+    return out.astype(np.float32)
+
+
+def contact_map(forces: np.ndarray) -> np.ndarray:
+    """+0.1 where the force map is positive, -0.1 elsewhere (same shape, float32)."""
+    return np.where(np.asarray(forces) > 0, CONTACT_ON, CONTACT_OFF).astype(np.float32)

@@ -1,0 +1,272 @@
+"""Limb geometry (spheres joined by conical frustums) and the force-map sites on it.
+
+The simulator builds its collision shapes from `Limb` and the force map is
+defined over `limb_points(limb)`, so both always agree. World frame, z up, SI.
+Nominal poses (before offset): the arm lies with the forearm along +x from the
+elbow at the origin and the upper arm straight up (a seated person holding the
+forearm out); the leg lies along +x from the hip at the origin with the foot
+tilted 45 degrees upward, as for a person seated with the leg stretched out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dresslog.spec import LimbRotation, Task, Vec3
+from dresslog.trial import LimbPoints
+
+#: Force-map sites are pushed this far out from the surface (reference: 2.5 mm).
+POINT_LIFT = 0.0025
+#: Rings per frustum (reference).
+RINGS_PER_FRUSTUM = 10
+
+
+@dataclass(frozen=True)
+class Sphere:
+    name: str
+    center: np.ndarray
+    radius: float
+
+
+@dataclass(frozen=True)
+class Frustum:
+    """A conical frustum between two spheres (by name), tangent-free: radii are the spheres'."""
+
+    name: str
+    a: str
+    b: str
+
+
+@dataclass(frozen=True)
+class Limb:
+    """Rigid limb: named spheres and the frustums joining them; `points_per_part` sums to N."""
+
+    name: str
+    spheres: dict[str, Sphere]
+    frustums: tuple[Frustum, ...]
+    points_per_part: dict[str, int] = field(default_factory=dict)
+    #: spheres whose rotation follows the distal part (forearm / foot)
+    distal: tuple[str, ...] = ()
+    #: the joint the distal part rotates about
+    pivot: str = ""
+
+    def frustum_ends(self, f: Frustum) -> tuple[np.ndarray, float, np.ndarray, float]:
+        sa, sb = self.spheres[f.a], self.spheres[f.b]
+        return sa.center, sa.radius, sb.center, sb.radius
+
+    @property
+    def segment_names(self) -> tuple[str, ...]:
+        return tuple(self.points_per_part)
+
+
+def _arm() -> Limb:
+    elbow = np.array([0.0, 0.0, 0.0])
+    fist = elbow + np.array([0.31, 0.0, 0.0])
+    shoulder = elbow + np.array([0.0, 0.0, 0.32])
+    spheres = {
+        "fist": Sphere("fist", fist, 0.05),
+        "wrist": Sphere("wrist", fist.copy(), 0.0365),
+        "elbow": Sphere("elbow", elbow, 0.05),
+        "shoulder": Sphere("shoulder", shoulder, 0.075),
+    }
+    frustums = (Frustum("forearm", "wrist", "elbow"), Frustum("upper_arm", "elbow", "shoulder"))
+    counts = {"fist": 36, "elbow": 17, "forearm": 101, "upper_arm": 146}
+    return Limb("arm", spheres, frustums, counts, distal=("fist", "wrist"), pivot="elbow")
+
+
+def _leg() -> Limb:
+    hip = np.array([0.0, 0.0, 0.0])
+    knee = hip + np.array([0.424, 0.0, 0.0])
+    ankle = knee + np.array([0.422, 0.0, 0.0])
+    s45 = np.sqrt(0.5)
+    toe = ankle + 0.18 * np.array([s45, 0.0, s45])
+    heel = ankle + np.array([0.035, 0.0, -0.03])
+    spheres = {
+        "hip": Sphere("hip", hip, 0.081),
+        "knee": Sphere("knee", knee, 0.053),
+        "ankle": Sphere("ankle", ankle, 0.048),
+        "heel": Sphere("heel", heel, 0.048),
+        "toe": Sphere("toe", toe, 0.04),
+    }
+    frustums = (
+        Frustum("thigh", "hip", "knee"),
+        Frustum("shin", "knee", "ankle"),
+        Frustum("foot", "ankle", "toe"),
+        Frustum("heel_link", "ankle", "heel"),
+    )
+    counts = {
+        "knee": 15,
+        "ankle": 10,
+        "heel": 20,
+        "toe": 20,
+        "thigh": 150,
+        "shin": 130,
+        "foot": 45,
+        "heel_link": 10,
+    }
+    return Limb("leg", spheres, frustums, counts, distal=("heel", "toe"), pivot="ankle")
+
+
+def _rotation_matrix(axis: str, degrees: float) -> np.ndarray:
+    t = np.deg2rad(degrees)
+    c, s = np.cos(t), np.sin(t)
+    i = "xyz".index(axis)
+    m = np.eye(3)
+    j, k = [a for a in range(3) if a != i]
+    m[j, j], m[j, k], m[k, j], m[k, k] = c, -s, s, c
+    return m
+
+
+def build_limb(
+    task: Task | str,
+    offset: Vec3 = (0.0, 0.0, 0.0),
+    rotation: LimbRotation | None = None,
+) -> Limb:
+    """The task's limb, its distal part rotated about the pivot joint, then offset."""
+    limb = _arm() if Task(task) is Task.GOWN else _leg()
+    rot = rotation or LimbRotation()
+    pivot = limb.spheres[limb.pivot].center
+    r = _rotation_matrix(rot.axis, rot.degrees)
+    off = np.asarray(offset, dtype=float)
+    spheres = {}
+    for name, s in limb.spheres.items():
+        c = s.center
+        if name in limb.distal and rot.degrees != 0.0:
+            c = pivot + r @ (c - pivot)
+        spheres[name] = Sphere(name, c + off, s.radius)
+    return Limb(limb.name, spheres, limb.frustums, limb.points_per_part, limb.distal, limb.pivot)
+
+
+# ---------------------------------------------------------------------------
+# Signed distance, used to drop points hidden inside neighbouring primitives.
+
+
+def _frustum_sdf(p: np.ndarray, a: np.ndarray, ra: float, b: np.ndarray, rb: float) -> np.ndarray:
+    """Approximate signed distance to a round cone (linear radius along the axis)."""
+    ab = b - a
+    length = float(np.linalg.norm(ab))
+    u = ab / length
+    t = np.clip((p - a) @ u / length, 0.0, 1.0)
+    closest = a + t[:, None] * ab
+    r = ra + t * (rb - ra)
+    return np.linalg.norm(p - closest, axis=1) - r
+
+
+def limb_sdf(limb: Limb, p: np.ndarray) -> np.ndarray:
+    """Signed distance (m) from points (P, 3) to the limb surface; < 0 inside."""
+    d = np.full(len(p), np.inf)
+    for s in limb.spheres.values():
+        d = np.minimum(d, np.linalg.norm(p - s.center, axis=1) - s.radius)
+    for f in limb.frustums:
+        d = np.minimum(d, _frustum_sdf(p, *limb.frustum_ends(f)))
+    return d
+
+
+def _part_sdf(limb: Limb, p: np.ndarray, skip: set[str]) -> np.ndarray:
+    d = np.full(len(p), np.inf)
+    for s in limb.spheres.values():
+        if s.name not in skip:
+            d = np.minimum(d, np.linalg.norm(p - s.center, axis=1) - s.radius)
+    for f in limb.frustums:
+        if f.name not in skip:
+            d = np.minimum(d, _frustum_sdf(p, *limb.frustum_ends(f)))
+    return d
+
+
+# ---------------------------------------------------------------------------
+# Point generation.
+
+
+def _fibonacci_sphere(n: int) -> np.ndarray:
+    i = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * i / n
+    phi = np.pi * (1.0 + 5**0.5) * i
+    rxy = np.sqrt(1.0 - z * z)
+    return np.stack([rxy * np.cos(phi), rxy * np.sin(phi), z], axis=1)
+
+
+def _sphere_points(s: Sphere, n: int) -> np.ndarray:
+    return s.center + (s.radius + POINT_LIFT) * _fibonacci_sphere(n)
+
+
+def _frustum_points(a: np.ndarray, ra: float, b: np.ndarray, rb: float, total: int) -> np.ndarray:
+    """`total` points on RINGS_PER_FRUSTUM rings, per-ring counts proportional to the radius."""
+    ab = b - a
+    u = ab / np.linalg.norm(ab)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(u[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(u, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    ts = (np.arange(RINGS_PER_FRUSTUM) + 0.5) / RINGS_PER_FRUSTUM
+    radii = ra + ts * (rb - ra)
+    counts = np.maximum(1, np.round(total * radii / radii.sum()).astype(int))
+    while counts.sum() != total:
+        i = int(np.argmax(counts)) if counts.sum() > total else int(np.argmin(counts))
+        counts[i] += 1 if counts.sum() < total else -1
+    pts = []
+    for k, (t, r, c) in enumerate(zip(ts, radii, counts, strict=True)):
+        ang = 2 * np.pi * (np.arange(c) + 0.5 * (k % 2)) / c
+        ring = (r + POINT_LIFT) * (np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2)
+        pts.append(a + t * ab + ring)
+    return np.concatenate(pts)
+
+
+def _visible(limb: Limb, pts: np.ndarray, own: set[str]) -> np.ndarray:
+    return _part_sdf(limb, pts, own) > 0.5 * POINT_LIFT
+
+
+def _part_points(limb: Limb, part: str, target: int) -> np.ndarray:
+    """Exactly `target` visible points on one part, growing the raw count until enough survive."""
+    own = {part}
+    if part in limb.spheres:
+        # a sphere sharing its centre with another (fist/wrist) owns both
+        own |= {
+            n for n, s in limb.spheres.items() if np.allclose(s.center, limb.spheres[part].center)
+        }
+    raw = target
+    for _ in range(400):
+        if part in limb.spheres:
+            pts = _sphere_points(limb.spheres[part], raw)
+        else:
+            f = next(f for f in limb.frustums if f.name == part)
+            pts = _frustum_points(*limb.frustum_ends(f), raw)
+        keep = pts[_visible(limb, pts, own)]
+        if len(keep) >= target:
+            if len(keep) > target:  # drop the extras evenly
+                idx = np.round(np.linspace(0, len(keep) - 1, target)).astype(int)
+                keep = keep[idx]
+            return keep
+        raw += max(1, (target - len(keep)) // 2)
+    raise ValueError(f"cannot place {target} points on {part}")
+
+
+def limb_points(limb: Limb) -> LimbPoints:
+    """The force-map sites: 300 on the arm, 400 on the leg, each tagged with its part."""
+    names = limb.segment_names
+    pts, seg = [], []
+    for i, name in enumerate(names):
+        p = _part_points(limb, name, limb.points_per_part[name])
+        pts.append(p)
+        seg.append(np.full(len(p), i, dtype=np.uint32))
+    return LimbPoints(
+        limb=limb.name,
+        points=np.concatenate(pts).astype(np.float64),
+        segment=np.concatenate(seg),
+        segment_names=names,
+    )
+
+
+def segment_of(limb: Limb, p: np.ndarray) -> np.ndarray:
+    """Index into `limb.segment_names` of the part nearest to each point (P, 3)."""
+    names = limb.segment_names
+    d = np.empty((len(p), len(names)))
+    for i, name in enumerate(names):
+        if name in limb.spheres:
+            s = limb.spheres[name]
+            d[:, i] = np.linalg.norm(p - s.center, axis=1) - s.radius
+        else:
+            f = next(f for f in limb.frustums if f.name == name)
+            d[:, i] = _frustum_sdf(p, *limb.frustum_ends(f))
+    return np.argmin(d, axis=1).astype(np.uint32)

@@ -1,0 +1,166 @@
+"""Procedural garment meshes: a gown sleeve (a tube) and shorts (a waist tube splitting into legs).
+
+Meshes are built in the garment frame: the gripper at the origin, the garment's
+leading opening (armhole, waist) at x = 0 and the rest trailing along +x, z up.
+The opening that receives the limb leads, as when dressing: the fist enters the
+armhole and leaves through the cuff; the foot enters the waist and leaves
+through a leg opening. Coarse on purpose (about 150-250 vertices): fine enough
+to fold and catch on a fist or heel, coarse enough for real time in pybullet.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dresslog.spec import Task
+
+
+@dataclass(frozen=True)
+class Garment:
+    """A triangle mesh with the vertices the gripper holds and the openings' rims."""
+
+    name: str
+    vertices: np.ndarray  # (V, 3) float64, garment frame
+    triangles: np.ndarray  # (F, 3) uint32
+    gripped: np.ndarray  # vertex indices anchored to the end effector
+    #: leading opening (armhole / waist) and the limb's exit (cuff / leg opening)
+    entry_rim: np.ndarray
+    exit_rim: np.ndarray
+    #: where the limb axis should pass through the entry opening, garment frame
+    target_axis_yz: tuple[float, float]
+
+    def write_obj(self, directory: str | Path | None = None) -> Path:
+        """Write the mesh as a Wavefront .obj (what pybullet's loadSoftBody reads)."""
+        d = Path(directory) if directory else Path(tempfile.mkdtemp(prefix="dresslog-"))
+        path = d / f"{self.name}.obj"
+        lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in self.vertices]
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in self.triangles]
+        path.write_text("\n".join(lines) + "\n")
+        return path
+
+
+def _strip(a: np.ndarray, b: np.ndarray) -> list[tuple[int, int, int]]:
+    """Triangles joining two closed rings of equal length (vertex index arrays)."""
+    n = len(a)
+    tris = []
+    for i in range(n):
+        j = (i + 1) % n
+        tris += [(a[i], a[j], b[j]), (a[i], b[j], b[i])]
+    return tris
+
+
+def _top(ring: np.ndarray, verts: list, count: int) -> list[int]:
+    z = np.array([verts[i][2] for i in ring])
+    return [int(ring[i]) for i in np.argsort(-z)[:count]]
+
+
+def gown(radius: float = 0.10, length: float = 0.27, ring: int = 14, rows: int = 10) -> Garment:
+    """A hospital-gown sleeve: an open tube held along its top seam."""
+    verts: list[tuple[float, float, float]] = []
+    rings = []
+    for j in range(rows):
+        x = length * j / (rows - 1)
+        idx = []
+        for i in range(ring):
+            a = 2 * np.pi * i / ring
+            idx.append(len(verts))
+            verts.append((x, radius * np.sin(a), radius * np.cos(a) - radius))
+        rings.append(np.array(idx))
+    tris = [t for j in range(rows - 1) for t in _strip(rings[j], rings[j + 1])]
+    gripped = sorted(i for r in rings for i in _top(r, verts, 3))
+    return Garment(
+        name="gown",
+        vertices=np.array(verts),
+        triangles=np.array(tris, dtype=np.uint32),
+        gripped=np.array(gripped),
+        entry_rim=rings[0],
+        exit_rim=rings[-1],
+        target_axis_yz=(0.0, -radius),
+    )
+
+
+def shorts(
+    waist_radius: float = 0.17,
+    leg_radius: float = 0.10,
+    leg_spacing: float = 0.07,
+    waist_length: float = 0.08,
+    leg_length: float = 0.25,
+    n: int = 8,
+    m: int = 6,
+    waist_rows: int = 3,
+    leg_rows: int = 6,
+) -> Garment:
+    """Shorts: a waist tube whose cross-section splits, at a crotch seam, into two leg tubes.
+
+    Leg A (+y) is the one the leg should go through. The two leg circles (centres
+    y = +-leg_spacing, radius leg_radius) overlap; their crossing points F (top)
+    and B (bottom) start a seam of m-1 shared vertices, so the mesh is one piece.
+    """
+    r, a, rw = leg_radius, leg_spacing, waist_radius
+    zc = -rw
+    h = np.sqrt(r * r - a * a)
+    phi_f = np.arctan2(h, -a)  # angle of F seen from leg A's centre
+    verts: list[tuple[float, float, float]] = []
+
+    def add(x: float, y: float, z: float) -> int:
+        verts.append((x, y, z))
+        return len(verts) - 1
+
+    def leg_point(side: int, phi: float) -> tuple[float, float]:
+        return side * (a + r * np.cos(phi)), zc + r * np.sin(phi)
+
+    # outer loop at the crotch: F, A outer arc, B, B outer arc (2n points)
+    outer_phi = [phi_f - 2 * phi_f * k / n for k in range(n + 1)]  # F .. B around +y
+    outer_yz = [leg_point(1, p) for p in outer_phi]
+    outer_yz += [leg_point(-1, p) for p in outer_phi[::-1][1:-1]]  # B .. F around -y
+    waist_ang = [np.arctan2(z - zc, y) for y, z in outer_yz]
+    x_seam = waist_length + 0.04
+    waist_rings = []
+    for j in range(waist_rows):
+        x = waist_length * j / max(1, waist_rows - 1)
+        waist_rings.append(
+            np.array([add(x, rw * np.cos(t), zc + rw * np.sin(t)) for t in waist_ang])
+        )
+    seam_outer = np.array([add(x_seam, y, z) for y, z in outer_yz])
+    f_idx, b_idx = int(seam_outer[0]), int(seam_outer[n])
+    seam = [add(x_seam, 0.0, zc - h + 2 * h * k / m) for k in range(1, m)]  # B -> F
+    ring_a0 = np.array([*seam_outer[: n + 1], *seam])
+    ring_b0 = np.array([b_idx, *seam_outer[n + 1 :], f_idx, *seam[::-1]])
+    tris = [t for j in range(waist_rows - 1) for t in _strip(waist_rings[j], waist_rings[j + 1])]
+    tris += _strip(waist_rings[-1], seam_outer)
+    inner_phi = [-phi_f - (2 * np.pi - 2 * phi_f) * k / m for k in range(1, m)]
+    legs = {}
+    for side, first in ((1, ring_a0), (-1, ring_b0)):
+        phis = outer_phi + inner_phi
+        if side == -1:  # leg B's ring starts at B and runs around -y to F
+            phis = outer_phi[::-1] + [-p for p in inner_phi]
+        rings = [first]
+        for j in range(1, leg_rows):
+            x = x_seam + leg_length * j / (leg_rows - 1)
+            pts = [leg_point(side, p) for p in phis]
+            rings.append(np.array([add(x, y, z) for y, z in pts]))
+        for j in range(leg_rows - 1):
+            tris += _strip(rings[j], rings[j + 1])
+        legs[side] = rings
+    # only the waistband is held: anchoring the legs too makes the anchors fight
+    gripped = {i for r_ in waist_rings for i in _top(r_, verts, 3)}
+    v = np.array(verts)
+    v[:, 1] -= a  # put leg A's axis on y = 0
+    return Garment(
+        name="shorts",
+        vertices=v,
+        triangles=np.array(tris, dtype=np.uint32),
+        gripped=np.array(sorted(gripped)),
+        entry_rim=waist_rings[0],
+        exit_rim=legs[1][-1],
+        target_axis_yz=(0.0, zc),
+    )
+
+
+def garment_for(task: Task | str) -> Garment:
+    """The task's garment with the default sizes."""
+    return gown() if Task(task) is Task.GOWN else shorts()

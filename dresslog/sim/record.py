@@ -1,0 +1,63 @@
+"""Record one simulated trial to an MCAP file through `TrialWriter`.
+
+A trial that goes unstable raises `SimulationError`; the writer's exception
+path removes its temporary file, so no file appears under the final name.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from dresslog.io.writer import TrialWriter
+from dresslog.sim.simulate import SimResult, SimStart, SimStep, simulate
+from dresslog.spec import TrialMetadata, TrialSpec
+
+
+class WriterSink:
+    """Streams contacts and garment states to the writer; batches the fixed-size channels."""
+
+    def __init__(self, writer: TrialWriter) -> None:
+        self.writer = writer
+        self._triangles: np.ndarray | None = None
+        self._t: list[int] = []
+        self._wrench: list[np.ndarray] = []
+        self._twist: list[np.ndarray] = []
+        self._pose: list[np.ndarray] = []
+        self._fmap: list[np.ndarray] = []
+
+    def start(self, info: SimStart) -> None:
+        self.writer.write_limb_points(0, info.limb_points)
+        self._triangles = info.triangles
+
+    def step(self, step: SimStep) -> None:
+        self._t.append(step.t_ns)
+        self._wrench.append(step.wrench)
+        self._twist.append(step.twist)
+        self._pose.append(step.pose)
+        self._fmap.append(step.force_map)
+        self.writer.write_contacts(step.t_ns, step.contacts)
+        if step.garment is not None:
+            self.writer.write_garment(step.t_ns, step.garment, self._triangles)
+            self._triangles = None
+
+    def flush(self) -> None:
+        if not self._t:
+            return
+        t = np.asarray(self._t, dtype=np.int64)
+        self.writer.write_wrench(t, np.asarray(self._wrench))
+        self.writer.write_twist(t, np.asarray(self._twist))
+        self.writer.write_pose(t, np.asarray(self._pose))
+        self.writer.write_force_map(t, np.asarray(self._fmap, dtype=np.float32))
+
+
+def record_trial(spec: TrialSpec, path: str | Path, *, overwrite: bool = False) -> SimResult:
+    """Simulate `spec` and write it to `path` (atomically); returns the result summary."""
+    metadata = TrialMetadata(task=spec.task, spec=spec)
+    with TrialWriter(path, metadata, overwrite=overwrite) as writer:
+        sink = WriterSink(writer)
+        result = simulate(spec, sink)
+        sink.flush()
+        writer.metadata = metadata.model_copy(update={"outcome": result.outcome})
+    return result

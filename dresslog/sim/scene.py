@@ -1,0 +1,152 @@
+"""The pybullet world of one trial: static limb, anchored garment, force-sensing end effector.
+
+Each scene owns its own DIRECT physics client, so trials can run side by side
+in one process or a pool. The end effector is a small dynamic body held on its
+path by a fixed constraint; the garment's gripped vertices are anchored to it,
+so the constraint's force is what a force/torque sensor at the gripper reads
+(plus the gripper's own weight and inertia, which the caller removes).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+
+from dresslog.limb import Limb
+from dresslog.sim.garments import Garment
+from dresslog.spec import SimParams
+
+#: Mass of the gripper body between the sensor and the garment, kg.
+EE_MASS = 0.1
+_FRUSTUM_SIDES = 16
+
+
+def _quat_z_to(u: np.ndarray) -> list[float]:
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, u)
+    s = float(np.linalg.norm(axis))
+    if s < 1e-9:
+        return [0.0, 0.0, 0.0, 1.0] if u[2] > 0 else [1.0, 0.0, 0.0, 0.0]
+    ang = np.arctan2(s, float(z @ u))
+    return [*(axis / s * np.sin(ang / 2)), float(np.cos(ang / 2))]
+
+
+@dataclass
+class Scene:
+    """Handles into one pybullet world."""
+
+    client: int
+    cloth: int
+    ee: int
+    constraint: int
+    limb_bodies: list[int]
+    n_vertices: int
+
+    # -- construction -------------------------------------------------------
+    @classmethod
+    def build(cls, limb: Limb, garment: Garment, ee_start: np.ndarray, params: SimParams) -> Scene:
+        client = pb.connect(pb.DIRECT)
+        try:
+            return cls._build(client, limb, garment, ee_start, params)
+        except Exception:
+            pb.disconnect(client)
+            raise
+
+    @classmethod
+    def _build(
+        cls, client: int, limb: Limb, garment: Garment, ee_start: np.ndarray, params: SimParams
+    ) -> Scene:
+        c = client
+        pb.resetSimulation(pb.RESET_USE_DEFORMABLE_WORLD, physicsClientId=c)
+        pb.setTimeStep(1.0 / params.physics_hz, physicsClientId=c)
+        pb.setGravity(0, 0, -9.81, physicsClientId=c)
+        bodies = []
+        for s in limb.spheres.values():
+            shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=s.radius, physicsClientId=c)
+            bodies.append(
+                pb.createMultiBody(0, shape, basePosition=s.center.tolist(), physicsClientId=c)
+            )
+        ang = 2 * np.pi * np.arange(_FRUSTUM_SIDES) / _FRUSTUM_SIDES
+        for f in limb.frustums:
+            a, ra, b, rb = limb.frustum_ends(f)
+            length = float(np.linalg.norm(b - a))
+            circle = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+            lo = np.column_stack([ra * circle, np.full(len(ang), -length / 2)])
+            hi = np.column_stack([rb * circle, np.full(len(ang), length / 2)])
+            shape = pb.createCollisionShape(
+                pb.GEOM_MESH, vertices=np.concatenate([lo, hi]).tolist(), physicsClientId=c
+            )
+            bodies.append(
+                pb.createMultiBody(
+                    0,
+                    shape,
+                    basePosition=((a + b) / 2).tolist(),
+                    baseOrientation=_quat_z_to((b - a) / length),
+                    physicsClientId=c,
+                )
+            )
+        with tempfile.TemporaryDirectory(prefix="dresslog-") as tmp:
+            obj = garment.write_obj(Path(tmp))
+            cloth = pb.loadSoftBody(
+                str(obj),
+                basePosition=ee_start.tolist(),
+                mass=params.garment_mass,
+                useNeoHookean=0,
+                useMassSpring=1,
+                useBendingSprings=1,
+                springElasticStiffness=params.elastic_stiffness,
+                springDampingStiffness=params.damping_stiffness,
+                springDampingAllDirections=1,
+                springBendingStiffness=params.bending_stiffness,
+                useSelfCollision=0,
+                frictionCoeff=params.friction,
+                useFaceContact=1,
+                collisionMargin=params.collision_margin,
+                physicsClientId=c,
+            )
+        box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.01] * 3, physicsClientId=c)
+        ee = pb.createMultiBody(EE_MASS, box, basePosition=ee_start.tolist(), physicsClientId=c)
+        pb.setCollisionFilterGroupMask(ee, -1, 0, 0, physicsClientId=c)
+        pb.changeDynamics(ee, -1, linearDamping=0, angularDamping=0, physicsClientId=c)
+        con = pb.createConstraint(
+            ee, -1, -1, -1, pb.JOINT_FIXED, [0, 0, 0], [0, 0, 0], ee_start.tolist(),
+            physicsClientId=c,
+        )  # fmt: skip
+        pb.changeConstraint(con, ee_start.tolist(), maxForce=2000, physicsClientId=c)
+        for i in garment.gripped:
+            pb.createSoftBodyAnchor(cloth, int(i), ee, -1, physicsClientId=c)
+        return cls(c, cloth, ee, con, bodies, len(garment.vertices))
+
+    # -- per step -------------------------------------------------------------
+    def move_ee(self, position: np.ndarray) -> None:
+        pb.changeConstraint(
+            self.constraint, position.tolist(), maxForce=2000, physicsClientId=self.client
+        )
+
+    def step(self) -> None:
+        pb.stepSimulation(physicsClientId=self.client)
+
+    def set_gravity(self, g: np.ndarray) -> None:
+        pb.setGravity(*g.tolist(), physicsClientId=self.client)
+
+    def constraint_wrench(self) -> np.ndarray:
+        """Force (3) and torque (3) the constraint applies to the end effector."""
+        return np.asarray(pb.getConstraintState(self.constraint, physicsClientId=self.client))
+
+    def vertices(self) -> np.ndarray:
+        _, v = pb.getMeshData(
+            self.cloth, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self.client
+        )
+        return np.asarray(v, dtype=np.float64)
+
+    def contacts(self) -> list[tuple]:
+        """Raw garment-limb contact tuples (getContactPoints with the garment as body A)."""
+        return pb.getContactPoints(bodyA=self.cloth, physicsClientId=self.client)
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)

@@ -1,0 +1,307 @@
+"""Run one trial: settle the garment, move the end effector, stream 100 Hz steps to a sink.
+
+`simulate(spec, sink)` is the one code path for recording a file, for tests and
+for live inference: the sink sees every recorded step as it is computed.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from dresslog.errors import SimulationError
+from dresslog.force_map import distribute
+from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, segment_of
+from dresslog.sim.garments import Garment, garment_for
+from dresslog.sim.scene import EE_MASS, Scene
+from dresslog.sim.trajectory import constant_speed, random_control_points
+from dresslog.spec import LimbRotation, Outcome, Task, TrialSpec
+from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
+
+#: Limb offset ranges (m) of the paper, per axis, and speed ranges (m/s).
+OFFSET_RANGE = {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)}
+SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
+GARMENT_HZ = 10
+#: Instability guard: a vertex this far from the gripper means the cloth exploded.
+MAX_VERTEX_DISTANCE = 1.5
+#: Outcome thresholds: tared gripper force (N) that means the garment is held back.
+CAUGHT_FORCE = 2.0
+
+
+def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
+    """A spec with offset, speed and path drawn from the paper's ranges by `seed`."""
+    task = Task(task)
+    rng = np.random.default_rng(seed)
+    offset = tuple(float(v) for v in rng.uniform(-1, 1, 3) * OFFSET_RANGE[task])
+    speed = float(rng.uniform(*SPEED_RANGE[task]))
+    points = [tuple(map(float, p)) for p in random_control_points(task, rng)]
+    fields: dict[str, object] = {
+        "task": task,
+        "seed": seed,
+        "speed": speed,
+        "limb_offset": offset,
+        "control_points": points,
+    }
+    fields.update(overrides)
+    return TrialSpec.model_validate(fields)
+
+
+@dataclass(frozen=True)
+class SimStart:
+    """What a sink needs before the first step."""
+
+    spec: TrialSpec
+    limb_points: LimbPoints
+    triangles: np.ndarray
+
+
+@dataclass(frozen=True)
+class SimStep:
+    """One recorded 100 Hz step. `garment` is (V, 3) at 10 Hz, else None."""
+
+    index: int
+    t_ns: int
+    wrench: np.ndarray  # (6,) fx fy fz tx ty tz the garment applies at the gripper, tared
+    twist: np.ndarray  # (6,) vx vy vz wx wy wz
+    pose: np.ndarray  # (7,) x y z qx qy qz qw
+    contacts: np.ndarray  # CONTACT_DTYPE (C,)
+    force_map: np.ndarray  # (N,) float32
+    garment: np.ndarray | None
+
+
+class StepSink(Protocol):
+    def start(self, info: SimStart) -> None: ...
+    def step(self, step: SimStep) -> None: ...
+
+
+@dataclass
+class SimResult:
+    """How the trial went; `outcome` is never FAILED (failures raise SimulationError)."""
+
+    outcome: Outcome
+    steps: int
+    sim_seconds: float
+    wall_seconds: float
+    peak_limb_force: float  # peak over steps of the total contact force on the limb, N
+    peak_ee_force: float
+    physics_seconds: float = 0.0
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_seconds / self.wall_seconds if self.wall_seconds > 0 else float("inf")
+
+    def summary(self) -> str:
+        return (
+            f"outcome={self.outcome.value} steps={self.steps} "
+            f"peak_limb_force={self.peak_limb_force:.2f}N wall={self.wall_seconds:.1f}s "
+            f"rtf={self.real_time_factor:.2f}"
+        )
+
+
+def _surface(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closest limb-surface points to `p` (C, 3) and the outward unit normals there."""
+    eps = 1e-5
+    c = len(p)
+    d = limb_sdf(limb, np.concatenate([p, *(p + e for e in np.eye(3) * eps)]))
+    grad = (d[c:].reshape(3, c) - d[:c]).T
+    n = grad / np.maximum(np.linalg.norm(grad, axis=1, keepdims=True), 1e-12)
+    return p - d[:c, None] * n, n
+
+
+def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray) -> np.ndarray:
+    """CONTACT_DTYPE array of the contacts that carry force (garment = body A, limb = B).
+
+    pybullet also lists garment nodes merely within the collision margin, with
+    zero force; those are not contacts. The garment-side point is projected
+    onto the limb surface, the normal there points from the limb to the garment.
+    """
+    # positionOnA, normalForce, friction1, dir1, friction2, dir2
+    flat = np.array([(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw]).reshape(-1, 12)
+    flat = flat[flat[:, 3] > 0]
+    out = np.zeros(len(flat), dtype=CONTACT_DTYPE)
+    if not len(flat):
+        return out
+    pos, normal = _surface(limb, flat[:, 0:3])
+    out["position"] = pos
+    out["normal"] = normal
+    out["normal_force"] = flat[:, 3]
+    out["friction"] = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
+    out["segment"] = segment_of(limb, pos)
+    d2 = ((flat[:, None, 0:3] - verts[None]) ** 2).sum(-1)
+    out["vertex"] = np.argmin(d2, axis=1)
+    return out
+
+
+def _winding(rim: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> float:
+    """How many times the closed rim polygon winds around the line (origin, axis)."""
+    helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    d = rim - origin
+    ang = np.arctan2(d @ e2, d @ e1)
+    step = np.diff(np.concatenate([ang, ang[:1]]))
+    step = (step + np.pi) % (2 * np.pi) - np.pi
+    return float(abs(step.sum()) / (2 * np.pi))
+
+
+def decide_outcome(
+    task: Task, limb: Limb, garment: Garment, verts: np.ndarray, final_force: float
+) -> Outcome:
+    """Dressed if the entry opening encircles the limb past the hand/foot; else caught or missed.
+
+    Caught means the limb is not through the opening but the garment is held
+    back against it (the gripper still feels a pull); missed means neither.
+    """
+    if task is Task.GOWN:
+        prox, dist = limb.spheres["elbow"].center, limb.spheres["wrist"].center
+    else:
+        prox, dist = limb.spheres["hip"].center, limb.spheres["ankle"].center
+    axis = (dist - prox) / np.linalg.norm(dist - prox)
+    rim = verts[garment.entry_rim]
+    along = float((rim.mean(axis=0) - prox) @ axis) / float(np.linalg.norm(dist - prox))
+    if _winding(rim, prox, axis) > 0.5 and along < 0.95:
+        return Outcome.DRESSED
+    return Outcome.CAUGHT if final_force > CAUGHT_FORCE else Outcome.MISSED
+
+
+def _guard(spec: TrialSpec, verts: np.ndarray, ee: np.ndarray, t: float) -> None:
+    if not np.all(np.isfinite(verts)):
+        raise SimulationError(f"garment exploded at t={t:.2f}s (non-finite vertices)")
+    far = float(np.max(np.linalg.norm(verts - ee, axis=1)))
+    if far > MAX_VERTEX_DISTANCE:
+        raise SimulationError(f"garment exploded at t={t:.2f}s (a vertex {far:.1f} m away)")
+
+
+def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
+    """Run `spec`, streaming each recorded step to `sink`; raise SimulationError if unstable."""
+    wall0 = time.perf_counter()
+    p = spec.sim
+    if p.physics_hz % p.record_hz:
+        raise SimulationError("physics_hz must be a multiple of record_hz")
+    sub = p.physics_hz // p.record_hz
+    garment_every = max(1, p.record_hz // GARMENT_HZ)
+    rng = np.random.default_rng(spec.seed)
+    task = spec.task
+    if spec.control_points:
+        ctrl = np.asarray(spec.control_points, dtype=float)
+    else:
+        ctrl = random_control_points(task, rng)
+    limb = build_limb(task, spec.limb_offset, spec.limb_rotation)
+    points = limb_points(limb)
+    garment = garment_for(task)
+    n_rec = round(spec.duration * p.record_hz)
+    t_rec = np.arange(n_rec) / p.record_hz
+    path = constant_speed(ctrl, spec.speed, t_rec)
+    start = path[0]
+    t_phys = np.arange(n_rec * sub) / p.physics_hz
+    path_phys = constant_speed(ctrl, spec.speed, t_phys)
+    vel = np.zeros_like(path)
+    if n_rec > 1:
+        vel[1:] = np.diff(path, axis=0) * p.record_hz
+        vel[0] = vel[1]
+    accel = np.gradient(vel, axis=0) * p.record_hz if n_rec > 2 else np.zeros_like(vel)
+
+    scene = Scene.build(limb, garment, start, p)
+    timings = {"physics": 0.0, "contacts": 0.0, "sensors": 0.0, "sink": 0.0}
+    try:
+        if sink is not None:
+            sink.start(SimStart(spec, points, garment.triangles))
+        # settle, with a brief uniform "wind" on every vertex (a tilted gravity)
+        g = np.array([0.0, 0.0, -9.81])
+        wind = rng.normal(size=3)
+        wind *= p.wind_accel / np.linalg.norm(wind)
+        n_settle, n_wind = round(p.settle_s * p.physics_hz), round(p.wind_s * p.physics_hz)
+        n_tare = max(1, round(0.1 * p.physics_hz))
+        tare = np.zeros(6)
+        for k in range(n_settle):
+            scene.set_gravity(g + wind if k < n_wind else g)
+            scene.step()
+            if k >= n_settle - n_tare:
+                tare += scene.constraint_wrench()
+        tare /= n_tare
+        verts = scene.vertices()
+        _guard(spec, verts, start, 0.0)
+
+        peak_limb, peak_ee, final_force = 0.0, 0.0, 0.0
+        for i in range(n_rec):
+            t0 = time.perf_counter()
+            for k in range(sub):
+                scene.move_ee(path_phys[i * sub + k])
+                scene.step()
+            t1 = time.perf_counter()
+            raw = scene.contacts()
+            garment_now = (i % garment_every == 0) or i == n_rec - 1
+            verts = scene.vertices()
+            _guard(spec, verts, path[i], t_rec[i])
+            contacts = _contacts(raw, limb, verts)
+            mags = contact_magnitudes(contacts)
+            fmap = distribute(contacts["position"], mags, points.points)
+            t2 = time.perf_counter()
+            # garment on gripper = -(constraint force) - weight + m a, minus the tare
+            w = -(scene.constraint_wrench() - tare)
+            w[:3] += EE_MASS * accel[i]
+            if len(mags):
+                peak_limb = max(peak_limb, float(mags.sum()))
+                if mags.max() > p.max_limb_force:
+                    raise SimulationError(
+                        f"limb contact force {mags.max():.0f} N exceeds the physical bound "
+                        f"{p.max_limb_force:.0f} N at t={t_rec[i]:.2f}s"
+                    )
+            fmag = float(np.linalg.norm(w[:3]))
+            if not np.isfinite(fmag) or fmag > p.max_limb_force:
+                raise SimulationError(
+                    f"end-effector force {fmag:.0f} N exceeds the physical bound at "
+                    f"t={t_rec[i]:.2f}s"
+                )
+            peak_ee = max(peak_ee, fmag)
+            if i >= n_rec - max(1, p.record_hz // 5):
+                final_force = max(final_force, fmag)
+            t3 = time.perf_counter()
+            if sink is not None:
+                sink.step(
+                    SimStep(
+                        index=i,
+                        t_ns=round(t_rec[i] * 1e9),
+                        wrench=w,
+                        twist=np.concatenate([vel[i], np.zeros(3)]),
+                        pose=np.concatenate([path[i], [0.0, 0.0, 0.0, 1.0]]),
+                        contacts=contacts,
+                        force_map=fmap,
+                        garment=verts.astype(np.float32) if garment_now else None,
+                    )
+                )
+            t4 = time.perf_counter()
+            timings["physics"] += t1 - t0
+            timings["contacts"] += t2 - t1
+            timings["sensors"] += t3 - t2
+            timings["sink"] += t4 - t3
+        outcome = decide_outcome(task, limb, garment, scene.vertices(), final_force)
+    finally:
+        scene.close()
+    wall = time.perf_counter() - wall0
+    return SimResult(
+        outcome=outcome,
+        steps=n_rec,
+        sim_seconds=n_rec / p.record_hz,
+        wall_seconds=wall,
+        peak_limb_force=peak_limb,
+        peak_ee_force=peak_ee,
+        physics_seconds=timings["physics"],
+        timings=timings,
+    )
+
+
+__all__ = [
+    "LimbRotation",
+    "SimResult",
+    "SimStart",
+    "SimStep",
+    "StepSink",
+    "random_spec",
+    "simulate",
+]

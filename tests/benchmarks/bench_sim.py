@@ -1,0 +1,73 @@
+"""Simulator speed: real-time factor per task and dresslog's own per-step work vs bare stepping.
+
+Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py`.
+Both figures come from one run per task: the simulator times its physics
+stepping and its own work (contact extraction, force map, sensors, sink)
+separately; a second, bare run steps the same scene with no queries at all.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dresslog.limb import build_limb
+from dresslog.sim import WriterSink, random_spec, simulate
+from dresslog.sim.garments import garment_for
+from dresslog.sim.scene import Scene
+from dresslog.sim.trajectory import constant_speed
+from dresslog.spec import Task, TrialMetadata
+
+
+def bare_physics_seconds(spec) -> float:
+    """Wall time of stepping the same scene along the same path with nothing else."""
+    p = spec.sim
+    limb = build_limb(spec.task, spec.limb_offset, spec.limb_rotation)
+    n = round(spec.duration * p.physics_hz)
+    path = constant_speed(np.asarray(spec.control_points), spec.speed, np.arange(n) / p.physics_hz)
+    scene = Scene.build(limb, garment_for(spec.task), path[0], p)
+    try:
+        for _ in range(round(p.settle_s * p.physics_hz)):
+            scene.step()
+        t0 = time.perf_counter()
+        for k in range(n):
+            scene.move_ee(path[k])
+            scene.step()
+        return time.perf_counter() - t0
+    finally:
+        scene.close()
+
+
+def main(seeds: int = 3) -> None:
+    from dresslog.io.writer import TrialWriter
+
+    for task in Task:
+        rtf, own, phys, bare = [], [], [], []
+        for seed in range(seeds):
+            spec = random_spec(task, seed)
+            with tempfile.TemporaryDirectory() as tmp:
+                meta = TrialMetadata(task=task, spec=spec)
+                with TrialWriter(Path(tmp) / "t.mcap", meta) as w:
+                    sink = WriterSink(w)
+                    r = simulate(spec, sink)
+                    t0 = time.perf_counter()
+                    sink.flush()
+                    flush = time.perf_counter() - t0
+            rtf.append(r.real_time_factor)
+            own.append(r.timings["contacts"] + r.timings["sensors"] + r.timings["sink"] + flush)
+            phys.append(r.timings["physics"])
+            bare.append(bare_physics_seconds(spec))
+        print(
+            f"{task.value:7s} rtf={np.mean(rtf):.2f} (min {np.min(rtf):.2f}) "
+            f"own/physics={np.sum(own) / np.sum(phys):.1%} "
+            f"own/bare={np.sum(own) / np.sum(bare):.1%} "
+            f"physics={np.sum(phys):.1f}s bare={np.sum(bare):.1f}s over {seeds} x 7 s trials"
+        )
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)

@@ -1,0 +1,125 @@
+"""The simulator on real short simulations: physics that makes sense, files that repeat."""
+
+from __future__ import annotations
+
+from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dresslog.errors import SimulationError
+from dresslog.limb import build_limb, limb_sdf
+from dresslog.sim import SimStart, SimStep, random_spec, record_trial, simulate
+from dresslog.spec import Outcome, SimParams, Task, TrialSpec
+from dresslog.trial import contact_magnitudes
+
+pytestmark = pytest.mark.slow
+
+#: Moves the limb toward the gripper's start so that a 1-2 s trial reaches it.
+NEAR = {Task.GOWN: (0.30, 0.0, 0.0), Task.SHORTS: (0.0, 0.0, 0.0)}
+AWAY = (0.0, 1.0, 0.0)
+
+
+class Collect:
+    def start(self, info: SimStart) -> None:
+        self.info = info
+        self.steps: list[SimStep] = []
+
+    def step(self, step: SimStep) -> None:
+        self.steps.append(step)
+
+
+def run(spec: TrialSpec) -> Collect:
+    sink = Collect()
+    simulate(spec, sink)
+    return sink
+
+
+def short(task: Task, offset=None, duration: float = 1.5, seed: int = 3) -> TrialSpec:
+    return random_spec(task, seed, duration=duration, limb_offset=offset or NEAR[task])
+
+
+def test_same_spec_same_bytes(tmp_path: Path) -> None:
+    spec = short(Task.GOWN, duration=1.0)
+    record_trial(spec, tmp_path / "a.mcap")
+    record_trial(spec, tmp_path / "b.mcap")
+    assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_steps_stream_at_100_hz_with_consistent_shapes(task: Task) -> None:
+    sink = run(short(task, duration=1.0))
+    n = len(sink.info.limb_points)
+    assert len(sink.steps) == 100
+    t = np.array([s.t_ns for s in sink.steps])
+    assert np.all(np.diff(t) == 10_000_000) and t[0] == 0
+    assert all(s.force_map.shape == (n,) and s.wrench.shape == (6,) for s in sink.steps)
+    speed = np.linalg.norm(np.array([s.twist[:3] for s in sink.steps]), axis=1)
+    assert np.allclose(speed[: int(np.argmax(speed < 1e-9)) or None][1:], speed[1], rtol=0.05)
+    assert sum(s.garment is not None for s in sink.steps) >= 10
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_contacts_lie_on_the_limb_where_the_garment_touches_it(task: Task) -> None:
+    spec = short(task)
+    limb = build_limb(task, spec.limb_offset, spec.limb_rotation)
+    sink = run(spec)
+    touched = [s for s in sink.steps if len(s.contacts)]
+    assert touched, "the garment never touched the limb"
+    for s in touched:
+        on_surface = limb_sdf(limb, s.contacts["position"])
+        assert np.all(np.abs(on_surface) < 0.01)
+        if s.garment is not None:
+            near = s.garment[s.contacts["vertex"]]
+            # face contacts on a coarse mesh: the nearest vertex may sit a few cm off
+            assert np.all(limb_sdf(limb, near.astype(float)) < 0.07)
+    first = sink.steps[0]
+    if first.garment is not None:
+        clear = limb_sdf(limb, first.garment.astype(float)).min() > 0.02
+        assert not clear or len(first.contacts) == 0
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_limb_out_of_the_path_gives_an_all_zero_force_map(task: Task) -> None:
+    sink = run(short(task, offset=AWAY, duration=1.0))
+    assert all(len(s.contacts) == 0 for s in sink.steps)
+    assert not np.any([s.force_map for s in sink.steps])
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_force_map_total_equals_total_contact_force(task: Task) -> None:
+    sink = run(short(task))
+    totals = np.array([s.force_map.sum() for s in sink.steps])
+    expected = np.array([contact_magnitudes(s.contacts).sum() for s in sink.steps])
+    assert expected.max() > 0
+    np.testing.assert_allclose(totals, expected, rtol=1e-4, atol=1e-5)
+
+
+def test_a_garment_held_back_by_the_limb_pulls_harder_than_a_free_pull() -> None:
+    caught = random_spec(Task.SHORTS, 0, duration=3.0, limb_offset=(0.0, 0.0, 0.05))
+    free = caught.model_copy(update={"limb_offset": AWAY})
+    f_caught = np.array([np.linalg.norm(s.wrench[:3]) for s in run(caught).steps])
+    f_free = np.array([np.linalg.norm(s.wrench[:3]) for s in run(free).steps])
+    assert f_caught.max() > 3 * f_free.max()
+    assert f_caught[-50:].mean() > 2 * f_free[-50:].mean()
+
+
+def test_an_unstable_trial_fails_and_leaves_no_file(tmp_path: Path) -> None:
+    spec = short(Task.SHORTS).model_copy(update={"sim": SimParams(max_limb_force=1e-3)})
+    with pytest.raises(SimulationError, match="exceeds the physical bound"):
+        record_trial(spec, tmp_path / "bad.mcap")
+    assert list(tmp_path.iterdir()) == []
+
+
+def _outcome(args: tuple[str, int]) -> str:
+    return simulate(random_spec(args[0], args[1])).outcome.value
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_twenty_random_seeds_include_dressed_and_not_dressed(task: Task) -> None:
+    with ProcessPoolExecutor(2) as pool:
+        outcomes = Counter(pool.map(_outcome, [(task.value, s) for s in range(20)]))
+    assert outcomes[Outcome.DRESSED.value] > 0
+    assert sum(outcomes.values()) - outcomes[Outcome.DRESSED.value] > 0
