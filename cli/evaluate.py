@@ -1,0 +1,22 @@
+"""`dresslog eval MODEL DATA [--json]`: the paper's RMSE on the test split, and more."""
+
+from __future__ import annotations
+
+import click
+
+from dresslog.cli.common import reports_errors
+
+
+@click.command("eval")
+@click.argument("model", type=click.Path())
+@click.argument("data", type=click.Path())
+@click.option("--split", type=click.Choice(["test", "train"]), default="test", show_default=True)
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@reports_errors
+def evaluate(model: str, data: str, split: str, as_json: bool, quiet: bool) -> None:
+    """RMSE after Eq. 2, the all-zero baseline, their ratio, per outcome; contact P/R."""
+    from dresslog.experiments import evaluate_dataset
+
+    report = evaluate_dataset(model, data, split=split, progress=not quiet and not as_json)
+    click.echo(report.to_json() if as_json else report.table())

@@ -1,0 +1,34 @@
+"""`dresslog train DATA -o MODEL`: the paper's network by default; options for the rest."""
+
+from __future__ import annotations
+
+import click
+
+from dresslog.cli.common import reports_errors
+
+
+@click.command("train")
+@click.argument("data", type=click.Path(file_okay=False))
+@click.option("--out", "-o", type=click.Path(file_okay=False), required=True, help="Model folder.")
+@click.option("--epochs", type=click.IntRange(min=1), default=10, show_default=True)
+@click.option("--batch-size", type=click.IntRange(min=1), default=16, show_default=True)
+@click.option("--hidden", type=click.IntRange(min=1), default=50, show_default=True)
+@click.option("--layers", type=click.IntRange(min=1), default=3, show_default=True)
+@click.option("--lr", type=click.FloatRange(min=0, min_open=True), default=1e-3, show_default=True)
+@click.option("--normalise", is_flag=True, help="Standardise inputs (not in the paper).")
+@click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--overwrite", is_flag=True, help="Replace an existing model folder.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
+@reports_errors
+def train(data: str, out: str, quiet: bool, **options: object) -> None:
+    """Train a force-map LSTM on DATA's training split; score it on the test split."""
+    from dresslog.experiments import train_dataset
+
+    def report(epoch) -> None:
+        val = "n/a" if epoch.val_loss is None else f"{epoch.val_loss:.4g}"
+        click.echo(f"epoch {epoch.epoch}: train loss {epoch.train_loss:.4g}, val {val}", err=True)
+
+    card = train_dataset(data, out, progress=not quiet, on_epoch=report, **options)
+    shown = ", ".join(f"{k} {v:.4g}" for k, v in card.metrics.items())
+    click.echo(f"{out}: {card.task} model, {card.data.n_train} training sequences; {shown}")

@@ -1,0 +1,199 @@
+"""A dataset as training tensors: every trial decoded once, cached beside the data.
+
+``load_dataset(root)`` returns `DatasetArrays` (phi (S, T, 9) and force maps (S, T, N),
+float32, zero-padded to the longest trial, with lengths, outcomes, splits and files).
+The first call decodes the MCAP files (in parallel, each checked against its sha256)
+and writes ``root/.cache/arrays-<manifest hash>.npz``; later calls only read that
+file, so no epoch ever waits on MCAP decoding. The cache is keyed by the manifest's
+content hash (a regenerated trial makes a new cache) and is read with
+``allow_pickle=False``: a planted cache file cannot run code.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import zipfile
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dresslog.dataset.manifest import Manifest, Split, check_files, load_manifest, sha256_file
+from dresslog.errors import DatasetError, TrialFormatError
+from dresslog.spec import Task
+
+CACHE_DIR = ".cache"
+CACHE_VERSION = 1
+_FIELDS = ("phi", "forces", "lengths", "outcomes", "split", "files", "info")
+
+
+@dataclass(frozen=True)
+class DatasetArrays:
+    """Every trial of a dataset, padded to a common length T; row i is manifest trial i."""
+
+    task: Task
+    manifest_sha256: str
+    phi: np.ndarray  # (S, T, 9) float32
+    forces: np.ndarray  # (S, T, N) float32
+    lengths: np.ndarray  # (S,) int64
+    outcomes: np.ndarray  # (S,) str
+    split: np.ndarray  # (S,) str
+    files: np.ndarray  # (S,) str, relative to the dataset folder
+
+    def __len__(self) -> int:
+        return len(self.lengths)
+
+    @property
+    def n_points(self) -> int:
+        return int(self.forces.shape[2])
+
+    def rows(self, split: Split | str | None = None, outcome: str | None = None) -> np.ndarray:
+        """Indices of the trials in `split` (all if None) with `outcome` (any if None)."""
+        keep = np.ones(len(self), bool)
+        if split is not None:
+            keep &= self.split == Split(split).value
+        if outcome is not None:
+            keep &= self.outcomes == str(outcome)
+        return np.flatnonzero(keep)
+
+    def sequences(self, rows: Sequence[int] | np.ndarray) -> list[np.ndarray]:
+        """phi of each chosen trial, unpadded (views, no copies)."""
+        return [self.phi[i, : self.lengths[i]] for i in rows]
+
+    def force_maps(self, rows: Sequence[int] | np.ndarray) -> list[np.ndarray]:
+        """Ground-truth force maps of each chosen trial, unpadded (views)."""
+        return [self.forces[i, : self.lengths[i]] for i in rows]
+
+
+def cache_path(root: str | Path, manifest: Manifest) -> Path:
+    """Where the arrays of this manifest's content are cached."""
+    return Path(root) / CACHE_DIR / f"arrays-{manifest.content_hash()[:16]}.npz"
+
+
+def _decode(args: tuple[str, str, str]) -> tuple[np.ndarray, np.ndarray]:
+    """One trial's (phi (T, 9), forces (T, N)) on the steps both have; runs in a worker."""
+    from dresslog.io.reader import TrialReader
+
+    path, name, sha256 = args
+    root = Path(path).parents[1]
+    if sha256_file(path) != sha256:
+        raise DatasetError(
+            f"trial {name} does not match its checksum in the manifest (corrupt or modified); "
+            "run `dresslog generate` on the folder again to re-create it",
+            path=root,
+        )
+    try:
+        with TrialReader(path) as reader:
+            phi = reader.measurements
+            truth = reader.force_map
+    except TrialFormatError as err:
+        raise DatasetError(f"trial {name} is unreadable: {err.message}", path=root) from None
+    if truth is None:
+        raise DatasetError(f"trial {name} has no ground-truth force map", path=root)
+    _, pi, fi = np.intersect1d(phi.t_ns, truth.t_ns, return_indices=True)
+    return phi.phi[pi].astype(np.float32), truth.forces[fi].astype(np.float32)
+
+
+def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict[str, np.ndarray]:
+    from tqdm import tqdm
+
+    entries = manifest.trials
+    jobs = [(str(root / str(e.file)), str(e.file), str(e.sha256)) for e in entries]
+    bar = tqdm(total=len(jobs), unit="trial", desc="decoding", disable=not progress)
+    if workers > 1 and len(jobs) > 1:
+        import multiprocessing
+
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context) as pool:
+            decoded = []
+            for item in pool.map(_decode, jobs, chunksize=4):
+                decoded.append(item)
+                bar.update()
+    else:
+        decoded = []
+        for job in jobs:
+            decoded.append(_decode(job))
+            bar.update()
+    bar.close()
+    widths = {f.shape[1] for _, f in decoded}
+    if len(widths) != 1:
+        raise DatasetError(f"trials have different limb point counts {sorted(widths)}", path=root)
+    lengths = np.array([len(p) for p, _ in decoded], np.int64)
+    s, t, n = len(decoded), int(lengths.max()), widths.pop()
+    phi = np.zeros((s, t, 9), np.float32)
+    forces = np.zeros((s, t, n), np.float32)
+    for i, (p, f) in enumerate(decoded):
+        phi[i, : len(p)], forces[i, : len(f)] = p, f
+    info = np.array([str(CACHE_VERSION), manifest.task.value, manifest.content_hash()])
+    return {
+        "phi": phi,
+        "forces": forces,
+        "lengths": lengths,
+        "outcomes": np.array([e.outcome.value for e in entries]),
+        "split": np.array([e.split.value for e in entries]),
+        "files": np.array([str(e.file) for e in entries]),
+        "info": info,
+    }
+
+
+def _write(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Uncompressed (force maps are read at disk speed), written atomically."""
+    path.parent.mkdir(exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    with tmp.open("wb") as stream:
+        np.savez(stream, **arrays)
+    tmp.replace(path)
+    for old in path.parent.glob("arrays-*.npz"):
+        if old != path:
+            old.unlink(missing_ok=True)
+
+
+def _read(path: Path, manifest: Manifest) -> dict[str, np.ndarray] | None:
+    """The cached arrays if the file is whole and made from this manifest, else None."""
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in _FIELDS}
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return None
+    info = arrays["info"]
+    if info.shape != (3,) or list(info) != [
+        str(CACHE_VERSION),
+        manifest.task.value,
+        manifest.content_hash(),
+    ]:
+        return None
+    return arrays
+
+
+def load_dataset(
+    root: str | Path,
+    *,
+    workers: int | None = None,
+    progress: bool = True,
+    rebuild: bool = False,
+) -> DatasetArrays:
+    """All trials of the dataset at `root` as arrays, from the cache when it is current.
+
+    Raises `DatasetError` (one line, naming the folder and the trial) for a folder
+    without a manifest, a manifest with no trials, and a missing, truncated,
+    modified or unreadable trial.
+    """
+    root = Path(root)
+    manifest = load_manifest(root)
+    if not manifest.trials:
+        raise DatasetError("the manifest lists no completed trials", path=root)
+    check_files(root, manifest)
+    path = cache_path(root, manifest)
+    arrays = None if rebuild or not path.exists() else _read(path, manifest)
+    if arrays is None:
+        arrays = _build(root, manifest, workers or os.cpu_count() or 1, progress)
+        with contextlib.suppress(OSError):  # a read-only dataset loads, just uncached
+            _write(path, arrays)
+    return DatasetArrays(
+        task=manifest.task,
+        manifest_sha256=manifest.content_hash(),
+        **{k: arrays[k] for k in _FIELDS if k != "info"},
+    )

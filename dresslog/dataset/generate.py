@@ -1,0 +1,392 @@
+"""Generate a dataset: many simulated trials in parallel, resumable, with a manifest.
+
+``generate(task, trials, out, ...)`` plans slots per split (``train/000000.mcap`` ...),
+skips every slot the manifest already lists with a file of the right checksum, runs
+the rest on an executor (a local process pool by default, Ray tasks with
+``executor="ray"``) and records each result in the manifest as it arrives. A trial
+that goes unstable is listed under ``failures`` with its reason and its slot is
+retried with the next derived seed (`trial_seed`), so the same command on the same
+folder always produces the same data, however often it was interrupted.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import os
+import socket
+import time
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal, Protocol
+
+from dresslog.dataset.manifest import (
+    MANIFEST_FILE,
+    TEST_FRACTION,
+    Entry,
+    Manifest,
+    Split,
+    Status,
+    load_manifest,
+    sha256_file,
+    trial_seed,
+)
+from dresslog.errors import DatasetError, DresslogError, SimulationError
+from dresslog.spec import Outcome, Task, TrialSpec
+
+#: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
+MAX_ATTEMPTS = 5
+#: Seconds between manifest rewrites while trials arrive (always rewritten at the end).
+SAVE_EVERY_S = 2.0
+LOCK_FILE = ".generate.lock"
+RECORDER = "dresslog.sim:record_trial"
+SPEC_FACTORY = "dresslog.sim:random_spec"
+ExecutorName = Literal["process", "ray"]
+
+
+def _resolve(target: str) -> Callable[..., Any]:
+    module, name = target.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+@dataclass(frozen=True)
+class Job:
+    """One attempt at one slot; plain data, so it pickles to a process or a Ray worker."""
+
+    root: str
+    split: Split
+    slot: int
+    attempt: int
+    spec: TrialSpec
+    recorder: str = RECORDER
+
+    @property
+    def file(self) -> str:
+        return f"{self.split.value}/{self.slot:06d}.mcap"
+
+
+def run_job(job: Job) -> Entry:
+    """Simulate and record one trial; an unstable simulation becomes a failed entry.
+
+    Runs in a worker. Only `DresslogError`s count as trial failures; any other
+    exception is a bug and propagates, stopping the generation.
+    """
+    path = Path(job.root) / job.file
+    started = time.perf_counter()
+    base = {"split": job.split, "slot": job.slot, "attempt": job.attempt, "spec": job.spec}
+    try:
+        result = _resolve(job.recorder)(job.spec, path, overwrite=True)
+    except DresslogError as err:
+        path.unlink(missing_ok=True)
+        reason = err.message if isinstance(err, SimulationError) else str(err)
+        return Entry(
+            **base,
+            status=Status.FAILED,
+            outcome=Outcome.FAILED,
+            failure=f"{type(err).__name__}: {reason}",
+            seconds=time.perf_counter() - started,
+        )
+    return Entry(
+        **base,
+        status=Status.OK,
+        file=job.file,
+        outcome=Outcome(result.outcome),
+        steps=int(result.steps),
+        size=path.stat().st_size,
+        sha256=sha256_file(path),
+        seconds=time.perf_counter() - started,
+    )
+
+
+class Executor(Protocol):
+    """Runs jobs somewhere; `done()` blocks until at least one finished job is back."""
+
+    def submit(self, job: Job) -> None: ...
+    def done(self) -> list[Entry]: ...
+    def pending(self) -> int: ...
+    def shutdown(self) -> None: ...
+
+
+class ProcessExecutor:
+    """A local process pool (spawned workers: no pybullet or torch state is forked)."""
+
+    def __init__(self, workers: int) -> None:
+        import multiprocessing
+
+        self._pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+        self._futures: set[Future[Entry]] = set()
+
+    def submit(self, job: Job) -> None:
+        self._futures.add(self._pool.submit(run_job, job))
+
+    def done(self) -> list[Entry]:
+        finished, self._futures = wait(self._futures, return_when=FIRST_COMPLETED)
+        return [f.result() for f in finished]
+
+    def pending(self) -> int:
+        return len(self._futures)
+
+    def shutdown(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+def make_executor(name: ExecutorName | str, workers: int) -> Executor:
+    if name == "process":
+        return ProcessExecutor(workers)
+    if name == "ray":
+        from dresslog.dataset.ray_executor import RayExecutor
+
+        return RayExecutor(workers)
+    raise DatasetError(f"unknown executor {name!r}; use 'process' or 'ray'")
+
+
+def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
+    if trials < 1:
+        raise DatasetError(f"--trials must be at least 1, not {trials}")
+    if not 0 <= test_fraction < 1:
+        raise DatasetError(f"test fraction must be in [0, 1), not {test_fraction}")
+    n_test = round(trials * test_fraction) if trials > 1 else 0
+    return {Split.TRAIN: trials - n_test, Split.TEST: n_test}
+
+
+def _open_manifest(
+    root: Path, task: Task, seed: int, counts: Mapping[Split, int], overrides: dict[str, Any]
+) -> Manifest:
+    """The folder's manifest if it has one (checked to be the same request), else a new one."""
+    if not (root / MANIFEST_FILE).exists():
+        return Manifest(
+            task=task,
+            seed=seed,
+            n_train=counts.get(Split.TRAIN, 0),
+            n_test=counts.get(Split.TEST, 0),
+            n_sweep=counts.get(Split.SWEEP, 0),
+            overrides=overrides,
+        )
+    manifest = load_manifest(root)
+    for what, have, want in (
+        ("task", manifest.task, task),
+        ("seed", manifest.seed, seed),
+        ("spec overrides", manifest.overrides, overrides),
+    ):
+        if have != want:
+            raise DatasetError(
+                f"folder holds a dataset with {what} {have}, not {want}; "
+                "use another folder or the same options",
+                path=root,
+            )
+    for split, wanted in counts.items():
+        if wanted < len(manifest.split(split)):
+            raise DatasetError(
+                f"folder already has {len(manifest.split(split))} {split} trials, more than "
+                f"the {wanted} asked for; ask for at least as many or use another folder",
+                path=root,
+            )
+    manifest.n_train = counts.get(Split.TRAIN, 0)
+    manifest.n_test = counts.get(Split.TEST, 0)
+    manifest.n_sweep = counts.get(Split.SWEEP, 0)
+    return manifest
+
+
+def _valid(root: Path, entry: Entry) -> bool:
+    path = root / str(entry.file)
+    return (
+        path.is_file() and path.stat().st_size == entry.size and sha256_file(path) == entry.sha256
+    )
+
+
+def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[Job]:
+    """Keep the listed trials whose files check out; the next attempt at every other slot."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max(1, workers)) as pool:  # hashing releases the GIL
+        valid = list(pool.map(lambda e: _valid(root, e), manifest.trials))
+    manifest.trials = [e for e, ok in zip(manifest.trials, valid, strict=True) if ok]
+    done = {(e.split, e.slot) for e in manifest.trials}
+    tried: dict[tuple[Split, int], int] = {}
+    for failure in manifest.failures:
+        key = (failure.split, failure.slot)
+        tried[key] = max(tried.get(key, 0), failure.attempt + 1)
+    todo = [
+        (split, slot)
+        for split in Split
+        for slot in range(manifest.wanted(split))
+        if (split, slot) not in done
+    ]
+    if not todo:  # the simulator is imported only when there is something to simulate
+        return []
+    factory = _spec_factory(recorder)
+    return [
+        _job(root, manifest, split, slot, tried.get((split, slot), 0), recorder, factory)
+        for split, slot in todo
+    ]
+
+
+def _spec_factory(recorder: str) -> Callable[..., TrialSpec] | None:
+    """The simulator's `random_spec`, unless a test recorder stands in for the simulator."""
+    return _resolve(SPEC_FACTORY) if recorder == RECORDER else None
+
+
+def _job(
+    root: Path,
+    manifest: Manifest,
+    split: Split,
+    slot: int,
+    attempt: int,
+    recorder: str,
+    factory: Callable[..., TrialSpec] | None,
+) -> Job:
+    seed = trial_seed(manifest.seed, split, slot, attempt)
+    if factory is None:  # a test recorder: the spec needs no simulator
+        spec = TrialSpec.model_validate({"task": manifest.task, "seed": seed, **manifest.overrides})
+    else:
+        spec = factory(manifest.task, seed, **manifest.overrides)
+    return Job(str(root), split, slot, attempt, spec, recorder)
+
+
+@contextlib.contextmanager
+def _lock(root: Path) -> Iterator[None]:
+    """Refuse a second generation into the same folder while one is running here."""
+    path = root / LOCK_FILE
+    me = f"{socket.gethostname()} {os.getpid()}"
+    for _ in range(2):
+        try:
+            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            host, _, pid = path.read_text().partition(" ")
+            if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
+                path.unlink(missing_ok=True)  # stale: its process is gone
+                continue
+            raise DatasetError(
+                f"another `dresslog generate` ({host} pid {pid}) is writing this folder; "
+                f"wait for it, or delete {LOCK_FILE} if it is dead",
+                path=root,
+            ) from None
+        os.write(fd, me.encode())
+        os.close(fd)
+        break
+    try:
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _remove_partials(root: Path) -> None:
+    """Delete temporary files left by a run that was killed (we hold the folder's lock)."""
+    for split in Split:
+        for path in (root / split.value).glob(".*.partial"):
+            path.unlink(missing_ok=True)
+
+
+def generate(
+    task: Task | str,
+    trials: int,
+    out: str | Path,
+    *,
+    workers: int | None = None,
+    seed: int = 0,
+    test_fraction: float = TEST_FRACTION,
+    splits: Mapping[Split | str, int] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    executor: ExecutorName | str = "process",
+    max_attempts: int = MAX_ATTEMPTS,
+    progress: bool = True,
+    recorder: str = RECORDER,
+) -> Manifest:
+    """Fill `out` with `trials` simulated trials of `task`; resume whatever is missing.
+
+    ``splits`` replaces the train/test division by explicit counts (the sweeps use
+    ``{"sweep": 128}``); ``overrides`` fixes spec fields for every trial (``duration``,
+    ``speed``, ``limb_rotation``); ``recorder`` ("module:function", called as
+    ``f(spec, path, overwrite=True)``) swaps the simulator, for tests. Raises
+    `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
+    written up to then lists every failure.
+    """
+    task = Task(task)
+    root = Path(out).resolve()
+    if seed < 0:
+        raise DatasetError(f"--seed must be non-negative, not {seed}")
+    if splits is not None:
+        counts = {Split(k): int(v) for k, v in splits.items()}
+    else:
+        counts = _split_counts(trials, test_fraction)
+    workers = workers or os.cpu_count() or 1
+    overrides = dict(overrides or {})
+    if root.exists() and not root.is_dir():
+        raise DatasetError("exists and is not a folder", path=root)
+    root.mkdir(parents=True, exist_ok=True)
+    with _lock(root):
+        manifest = _open_manifest(root, task, seed, counts, overrides)
+        for split in Split:
+            if manifest.wanted(split):
+                (root / split.value).mkdir(exist_ok=True)
+        _remove_partials(root)
+        jobs = _plan(root, manifest, recorder, workers)
+        manifest.save(root)
+        if jobs:
+            _run(root, manifest, jobs, executor, workers, max_attempts, progress)
+    return manifest
+
+
+def _run(
+    root: Path,
+    manifest: Manifest,
+    jobs: list[Job],
+    executor_name: str,
+    workers: int,
+    max_attempts: int,
+    progress: bool,
+) -> None:
+    from tqdm import tqdm
+
+    executor = make_executor(executor_name, min(workers, len(jobs)))
+    given_up: list[Entry] = []
+    bar = tqdm(total=len(jobs), unit="trial", desc=manifest.task.value, disable=not progress)
+    saved = time.monotonic()
+    try:
+        for job in jobs:
+            executor.submit(job)
+        recorder = jobs[0].recorder
+        factory = _spec_factory(recorder)
+        while executor.pending():
+            for entry in executor.done():
+                if entry.status == Status.OK:
+                    manifest.trials.append(entry)
+                    bar.update()
+                    continue
+                manifest.failures.append(entry)
+                if entry.attempt + 1 >= max_attempts:
+                    given_up.append(entry)
+                    bar.update()
+                else:
+                    retry = entry.attempt + 1
+                    executor.submit(
+                        _job(root, manifest, entry.split, entry.slot, retry, recorder, factory)
+                    )
+                bar.set_postfix(failed=len(manifest.failures))
+            if time.monotonic() - saved > SAVE_EVERY_S:
+                manifest.save(root)
+                saved = time.monotonic()
+    finally:
+        bar.close()
+        manifest.save(root)
+        executor.shutdown()
+    if given_up:
+        last = given_up[-1]
+        raise DatasetError(
+            f"{len(given_up)} slot(s) failed {max_attempts} seeds in a row "
+            f"(last: {last.split}/{last.slot:06d}: {last.failure}); "
+            f"every failure is listed in {MANIFEST_FILE}",
+            path=root,
+        )

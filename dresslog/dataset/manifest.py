@@ -1,0 +1,221 @@
+"""The dataset manifest: which trials a folder holds, how they were made, which split each is in.
+
+A dataset folder is ``manifest.json`` plus ``train/*.mcap`` and ``test/*.mcap``. The
+manifest lists every completed trial (file, spec, outcome, steps, size, sha256) and every
+failed attempt with its reason, so a folder can be checked, resumed and cited (its
+`content_hash` goes into the model card). It is rewritten atomically; a crash never
+leaves a half manifest.
+
+Seeds are derived, never drawn: `trial_seed` puts the role (train, test, sweep) in the
+low bits, so the test split cannot share a seed with training, and a failed slot's
+replacement seed is fixed by (base seed, slot, attempt) whatever order workers finish in.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from datetime import UTC, datetime
+from enum import IntEnum, StrEnum
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from dresslog import __version__
+from dresslog.errors import DatasetError
+from dresslog.spec import Outcome, Task, TrialSpec
+
+MANIFEST_FILE = "manifest.json"
+FORMAT = "dresslog-dataset"
+FORMAT_VERSION = 1
+#: The paper's proportion: 1,000 test sequences to 5,000 training ones.
+TEST_FRACTION = 1 / 6
+
+
+class Split(StrEnum):
+    """Where a trial belongs; `sweep` trials are fresh sequences for generalisation tests."""
+
+    TRAIN = "train"
+    TEST = "test"
+    SWEEP = "sweep"
+
+
+class _Role(IntEnum):
+    TRAIN = 0
+    TEST = 1
+    SWEEP = 2
+
+
+def trial_seed(base_seed: int, split: Split | str, slot: int, attempt: int = 0) -> int:
+    """The seed of attempt `attempt` at `slot` of `split`; distinct for every argument tuple.
+
+    Role in the low 2 bits, (slot, attempt) Cantor-paired above them, the base seed
+    above bit 48: splits of one dataset are disjoint by construction, and so are
+    datasets with different base seeds (for slot + attempt < ~10^7).
+    """
+    if base_seed < 0 or slot < 0 or attempt < 0:
+        raise ValueError("seeds, slots and attempts are non-negative")
+    pair = (slot + attempt) * (slot + attempt + 1) // 2 + attempt
+    return (base_seed << 48) | (pair << 2) | _Role[Split(split).name].value
+
+
+class Status(StrEnum):
+    OK = "ok"
+    FAILED = "failed"
+
+
+class Entry(BaseModel):
+    """One attempt at one slot: a recorded trial (`ok`) or a failure with its reason."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    split: Split
+    slot: int = Field(ge=0)
+    attempt: int = Field(0, ge=0)
+    status: Status
+    file: str | None = Field(None, description="path relative to the dataset folder")
+    spec: TrialSpec
+    outcome: Outcome = Outcome.UNKNOWN
+    steps: int = 0
+    size: int = 0
+    sha256: str | None = None
+    failure: str | None = None
+    seconds: float = 0.0
+
+
+class Manifest(BaseModel):
+    """A dataset folder's index: request, completed trials (by split) and failures."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    format: Literal["dresslog-dataset"] = FORMAT
+    format_version: int = FORMAT_VERSION
+    task: Task
+    seed: int = 0
+    n_train: int = Field(ge=0)
+    n_test: int = Field(ge=0)
+    n_sweep: int = Field(0, ge=0)
+    overrides: dict[str, Any] = Field(
+        default_factory=dict, description="spec fields fixed for every trial (e.g. duration)"
+    )
+    trials: list[Entry] = Field(default_factory=list)
+    failures: list[Entry] = Field(default_factory=list)
+    dresslog_version: str = __version__
+    updated: str = ""
+
+    # -- queries ---------------------------------------------------------------
+    def split(self, split: Split | str) -> list[Entry]:
+        """Completed trials of one split, in slot order."""
+        split = Split(split)
+        return sorted((e for e in self.trials if e.split == split), key=lambda e: e.slot)
+
+    def wanted(self, split: Split | str) -> int:
+        """How many trials of `split` were asked for."""
+        return {Split.TRAIN: self.n_train, Split.TEST: self.n_test, Split.SWEEP: self.n_sweep}[
+            Split(split)
+        ]
+
+    @property
+    def complete(self) -> bool:
+        return all(len(self.split(s)) >= self.wanted(s) for s in Split)
+
+    def describe(self) -> str:
+        """One line for people: trials per split, outcomes, failures replaced."""
+        counts = ", ".join(
+            f"{len(self.split(s))}/{self.wanted(s)} {s}" for s in Split if self.wanted(s)
+        )
+        outcomes: dict[str, int] = {}
+        for entry in self.trials:
+            outcomes[entry.outcome.value] = outcomes.get(entry.outcome.value, 0) + 1
+        seen = ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items())) or "none"
+        return (
+            f"{self.task} trials {counts}; outcomes {seen}; "
+            f"{len(self.failures)} failed seed(s) replaced; "
+            f"content sha256 {self.content_hash()[:12]}"
+        )
+
+    def content_hash(self) -> str:
+        """sha256 of what the data is (task, and per trial its split, slot, file and hash).
+
+        Timestamps, failures and software versions are left out: two folders holding the
+        same recordings have the same hash, and any changed recording changes it.
+        """
+        rows = sorted(
+            (e.split.value, e.slot, e.file, e.sha256) for e in self.trials if e.status == "ok"
+        )
+        blob = json.dumps({"task": self.task.value, "trials": rows}, separators=(",", ":"))
+        return hashlib.sha256(blob.encode()).hexdigest()
+
+    # -- files -----------------------------------------------------------------
+    def save(self, root: str | Path) -> Path:
+        """Write `root/manifest.json` atomically (temporary file, fsync, rename)."""
+        path = Path(root) / MANIFEST_FILE
+        self.updated = datetime.now(UTC).isoformat(timespec="seconds")
+        self.trials.sort(key=lambda e: (e.split.value, e.slot))
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+        with tmp.open("w", encoding="utf-8") as stream:
+            stream.write(self.model_dump_json(indent=1) + "\n")
+            stream.flush()
+            os.fsync(stream.fileno())
+        tmp.replace(path)
+        return path
+
+
+def load_manifest(root: str | Path) -> Manifest:
+    """Read `root/manifest.json`; a missing or foreign one is one `DatasetError` line."""
+    root = Path(root)
+    path = root / MANIFEST_FILE
+    if not root.is_dir():
+        raise DatasetError("no such dataset folder", path=root)
+    if not path.is_file():
+        raise DatasetError(
+            f"no {MANIFEST_FILE}; not a dataset folder (make one with `dresslog generate`)",
+            path=root,
+        )
+    try:
+        raw = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise DatasetError(f"{MANIFEST_FILE} is not readable JSON: {err}", path=root) from None
+    if not isinstance(raw, dict) or raw.get("format") != FORMAT:
+        raise DatasetError(f"{MANIFEST_FILE} is not a dresslog dataset manifest", path=root)
+    if raw.get("format_version", 0) > FORMAT_VERSION:
+        raise DatasetError(
+            f"{MANIFEST_FILE} has format version {raw['format_version']}, newer than this "
+            f"dresslog reads ({FORMAT_VERSION}); upgrade dresslog",
+            path=root,
+        )
+    try:
+        return Manifest.model_validate(raw)
+    except ValidationError as err:
+        first = err.errors()[0]
+        where = ".".join(str(p) for p in first["loc"]) or "manifest"
+        raise DatasetError(f"{MANIFEST_FILE}: {where}: {first['msg']}", path=root) from None
+
+
+def sha256_file(path: str | Path) -> str:
+    digest = hashlib.sha256()
+    with Path(path).open("rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def check_files(root: str | Path, manifest: Manifest, *, checksums: bool = False) -> None:
+    """Every listed trial exists with its recorded size (and, if asked, its sha256)."""
+    root = Path(root)
+    for entry in manifest.trials:
+        path = root / str(entry.file)
+        if not path.is_file():
+            raise DatasetError(
+                f"trial {entry.file} listed in the manifest is missing; "
+                "run `dresslog generate` on the folder again to re-create it",
+                path=root,
+            )
+        if path.stat().st_size != entry.size or (checksums and sha256_file(path) != entry.sha256):
+            raise DatasetError(
+                f"trial {entry.file} does not match its checksum in the manifest (corrupt or "
+                "modified); run `dresslog generate` on the folder again to re-create it",
+                path=root,
+            )

@@ -1,0 +1,348 @@
+"""The paper's experiments on dataset folders: train a model, evaluate it, sweep it (Sec. V).
+
+This is the glue between `dresslog.dataset` (folders, manifests, cached arrays) and
+`dresslog.model` (network, training, metrics), so that the CLI commands and a Python
+user make the same one call.
+
+Public API
+----------
+``train_dataset(data, out, *, epochs=10, batch_size=16, hidden=50, layers=3, lr=1e-3,
+normalise=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
+on_epoch=None) -> ModelCard``
+    Trains on the training split (holding out ``val_fraction`` of it for the per-epoch
+    validation loss), scores the test split, and saves a model folder whose card names
+    the data by its manifest hash. Resumes from ``.<out>.checkpoint.pt`` beside `out`.
+``evaluate_dataset(model, data, *, split="test", workers=None, progress=True) -> EvalReport``
+    RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome,
+    with contact-map precision and recall.
+``sweep(model, out, *, speeds=(), rotations=(), n=128, seed=0, ...) -> SweepReport``
+    Figs. 12 and 13: the same `n` fresh sequences (sweep seeds, disjoint from every
+    training and test seed) re-simulated per setting; RMSE per setting and its ratio to
+    the in-range setting; `out/sweep.csv`, `out/sweep.json` and `out/sweep.png`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
+from dresslog.errors import DatasetError, ModelError
+from dresslog.model.files import DataProvenance, LoadedModel, ModelCard, check_task, load_model
+from dresslog.spec import Task
+
+#: Mid-range speeds (m/s) the paper used for the rotation sweep (12.5 and 17.5 cm/s).
+ROTATION_SPEED = {Task.GOWN: 0.125, Task.SHORTS: 0.175}
+
+
+# -- training ------------------------------------------------------------------------
+def train_dataset(
+    data: str | Path,
+    out: str | Path,
+    *,
+    epochs: int = 10,
+    batch_size: int = 16,
+    hidden: int = 50,
+    layers: int = 3,
+    lr: float = 1e-3,
+    normalise: bool = False,
+    window: int | None = None,
+    seed: int = 0,
+    overwrite: bool = False,
+    workers: int | None = None,
+    progress: bool = True,
+    on_epoch: Callable[[Any], None] | None = None,
+) -> ModelCard:
+    """Train the paper's network (by default) on `data`'s training split; save to `out`."""
+    out = Path(out)
+    if out.exists() and not overwrite:  # say so now, not after hours of training
+        raise ModelError("model folder exists; pass --overwrite to replace it", path=out)
+    if not out.parent.is_dir():
+        raise ModelError(f"parent folder {out.parent} does not exist", path=out)
+    arrays = load_dataset(data, workers=workers, progress=progress)
+    rows = arrays.rows(Split.TRAIN)
+    if len(rows) < 2:
+        raise DatasetError(f"needs at least 2 training trials, has {len(rows)}", path=data)
+    from dresslog.model.evaluate import evaluate  # torch only once the data checks out
+    from dresslog.model.files import save_model
+    from dresslog.model.train import make_card, train
+
+    checkpoint = out.with_name(f".{out.name}.checkpoint.pt")
+    weights, history = train(
+        arrays.sequences(rows),
+        arrays.force_maps(rows),
+        epochs=epochs,
+        batch_size=batch_size,
+        lr=lr,
+        hidden=hidden,
+        layers=layers,
+        seed=seed,
+        window=window,
+        normalise=normalise,
+        progress=progress,
+        checkpoint=checkpoint,
+        on_epoch=on_epoch,
+    )
+    metrics: dict[str, float] = {}
+    test = arrays.rows(Split.TEST)
+    if len(test):
+        from dresslog.model.numpy_lstm import NumpyEstimator
+
+        scores = evaluate(NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test))
+        metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
+    provenance = DataProvenance(manifest_sha256=arrays.manifest_sha256, description=str(data))
+    card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
+    card = save_model(out, weights, card, overwrite=overwrite)
+    checkpoint.unlink(missing_ok=True)
+    return card
+
+
+# -- evaluation ----------------------------------------------------------------------
+@dataclass(frozen=True)
+class Scores:
+    """The paper's numbers for one group of sequences."""
+
+    n: int
+    rmse: float
+    zero_rmse: float
+    ratio: float
+    contact_precision: float
+    contact_recall: float
+
+
+@dataclass(frozen=True)
+class EvalReport:
+    task: str
+    model: str
+    data: str
+    split: str
+    manifest_sha256: str
+    overall: Scores
+    per_outcome: dict[str, Scores] = field(default_factory=dict)
+
+    def to_json(self) -> str:
+        """JSON with nan as null (JSON has no nan)."""
+        return json.dumps(_finite(asdict(self)), indent=2)
+
+    def table(self) -> str:
+        head = (
+            f"{'group':<10}{'n':>6}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}"
+            f"{'prec':>7}{'rec':>7}"
+        )
+        rows = [("all", self.overall), *self.per_outcome.items()]
+        lines = [f"{self.task} model {self.model} on {self.data} ({self.split} split)", head]
+        for name, s in rows:
+            lines.append(
+                f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
+                f"{s.contact_precision:>7.3f}{s.contact_recall:>7.3f}"
+            )
+        return "\n".join(lines)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    return value
+
+
+def _scores(model: LoadedModel, arrays: DatasetArrays, rows: Sequence[int]) -> Scores:
+    from dresslog.model.evaluate import evaluate
+
+    e = evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
+    return Scores(len(rows), e.rmse, e.zero_rmse, e.ratio, e.contact_precision, e.contact_recall)
+
+
+def evaluate_dataset(
+    model: str | Path,
+    data: str | Path,
+    *,
+    split: Split | str = Split.TEST,
+    workers: int | None = None,
+    progress: bool = True,
+) -> EvalReport:
+    """Score `model` on one split of `data`, overall and per outcome (dressed/missed/caught)."""
+    loaded = load_model(model)
+    check_task(loaded, load_manifest(data).task)
+    arrays = load_dataset(data, workers=workers, progress=progress)
+    check_task(loaded, arrays.task, arrays.n_points)
+    rows = arrays.rows(split)
+    if not len(rows):
+        raise DatasetError(f"the dataset has no {Split(split)} trials", path=data)
+    per_outcome = {}
+    for outcome in sorted(set(arrays.outcomes[rows].tolist())):
+        per_outcome[outcome] = _scores(loaded, arrays, arrays.rows(split, outcome))
+    return EvalReport(
+        task=arrays.task.value,
+        model=str(model),
+        data=str(data),
+        split=Split(split).value,
+        manifest_sha256=arrays.manifest_sha256,
+        overall=_scores(loaded, arrays, rows),
+        per_outcome=per_outcome,
+    )
+
+
+# -- generalisation sweeps -----------------------------------------------------------
+@dataclass(frozen=True)
+class Setting:
+    """One sweep setting: its name, the spec fields it fixes, and its scores."""
+
+    name: str
+    kind: str  # "baseline", "speed" or "rotation"
+    value: float
+    axis: str
+    overrides: dict[str, Any]
+    scores: Scores | None = None
+
+    @property
+    def folder(self) -> str:
+        return self.name.replace(":", "_")
+
+
+@dataclass(frozen=True)
+class SweepReport:
+    task: str
+    model: str
+    n: int
+    baseline_rmse: float
+    settings: list[Setting]
+
+    def ratio(self, setting: Setting) -> float:
+        assert setting.scores is not None
+        return setting.scores.rmse / self.baseline_rmse if self.baseline_rmse else math.nan
+
+    def table(self) -> str:
+        lines = [f"{'setting':<18}{'n':>5}{'RMSE (N)':>12}{'zero (N)':>12}{'x in-range':>12}"]
+        for s in self.settings:
+            assert s.scores is not None
+            lines.append(
+                f"{s.name:<18}{s.scores.n:>5}{s.scores.rmse:>12.5f}"
+                f"{s.scores.zero_rmse:>12.5f}{self.ratio(s):>12.2f}"
+            )
+        return "\n".join(lines)
+
+
+def parse_rotation(text: str) -> tuple[str, float]:
+    """'y:-15' -> ('y', -15.0): degrees about an axis, forearm at the elbow, foot at the ankle."""
+    axis, sep, degrees = text.partition(":")
+    try:
+        if not sep or axis not in ("x", "y", "z"):
+            raise ValueError
+        return axis, float(degrees)
+    except ValueError:
+        raise DatasetError(f"rotation {text!r} is not AXIS:DEGREES, e.g. y:-15") from None
+
+
+def sweep_settings(
+    task: Task, speeds: Sequence[float], rotations: Sequence[str], duration: float | None = None
+) -> list[Setting]:
+    """The in-range baseline, then one setting per speed and per rotation."""
+    extra = {"duration": duration} if duration else {}
+    settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
+    for speed in speeds:
+        if speed <= 0:
+            raise DatasetError(f"speed must be positive, not {speed}")
+        settings.append(Setting(f"speed:{speed:g}", "speed", speed, "", {"speed": speed, **extra}))
+    for text in rotations:
+        axis, degrees = parse_rotation(text)
+        fields = {
+            "speed": ROTATION_SPEED[task],
+            "limb_rotation": {"axis": axis, "degrees": degrees},
+            **extra,
+        }
+        settings.append(Setting(f"rot:{axis}:{degrees:g}", "rotation", degrees, axis, fields))
+    return settings
+
+
+def sweep(
+    model: str | Path,
+    out: str | Path,
+    *,
+    speeds: Sequence[float] = (),
+    rotations: Sequence[str] = (),
+    n: int = 128,
+    seed: int = 0,
+    duration: float | None = None,
+    workers: int | None = None,
+    executor: str = "process",
+    progress: bool = True,
+) -> SweepReport:
+    """Re-simulate the same `n` fresh sequences per setting and score the model on each.
+
+    Each setting is a dataset folder under `out` (so an interrupted sweep resumes); the
+    sweep seeds are the same in every setting, so settings differ only in what they fix.
+    """
+    loaded = load_model(model)
+    task = loaded.card.task
+    if not speeds and not rotations:
+        raise DatasetError("give at least one --speeds or --rotations value")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    done: list[Setting] = []
+    for setting in sweep_settings(task, speeds, rotations, duration):
+        folder = out / setting.folder
+        generate(
+            task,
+            n,
+            folder,
+            splits={Split.SWEEP: n},
+            overrides=setting.overrides,
+            seed=seed,
+            workers=workers,
+            executor=executor,
+            progress=progress,
+        )
+        arrays = load_dataset(folder, workers=workers, progress=False)
+        check_task(loaded, arrays.task, arrays.n_points)
+        scores = _scores(loaded, arrays, arrays.rows(Split.SWEEP))
+        done.append(Setting(**{**asdict(setting), "scores": scores}))
+    baseline = done[0].scores
+    assert baseline is not None
+    report = SweepReport(task.value, str(model), n, baseline.rmse, done)
+    _write_sweep(out, report)
+    return report
+
+
+def _write_sweep(out: Path, report: SweepReport) -> None:
+    rows = ["setting,kind,axis,value,n,rmse,zero_rmse,ratio_to_in_range"]
+    for s in report.settings:
+        assert s.scores is not None
+        value = "" if math.isnan(s.value) else f"{s.value:g}"
+        rows.append(
+            f"{s.name},{s.kind},{s.axis},{value},{s.scores.n},{s.scores.rmse:.6g},"
+            f"{s.scores.zero_rmse:.6g},{report.ratio(s):.4g}"
+        )
+    (out / "sweep.csv").write_text("\n".join(rows) + "\n")
+    (out / "sweep.json").write_text(json.dumps(_finite(asdict(report)), indent=2) + "\n")
+    _plot(out / "sweep.png", report)
+
+
+def _plot(path: Path, report: SweepReport) -> None:
+    """Fig. 12 (RMSE against speed) and Fig. 13 (against rotation, one line per axis)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
+    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 3.6), squeeze=False)
+    for ax, kind in zip(axes[0], kinds, strict=True):
+        chosen = [s for s in report.settings if s.kind == kind]
+        for axis in sorted({s.axis for s in chosen}):
+            line = sorted((s.value, s.scores.rmse) for s in chosen if s.axis == axis and s.scores)
+            label = f"about {axis}" if axis else "model"
+            ax.plot([v for v, _ in line], [r for _, r in line], "o-", label=label)
+        ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
+        ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
+        ax.set_ylabel("RMSE (N)")
+        ax.set_title(f"{report.task}, {report.n} sequences per setting")
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,222 @@
+"""Datasets: parallel generation, manifest and split, resume, failures, cache, bad input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dresslog.cli.main import main
+from dresslog.dataset import (
+    Split,
+    cache_path,
+    generate,
+    load_dataset,
+    load_manifest,
+    trial_seed,
+)
+from dresslog.dataset import cache as cache_module
+from dresslog.errors import DatasetError, SimulationError
+from dresslog.io.reader import TrialReader
+from dresslog.spec import TrialSpec
+from tests.conftest import write_synthetic_trial
+
+FAKE = "tests.test_dataset:fake_record"
+FAILING_SEED = trial_seed(0, Split.TRAIN, 1, 0)
+
+
+class _Result:
+    outcome = "dressed"
+    steps = 20
+
+
+def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
+    """A recorder without pybullet (for failure paths): fails on one seed, or on every one."""
+    if spec.seed == FAILING_SEED or spec.speed == 9.0:
+        raise SimulationError(f"garment exploded (seed {spec.seed})")
+    write_synthetic_trial(Path(path), spec.task, steps=20)
+    return _Result()
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """4 real half-second gown trials (3 train, 1 test) made by the CLI with 2 workers."""
+    out = tmp_path_factory.mktemp("data") / "gown"
+    args = ["generate", "--task", "gown", "--trials", "4", "--out", str(out), "--workers", "2"]
+    args += ["--test-fraction", "0.25", "--duration", "0.5", "--quiet"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert "3/3 train, 1/1 test" in result.output
+    return out
+
+
+@pytest.fixture
+def copy(dataset: Path, tmp_path: Path) -> Path:
+    """A private copy of the dataset for tests that damage or extend it."""
+    return Path(shutil.copytree(dataset, tmp_path / "gown"))
+
+
+@pytest.mark.slow
+def test_generation_writes_trials_and_a_manifest_with_the_split(dataset: Path) -> None:
+    manifest = load_manifest(dataset)
+    assert manifest.complete and not manifest.failures
+    assert [e.file for e in manifest.split("train")] == [f"train/00000{i}.mcap" for i in range(3)]
+    assert [e.file for e in manifest.split("test")] == ["test/000000.mcap"]
+    for entry in manifest.trials:
+        with TrialReader(dataset / str(entry.file)) as reader:
+            assert reader.metadata.spec == entry.spec
+            assert reader.metadata.outcome == entry.outcome
+            assert len(reader.measurements) == entry.steps == 50
+        assert entry.spec.duration == 0.5 and entry.status == "ok" and len(entry.sha256) == 64
+    train_seeds = {e.spec.seed for e in manifest.split("train")}
+    test_seeds = {e.spec.seed for e in manifest.split("test")}
+    assert train_seeds.isdisjoint(test_seeds)
+
+
+def test_seeds_of_different_splits_slots_attempts_and_bases_never_collide() -> None:
+    seeds = {
+        trial_seed(base, split, slot, attempt)
+        for base in range(3)
+        for split in Split
+        for slot in range(40)
+        for attempt in range(5)
+    }
+    assert len(seeds) == 3 * 3 * 40 * 5
+
+
+@pytest.mark.slow
+def test_resume_recreates_a_deleted_trial_identically_and_keeps_the_rest(copy: Path) -> None:
+    before = load_manifest(copy)
+    (copy / "train/000001.mcap").unlink()
+    (copy / "train/.000002.mcap.1234.partial").write_bytes(b"left by a killed run")
+    mtimes = {p: p.stat().st_mtime_ns for p in copy.glob("*/*.mcap")}
+    after = generate("gown", 4, copy, workers=2, test_fraction=0.25, overrides={"duration": 0.5})
+    assert after.content_hash() == before.content_hash()  # same bytes: deterministic
+    assert {p: p.stat().st_mtime_ns for p in mtimes} == mtimes  # the others were skipped
+    assert not list(copy.glob("train/.*.partial"))
+
+
+@pytest.mark.slow
+def test_an_interrupted_generation_is_extended_where_it_stopped(copy: Path) -> None:
+    manifest = load_manifest(copy)
+    manifest.trials = [e for e in manifest.trials if e.slot == 0]  # as if stopped after two
+    manifest.save(copy)
+    assert not manifest.complete
+    resumed = generate(
+        "gown", 5, copy, workers=2, splits={"train": 4, "test": 1}, overrides={"duration": 0.5}
+    )
+    assert resumed.complete and len(resumed.split("train")) == 4
+
+
+def test_failed_trials_are_listed_with_reasons_and_replaced_by_fresh_seeds(tmp_path: Path) -> None:
+    manifest = generate("gown", 3, tmp_path, workers=2, test_fraction=0, recorder=FAKE)
+    assert manifest.complete and len(manifest.trials) == 3
+    (failure,) = manifest.failures
+    assert (failure.split, failure.slot, failure.attempt) == ("train", 1, 0)
+    assert "garment exploded" in str(failure.failure) and failure.outcome == "failed"
+    replacement = manifest.split("train")[1]
+    assert replacement.attempt == 1 and replacement.spec.seed == trial_seed(0, "train", 1, 1)
+    assert not list(tmp_path.glob("train/.*"))  # no half file of the failed attempt
+    # Resuming does not retry the failed seed.
+    again = generate("gown", 3, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
+    assert len(again.failures) == 1
+
+
+def test_a_slot_failing_every_seed_stops_generation_with_one_line(tmp_path: Path) -> None:
+    with pytest.raises(DatasetError, match=r"1 slot\(s\) failed 2 seeds.*garment exploded"):
+        generate(
+            "gown", 1, tmp_path, workers=1, overrides={"speed": 9.0}, max_attempts=2, recorder=FAKE
+        )
+    assert len(load_manifest(tmp_path).failures) == 2
+
+
+def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
+    generate("gown", 2, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
+    with pytest.raises(DatasetError, match="task gown, not shorts"):
+        generate("shorts", 2, tmp_path, workers=1, recorder=FAKE)
+    with pytest.raises(DatasetError, match="more than the 1 asked for"):
+        generate("gown", 1, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
+
+
+@pytest.mark.slow
+def test_cache_round_trip_matches_the_recordings(copy: Path, monkeypatch) -> None:
+    arrays = load_dataset(copy, workers=2, progress=False)
+    manifest = load_manifest(copy)
+    assert arrays.manifest_sha256 == manifest.content_hash()
+    assert arrays.phi.dtype == arrays.forces.dtype == np.float32
+    assert arrays.phi.shape == (4, 50, 9) and arrays.forces.shape == (4, 50, 300)
+    assert list(arrays.split) == ["test", "train", "train", "train"]
+    for i, entry in enumerate(manifest.trials):
+        with TrialReader(copy / str(entry.file)) as reader:
+            np.testing.assert_array_equal(arrays.sequences([i])[0], reader.measurements.phi)
+            np.testing.assert_array_equal(arrays.force_maps([i])[0], reader.force_map.forces)
+        assert arrays.outcomes[i] == entry.outcome and arrays.files[i] == entry.file
+    assert list(arrays.rows("test")) == [0]
+
+    def no_decoding(*args, **kwargs):
+        raise AssertionError("decoded MCAP although the cache is current")
+
+    monkeypatch.setattr(cache_module, "_build", no_decoding)
+    cached = load_dataset(copy, progress=False)
+    np.testing.assert_array_equal(cached.forces, arrays.forces)
+    np.testing.assert_array_equal(cached.lengths, arrays.lengths)
+
+
+@pytest.mark.slow
+def test_a_planted_or_damaged_cache_is_rebuilt_never_unpickled(copy: Path) -> None:
+    path = cache_path(copy, load_manifest(copy))
+    path.parent.mkdir()
+    np.savez(path, phi=np.array([object()], dtype=object))  # would need unpickling
+    arrays = load_dataset(copy, workers=1, progress=False)
+    assert arrays.phi.shape == (4, 50, 9)
+    path.write_bytes(path.read_bytes()[:1000])  # truncated
+    assert load_dataset(copy, workers=1, progress=False).forces.shape == (4, 50, 300)
+
+
+def test_a_folder_without_a_manifest_is_one_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(DatasetError, match=r"no manifest\.json; not a dataset folder"):
+        load_dataset(tmp_path)
+    (tmp_path / "manifest.json").write_text(json.dumps({"format": "something else"}))
+    with pytest.raises(DatasetError, match="not a dresslog dataset manifest"):
+        load_dataset(tmp_path)
+    (tmp_path / "manifest.json").write_text("{not json")
+    with pytest.raises(DatasetError, match="not readable JSON"):
+        load_dataset(tmp_path)
+
+
+@pytest.mark.slow
+def test_missing_or_corrupt_trials_are_named(copy: Path) -> None:
+    trial = copy / "train/000002.mcap"
+    data = bytearray(trial.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # same size, different bytes
+    trial.write_bytes(bytes(data))
+    with pytest.raises(DatasetError, match=r"train/000002\.mcap does not match its checksum"):
+        load_dataset(copy, workers=1, progress=False)
+    trial.unlink()
+    with pytest.raises(DatasetError, match=r"train/000002\.mcap listed in the manifest is missing"):
+        load_dataset(copy, workers=1, progress=False)
+
+
+@pytest.mark.parametrize("command", ["train", "eval"])
+def test_cli_bad_data_folder_is_one_line_and_exit_1(tmp_path: Path, command: str) -> None:
+    args = [command, str(tmp_path), "-o", str(tmp_path / "m")] if command == "train" else []
+    if command == "eval":
+        args = ["eval", str(tmp_path / "no-model"), str(tmp_path)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1
+    assert result.output.count("\n") == 1 and result.output.startswith("Error: ")
+    assert "Traceback" not in result.output
+
+
+def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkeypatch) -> None:
+    import sys
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if not installed
+    args = ["generate", "--task", "gown", "--trials", "2", "-o", str(tmp_path / "d")]
+    result = CliRunner().invoke(main, [*args, "--executor", "ray", "--duration", "0.2", "-q"])
+    assert result.exit_code == 1
+    assert "pip install 'dresslog[ray]'" in result.output

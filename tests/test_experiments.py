@@ -1,0 +1,110 @@
+"""`dresslog train`, `eval` and `sweep` on a small real dataset, and their bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dresslog.cli.main import main
+from dresslog.dataset import generate, load_manifest
+from dresslog.model.files import ModelCard, save_model
+from dresslog.model.numpy_lstm import expected_shapes
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("exp") / "gown"
+    generate("gown", 4, out, workers=2, test_fraction=0.25, overrides={"duration": 0.5})
+    return out
+
+
+@pytest.fixture(scope="module")
+def model(data: Path) -> Path:
+    out = data.parent / "model"
+    args = ["train", str(data), "-o", str(out), "--epochs", "2", "--hidden", "4", "--layers", "1"]
+    result = CliRunner().invoke(main, [*args, "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert "epoch 2: train loss" in result.output and "test_rmse" in result.output
+    return out
+
+
+def invoke(*args: str) -> tuple[int, str]:
+    result = CliRunner().invoke(main, [str(a) for a in args])
+    return result.exit_code, result.output
+
+
+@pytest.mark.slow
+def test_trained_model_card_names_its_data_and_test_scores(model: Path, data: Path) -> None:
+    card = json.loads((model / "card.json").read_text())
+    assert card["data"]["manifest_sha256"] == load_manifest(data).content_hash()
+    assert card["hidden"] == 4 and card["layers"] == 1 and card["hyperparameters"]["epochs"] == 2
+    assert card["metrics"]["test_n_sequences"] == 1.0
+    assert not list(data.parent.glob(".model.checkpoint.pt"))
+
+
+@pytest.mark.slow
+def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> None:
+    code, output = invoke("eval", model, data, "--json")
+    assert code == 0, output
+    report = json.loads(output)
+    assert report["split"] == "test" and report["overall"]["n"] == 1
+    assert set(report["overall"]) >= {"rmse", "zero_rmse", "ratio", "contact_precision"}
+    assert sum(s["n"] for s in report["per_outcome"].values()) == 1
+    code, output = invoke("eval", model, data, "-q")
+    assert code == 0 and "RMSE (N)" in output
+
+
+@pytest.mark.slow
+def test_sweep_writes_a_table_and_a_plot(model: Path, tmp_path: Path) -> None:
+    out = tmp_path / "sweep"
+    code, output = invoke(
+        "sweep", model, "--speeds", "0.2", "--rotations", "z:10", "-n", "2",
+        "--duration", "0.3", "--workers", "2", "-o", out, "-q",
+    )  # fmt: skip
+    assert code == 0, output
+    assert "in-range" in output and "speed:0.2" in output and "rot:z:10" in output
+    rows = (out / "sweep.csv").read_text().splitlines()
+    assert len(rows) == 4 and rows[1].startswith("in-range,baseline")
+    assert (out / "sweep.png").read_bytes()[:4] == b"\x89PNG"
+    speeds = {e.spec.speed for e in load_manifest(out / "speed_0.2").trials}
+    assert speeds == {0.2}
+
+
+def test_sweep_rejects_a_malformed_rotation(model: Path) -> None:
+    code, output = invoke("sweep", model, "--rotations", "q:5")
+    assert code == 1 and "is not AXIS:DEGREES" in output
+
+
+def _fake_model(path: Path, task: str) -> Path:
+    rng = np.random.default_rng(0)
+    n = 300 if task == "gown" else 400
+    weights = {
+        k: rng.normal(size=s).astype(np.float32) for k, s in expected_shapes(n, 4, 1, 9).items()
+    }
+    weights["input_mean"], weights["input_std"] = np.zeros(9, np.float32), np.ones(9, np.float32)
+    save_model(path, weights, ModelCard(task=task, n_points=n, hidden=4, layers=1))
+    return path
+
+
+def test_eval_refuses_a_model_for_the_other_task(data: Path, tmp_path: Path) -> None:
+    code, output = invoke("eval", _fake_model(tmp_path / "shorts", "shorts"), data)
+    assert code == 1 and output.count("\n") == 1
+    assert "model is for shorts" in output
+
+
+def test_eval_refuses_a_tampered_model(data: Path, tmp_path: Path) -> None:
+    path = _fake_model(tmp_path / "gown", "gown")
+    weights = path / "model.safetensors"
+    weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
+    code, output = invoke("eval", path, data)
+    assert code == 1 and "does not match the sha256" in output
+
+
+def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) -> None:
+    (tmp_path / "m").mkdir()
+    code, output = invoke("train", data, "-o", tmp_path / "m")
+    assert code == 1 and "model folder exists" in output
