@@ -1,0 +1,45 @@
+"""The replay engine: a source of steps, an estimator, sinks (Rerun, MCAP, metrics).
+
+One code path for `dresslog infer`, the live view of a running simulation and
+evaluation. Rerun is imported only when a Rerun sink writes.
+"""
+
+from dresslog.replay.engine import (
+    Estimator,
+    Replay,
+    Sink,
+    Step,
+    StepResult,
+    TrialContext,
+    run,
+    trial_context,
+    trial_steps,
+)
+from dresslog.replay.live import FanOut, SimulationSource, live_source, live_viewer
+from dresslog.replay.mcap_sink import McapSink
+from dresslog.replay.metrics import MetricsSink, TrialMetrics
+from dresslog.replay.pipeline import InferenceReport, bundled_model, replay_file
+from dresslog.replay.rerun_sink import RerunSink
+
+__all__ = [
+    "Estimator",
+    "FanOut",
+    "InferenceReport",
+    "McapSink",
+    "MetricsSink",
+    "Replay",
+    "RerunSink",
+    "SimulationSource",
+    "Sink",
+    "Step",
+    "StepResult",
+    "TrialContext",
+    "TrialMetrics",
+    "bundled_model",
+    "live_source",
+    "live_viewer",
+    "replay_file",
+    "run",
+    "trial_context",
+    "trial_steps",
+]

@@ -1,0 +1,30 @@
+"""`dresslog view FILE [--model M] [--web] [--save OUT.rrd]`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from dresslog.cli.common import reports_errors
+
+
+@click.command("view")
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder for an MCAP.")
+@click.option("--web", is_flag=True, help="Serve the web viewer on localhost; print its address.")
+@click.option("--save", type=click.Path(path_type=Path), help="Only write this .rrd; no viewer.")
+@click.option("--port", default=9090, show_default=True, help="Web viewer port (with --web).")
+@reports_errors
+def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int) -> None:
+    """Open a trial (MCAP) or a Rerun recording (.rrd) in the Rerun viewer.
+
+    An MCAP is inferred first when a model for its task is available (--model or
+    the bundled one), otherwise shown with ground truth alone.
+    """
+    from dresslog.replay.viewer import save_rrd, view_file
+
+    if save is not None:
+        click.echo(save_rrd(path, save, model=model))
+        return
+    view_file(path, model=model, web=web, web_port=port, echo=click.echo)

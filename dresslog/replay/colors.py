@@ -1,0 +1,50 @@
+"""One colour scale for ground truth and estimate: zero is neutral grey, force runs dark to bright.
+
+Zero gets its own colour (not the bottom of the ramp) so that, as in the
+paper's figures, the limb shape stays visible and contact stands out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Anchor colours of an inferno-like ramp, from the smallest force to `vmax`.
+_STOPS = np.array(
+    [
+        [40, 11, 84],
+        [101, 21, 110],
+        [159, 42, 99],
+        [212, 72, 66],
+        [245, 125, 21],
+        [250, 193, 39],
+        [252, 255, 164],
+    ],
+    dtype=np.float64,
+)
+ZERO = np.array([200, 200, 205], dtype=np.uint8)
+_LUT = np.stack(
+    [
+        np.interp(np.linspace(0, 1, 256), np.linspace(0, 1, len(_STOPS)), _STOPS[:, c])
+        for c in range(3)
+    ],
+    axis=1,
+).astype(np.uint8)
+
+
+def heat_colors(forces: np.ndarray, vmax: float) -> np.ndarray:
+    """RGB (..., 3) uint8 for force magnitudes (...,); values above `vmax` saturate."""
+    forces = np.asarray(forces, dtype=np.float32)
+    scale = 255.0 / vmax if vmax > 0 else 0.0
+    idx = np.clip(forces * scale, 0, 255).astype(np.uint8)
+    out = _LUT[idx]
+    out[forces <= 0] = ZERO
+    return out
+
+
+def color_scale(*maps: np.ndarray | None, quantile: float = 0.995) -> float:
+    """A shared `vmax` from the positive forces of all maps, robust to a few spikes."""
+    positive = [m[m > 0] for m in maps if m is not None and m.size]
+    values = np.concatenate(positive) if positive else np.zeros(0)
+    if not values.size:
+        return 1.0
+    return float(max(np.quantile(values, quantile), 1e-6))

@@ -1,0 +1,168 @@
+"""Live replay: a running simulation feeds the replay engine step by step.
+
+`simulate(spec, sink)` pushes `SimStart`/`SimStep` to a sink as it computes
+them; `SimulationSource` is such a sink, turning each step into the engine's
+`Step`, so `dresslog record --live` shows the estimate beside ground truth
+through the same code as `dresslog infer`. Nothing here imports pybullet.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, Self
+
+import numpy as np
+
+from dresslog.replay.engine import Estimator, Replay, Sink, Step, TrialContext, check_points
+from dresslog.replay.metrics import MetricsSink, TrialMetrics
+from dresslog.spec import TrialMetadata, TrialSpec
+
+if TYPE_CHECKING:
+    import rerun as rr
+
+    from dresslog.sim.simulate import SimResult, SimStart, SimStep
+
+#: Steps per Rerun flush in a live view: 10 steps = 100 ms of simulated time.
+LIVE_FLUSH_STEPS = 10
+
+
+class SimulationSource:
+    """A `simulate()` sink that replays each step through an estimator into engine sinks.
+
+    Use as a context manager around `simulate(spec, source)`: leaving it commits
+    the sinks, or aborts them if the simulation raised.
+    """
+
+    def __init__(self, estimator: Estimator | None, sinks: Sequence[Sink] = ()) -> None:
+        self.metrics = MetricsSink()
+        self.replay = Replay(estimator, [self.metrics, *sinks])
+        self.n_points = getattr(estimator, "n_points", None)
+
+    def start(self, info: SimStart) -> None:
+        metadata = TrialMetadata(task=info.spec.task, spec=info.spec)
+        context = TrialContext(metadata, info.limb_points, info.triangles)
+        if self.n_points is not None:
+            check_points(context, self.n_points)
+        self.replay.start(context)
+
+    def step(self, step: SimStep) -> None:
+        phi = np.concatenate([step.wrench[:6], step.twist[:3]]).astype(np.float32)
+        self.replay.push(
+            Step(
+                index=step.index,
+                t_ns=step.t_ns,
+                phi=phi,
+                truth=step.force_map,
+                pose=step.pose,
+                contacts=step.contacts,
+                garment=step.garment,
+            )
+        )
+
+    def finish(self) -> TrialMetrics:
+        self.replay.finish()
+        return self.metrics.metrics
+
+    def abort(self) -> None:
+        self.replay.abort()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is None:
+            self.finish()
+        else:
+            self.abort()
+
+
+class FanOut:
+    """One `simulate()` sink that forwards to several (e.g. the MCAP recorder and the live view)."""
+
+    def __init__(self, *sinks: Any) -> None:
+        self.sinks = sinks
+
+    def start(self, info: SimStart) -> None:
+        for sink in self.sinks:
+            sink.start(info)
+
+    def step(self, step: SimStep) -> None:
+        for sink in self.sinks:
+            sink.step(step)
+
+
+def live_viewer(
+    *,
+    spawn: bool = True,
+    connect: str | None = None,
+    application_id: str = "dresslog",
+) -> rr.RecordingStream:
+    """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
+    import rerun as rr
+
+    from dresslog.replay.blueprint import default_blueprint
+
+    rec = rr.RecordingStream(application_id)
+    if connect is not None:
+        rec.connect_grpc(connect, default_blueprint=default_blueprint())
+    elif spawn:
+        rec.spawn(default_blueprint=default_blueprint())
+    return rec
+
+
+def live_source(
+    model: str | Path | None,
+    task: str,
+    *,
+    recording: rr.RecordingStream | None = None,
+    vmax: float | None = None,
+) -> SimulationSource:
+    """What `dresslog record --live` passes to `simulate`: model (or bundled) -> live viewer.
+
+    Without a model (none given, none bundled) the live view shows ground truth alone.
+    """
+    from dresslog.replay.pipeline import bundled_model, resolve_model
+    from dresslog.replay.rerun_sink import RerunSink
+    from dresslog.spec import Task
+
+    estimator = None
+    if model is not None or bundled_model(Task(task)) is not None:
+        estimator = resolve_model(model, Task(task), None).estimator()
+    rec = recording if recording is not None else live_viewer()
+    sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS, vmax=vmax)
+    return SimulationSource(estimator, [sink])
+
+
+def record_live(
+    spec: TrialSpec,
+    path: str | Path,
+    *,
+    model: str | Path | None = None,
+    overwrite: bool = False,
+    recording: rr.RecordingStream | None = None,
+    vmax: float | None = None,
+) -> tuple[SimResult, TrialMetrics]:
+    """`dresslog record --live`: simulate `spec` to `path` while a viewer shows the replay.
+
+    The MCAP is written exactly as `record_trial` writes it; the live view gets the
+    same steps through `SimulationSource` (spawned viewer unless `recording` is given).
+    """
+    from dresslog.io.writer import TrialWriter
+    from dresslog.sim import WriterSink, simulate
+
+    metadata = TrialMetadata(task=spec.task, spec=spec)
+    with TrialWriter(path, metadata, overwrite=overwrite) as writer:
+        live = live_source(model, spec.task, recording=recording, vmax=vmax)
+        with live:
+            sink = WriterSink(writer)
+            result = simulate(spec, FanOut(sink, live))
+            sink.flush()
+        writer.metadata = metadata.model_copy(update={"outcome": result.outcome})
+    return result, live.metrics.metrics

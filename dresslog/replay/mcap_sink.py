@@ -1,0 +1,92 @@
+"""The MCAP sink: a copy of the replayed trial with `/limb/force_map/estimate` added.
+
+The copy is written through `TrialWriter` from the decoded trial, so it is a
+well-formed dresslog file (same metadata, every stream, new estimate channel
+replacing any old one) and appears under its name only when complete.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from dresslog.errors import TrialWriteError
+from dresslog.io.writer import TrialWriter
+from dresslog.trial import LimbPoints, Trial
+
+if TYPE_CHECKING:
+    from dresslog.replay.engine import StepResult, TrialContext
+
+
+class McapSink:
+    """Buffer the estimates; on close write the trial and the estimate channel in bulk."""
+
+    def __init__(self, path: str | Path, *, overwrite: bool = True) -> None:
+        self.path = Path(path)
+        self.overwrite = overwrite
+        self._trial: Trial | None = None
+        self._limb: LimbPoints | None = None
+        self._t_ns: list[int] = []
+        self._forces: list[np.ndarray] = []
+        self._contact: list[np.ndarray] = []
+
+    def open(self, context: TrialContext) -> None:
+        if context.trial is None:
+            raise TrialWriteError("an MCAP copy needs a recorded trial as source", path=self.path)
+        if not self.path.parent.is_dir():
+            raise TrialWriteError("folder does not exist; create it first", path=self.path)
+        if context.source_path is not None and self.path.resolve() == context.source_path.resolve():
+            raise TrialWriteError("would overwrite the trial being read", path=self.path)
+        self._trial = context.trial
+        self._limb = context.limb_points
+        self._t_ns, self._forces, self._contact = [], [], []
+
+    def write(self, result: StepResult) -> None:
+        if result.estimate is None or result.contact is None:
+            return
+        self._t_ns.append(result.step.t_ns)
+        self._forces.append(result.estimate)
+        self._contact.append(result.contact)
+
+    def close(self) -> None:
+        trial = self._trial
+        assert trial is not None
+        with TrialWriter(self.path, trial.metadata, overwrite=self.overwrite) as writer:
+            copy_trial(writer, trial, self._limb)
+            if self._t_ns:
+                writer.write_force_map(
+                    np.asarray(self._t_ns, dtype=np.int64),
+                    np.stack(self._forces),
+                    np.stack(self._contact),
+                    estimate=True,
+                )
+
+    def abort(self) -> None:
+        """Nothing is on disk before `close`, and `TrialWriter` cleans up after itself."""
+
+
+def copy_trial(writer: TrialWriter, trial: Trial, limb: LimbPoints | None = None) -> None:
+    """Every stream of `trial` except an old estimate, in bulk where the writer allows.
+
+    `limb` (default: the trial's) says where the estimate's points are; a converted
+    log without limb points gets the nominal limb its estimate was drawn on.
+    """
+    limb = trial.limb_points if trial.limb_points is not None else limb
+    if limb is not None:
+        writer.write_limb_points(int(trial.wrench.t_ns[0]), limb)
+    writer.write_wrench(trial.wrench.t_ns, trial.wrench.values)
+    writer.write_twist(trial.twist.t_ns, trial.twist.values)
+    if trial.pose is not None:
+        writer.write_pose(trial.pose.t_ns, trial.pose.values)
+    if trial.force_map is not None:
+        fm = trial.force_map
+        writer.write_force_map(fm.t_ns, fm.forces, fm.contact if fm.contact.size else None)
+    if trial.contacts is not None:
+        for t, items in zip(trial.contacts.t_ns.tolist(), trial.contacts.items, strict=True):
+            writer.write_contacts(t, items)
+    if trial.garment is not None:
+        g = trial.garment
+        for i, t in enumerate(g.t_ns.tolist()):
+            writer.write_garment(t, g.vertices[i], g.triangles if i == 0 else None)

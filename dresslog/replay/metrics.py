@@ -1,0 +1,70 @@
+"""RMSE against ground truth, per step and over a trial, as the paper defines it (Sec. V-B).
+
+The trial RMSE is sqrt(1/(TN) sum_t sum_i (f_ti - fhat_ti)^2): one mean over
+every step and point, not a mean of per-step RMSEs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from dresslog.replay.engine import StepResult, TrialContext
+
+
+def step_rmse(truth: np.ndarray, estimate: np.ndarray) -> float:
+    """RMSE between one ground-truth and one estimated force map, in newtons."""
+    diff = np.asarray(truth, dtype=np.float64) - estimate
+    return math.sqrt(float(diff @ diff) / max(len(diff), 1))
+
+
+@dataclass
+class TrialMetrics:
+    """What a replay measured: step count, RMSE (None without truth), zero-estimate RMSE."""
+
+    steps: int = 0
+    scored_steps: int = 0
+    rmse: float | None = None
+    zero_rmse: float | None = None
+    per_step: list[float] = field(default_factory=list)
+
+
+class MetricsSink:
+    """Accumulates squared errors so that the trial RMSE is exact at any step."""
+
+    def __init__(self) -> None:
+        self._reset()
+
+    def _reset(self) -> None:
+        self.metrics = TrialMetrics()
+        self._sq = 0.0
+        self._truth_sq = 0.0
+        self._count = 0
+
+    def open(self, context: TrialContext) -> None:
+        self._reset()
+
+    def write(self, result: StepResult) -> None:
+        self.metrics.steps += 1
+        truth, estimate = result.step.truth, result.estimate
+        if truth is None or estimate is None or result.rmse is None:
+            return
+        n = len(truth)
+        self._sq += result.rmse**2 * n
+        t64 = truth.astype(np.float64)
+        self._truth_sq += float(t64 @ t64)
+        self._count += n
+        self.metrics.scored_steps += 1
+        self.metrics.per_step.append(result.rmse)
+
+    def close(self) -> None:
+        if self._count:
+            self.metrics.rmse = math.sqrt(self._sq / self._count)
+            self.metrics.zero_rmse = math.sqrt(self._truth_sq / self._count)
+
+    def abort(self) -> None:
+        """Nothing to undo: metrics live in memory."""

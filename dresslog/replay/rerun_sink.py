@@ -1,0 +1,340 @@
+"""The Rerun sink: a replay as a Rerun recording, to an .rrd file or a live viewer.
+
+Steps are buffered and sent column-wise (`send_columns`, one call per entity
+per flush), never one log call per step per entity: a 700-step trial is a few
+dozen calls. A file sink flushes once at the end, so the colour scale can fit
+the whole trial, and writes under a temporary name that is renamed only when
+complete; a live sink flushes every few steps with a fixed colour scale.
+Rerun is imported lazily: `import dresslog.replay` stays cheap.
+"""
+
+from __future__ import annotations
+
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from dresslog.errors import TrialWriteError
+from dresslog.io.writer import temporary_path
+from dresslog.replay import blueprint as bp
+from dresslog.replay.colors import color_scale, heat_colors
+from dresslog.trial import contact_magnitudes
+
+if TYPE_CHECKING:
+    import rerun as rr
+
+    from dresslog.replay.engine import StepResult, TrialContext
+
+APPLICATION_ID = "dresslog"
+POINT_RADIUS = 0.01
+#: Contact arrows grow with force but saturate: ARROW_MAX m long, half of it at ARROW_HALF N.
+ARROW_MAX = 0.08
+ARROW_HALF = 0.5
+ARROW_COLOR = [200, 30, 30]
+#: Colour scale of a live view, where the trial's range is not known in advance (N).
+LIVE_VMAX = 0.5
+
+
+def check_output(path: Path) -> None:
+    """Fail before any work if the output cannot be written."""
+    if not path.parent.is_dir():
+        raise TrialWriteError("folder does not exist; create it first", path=path)
+    if path.is_dir():
+        raise TrialWriteError("is a folder; give a file name", path=path)
+
+
+@dataclass
+class _Buffer:
+    """Steps received since the last flush, as plain lists (cheap to append)."""
+
+    step: list[int] = field(default_factory=list)
+    t_ns: list[int] = field(default_factory=list)
+    phi: list[np.ndarray] = field(default_factory=list)
+    truth: list[np.ndarray | None] = field(default_factory=list)
+    estimate: list[np.ndarray | None] = field(default_factory=list)
+    rmse: list[float | None] = field(default_factory=list)
+    pose: list[np.ndarray | None] = field(default_factory=list)
+    contacts: list[np.ndarray | None] = field(default_factory=list)
+    garment: list[np.ndarray | None] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.step)
+
+
+class RerunSink:
+    """Log a replay to Rerun; `RerunSink(path)` for a file, `RerunSink(recording=...)` live."""
+
+    def __init__(
+        self,
+        path: str | Path | None = None,
+        *,
+        recording: rr.RecordingStream | None = None,
+        flush_every: int | None = None,
+        vmax: float | None = None,
+    ) -> None:
+        if (path is None) == (recording is None):
+            raise ValueError("give either an output path or a live recording stream")
+        self.path = None if path is None else Path(path)
+        self.recording = recording
+        self.flush_every = flush_every if recording is not None else None
+        self.vmax = vmax if vmax is not None or recording is None else LIVE_VMAX
+        self.context: TrialContext | None = None
+        self._buf = _Buffer()
+        self._tmp: Path | None = None
+        self._path_so_far: list[np.ndarray] = []
+
+    # -- sink protocol -----------------------------------------------------------
+    def open(self, context: TrialContext) -> None:
+        self.context = context
+        self._buf = _Buffer()
+        self._path_so_far = []
+        if self.path is not None:
+            check_output(self.path)
+        else:
+            assert self.recording is not None
+            self.recording.send_blueprint(self.blueprint(context.has_estimate))
+            self._send_static(context.has_estimate)
+
+    def write(self, result: StepResult) -> None:
+        b, s = self._buf, result.step
+        b.step.append(s.index)
+        b.t_ns.append(s.t_ns)
+        b.phi.append(s.phi)
+        b.truth.append(s.truth)
+        b.estimate.append(result.estimate)
+        b.rmse.append(result.rmse)
+        b.pose.append(s.pose)
+        b.contacts.append(s.contacts)
+        b.garment.append(s.garment)
+        if self.flush_every and len(b) >= self.flush_every:
+            self.flush()
+
+    def close(self) -> None:
+        if self.path is None:
+            self.flush()
+            if self.recording is not None:
+                self.recording.flush()
+            return
+        import rerun as rr
+
+        assert self.context is not None
+        has_estimate = self.context.has_estimate
+        self._tmp = temporary_path(self.path)
+        rec = rr.RecordingStream(APPLICATION_ID, recording_id=self._recording_id())
+        self.recording = rec
+        try:
+            rec.save(self._tmp, default_blueprint=self.blueprint(has_estimate))
+            if self.vmax is None:  # calibrated on the truth, so a poor estimate cannot rescale it
+                self.vmax = color_scale(*(_stack(self._buf.truth) or _stack(self._buf.estimate)))
+            self._send_static(has_estimate)
+            self.flush()
+            rec.flush()
+            rec.disconnect()
+            self._tmp.replace(self.path)
+        except BaseException:
+            self.abort()
+            raise
+        finally:
+            self.recording = None
+
+    def abort(self) -> None:
+        if self.path is not None and self.recording is not None:
+            self.recording.disconnect()
+            self.recording = None
+        if self._tmp is not None:
+            self._tmp.unlink(missing_ok=True)
+
+    def blueprint(self, has_estimate: bool = True) -> Any:
+        """The default layout, its camera framed on this trial's limb."""
+        limb = self.context.limb_points if self.context else None
+        return bp.default_blueprint(has_estimate, None if limb is None else limb.points)
+
+    # -- logging -----------------------------------------------------------------
+    def _recording_id(self) -> str:
+        """Readable and unique: two replays of one trial (say, two models) never merge."""
+        ctx = self.context
+        name = ctx.source_path.stem if ctx and ctx.source_path else "live"
+        return f"{name}-{uuid.uuid4().hex[:8]}"
+
+    def _send_static(self, has_estimate: bool) -> None:
+        """Limb points, garment triangles, labels, series styles and the spec, once."""
+        import rerun as rr
+
+        rec, ctx = self.recording, self.context
+        assert rec is not None and ctx is not None
+        limb = ctx.limb_points
+        if limb is not None:
+            pts = np.asarray(limb.points, dtype=np.float32)
+            side = pts[np.argmin(pts[:, 0])] - np.array([0.12, 0, 0], np.float32)
+            rec.log(bp.TRUTH_LIMB, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
+            label = rr.Points3D(side, labels="ground truth", radii=0.001, colors=[0, 0, 0])
+            rec.log(bp.TRUTH_LABEL, label, static=True)
+            if has_estimate:
+                offset = bp.estimate_offset(pts)
+                rec.log(bp.ESTIMATE, rr.Transform3D(translation=offset), static=True)
+                rec.log(bp.ESTIMATE_LIMB, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
+                label = rr.Points3D(side, labels="estimate", radii=0.001, colors=[0, 0, 0])
+                rec.log(bp.ESTIMATE_LABEL, label, static=True)
+        if ctx.garment_triangles is not None and len(ctx.garment_triangles):
+            rec.log(
+                bp.GARMENT,
+                rr.Mesh3D.from_fields(
+                    triangle_indices=np.asarray(ctx.garment_triangles, np.uint32),
+                    albedo_factor=[90, 140, 200, 110],
+                ),
+                static=True,
+            )
+        rec.log(bp.EE, rr.TransformAxes3D(0.08), static=True)
+        for path, names in (
+            (bp.EE_FORCE, ["fx", "fy", "fz"]),
+            (bp.EE_TORQUE, ["tx", "ty", "tz"]),
+            (bp.EE_VELOCITY, ["vx", "vy", "vz"]),
+        ):
+            rec.log(path, rr.SeriesLines(names=names), static=True)
+        rec.log(
+            bp.TOTAL_TRUTH, rr.SeriesLines(names="ground truth", colors=[90, 170, 255]), static=True
+        )
+        rec.log(
+            bp.TOTAL_ESTIMATE, rr.SeriesLines(names="estimate", colors=[230, 90, 20]), static=True
+        )
+        rec.log(bp.RMSE, rr.SeriesLines(names="RMSE", colors=[200, 30, 60]), static=True)
+        rec.log(
+            bp.SPEC, rr.TextDocument(self._spec_text(), media_type="text/markdown"), static=True
+        )
+
+    def _spec_text(self) -> str:
+        ctx = self.context
+        assert ctx is not None
+        source = f"`{ctx.source_path.name}`" if ctx.source_path else "live simulation"
+        vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
+        return (
+            f"**{ctx.metadata.task.value}** trial from {source}, outcome "
+            f"{ctx.metadata.outcome.value}. Colour: grey = no force, dark to bright = 0 to "
+            f"{vmax} (one scale for truth and estimate).\n\n```json\n"
+            f"{ctx.metadata.model_dump_json(indent=1, exclude={'software'})}\n```"
+        )
+
+    def flush(self) -> None:
+        """Send the buffered steps column-wise and empty the buffer."""
+        import rerun as rr
+
+        b, rec = self._buf, self.recording
+        if not len(b) or rec is None:
+            return
+        self._buf = _Buffer()
+        vmax = self.vmax if self.vmax is not None else 1.0
+        step = np.asarray(b.step, dtype=np.int64)
+        t_ns = np.asarray(b.t_ns, dtype=np.int64)
+
+        def index(mask: np.ndarray | None = None) -> list[rr.TimeColumn]:
+            s, t = (step, t_ns) if mask is None else (step[mask], t_ns[mask])
+            return [
+                rr.TimeColumn(bp.STEP, sequence=s),
+                rr.TimeColumn(bp.SIM_TIME, duration=t.astype("timedelta64[ns]")),
+            ]
+
+        def send(path: str, mask: np.ndarray | None, columns: Any) -> None:
+            rec.send_columns(path, indexes=index(mask), columns=columns)
+
+        phi = np.stack(b.phi).astype(np.float64)
+        send(bp.EE_FORCE, None, rr.Scalars.columns(scalars=phi[:, 0:3]))
+        send(bp.EE_TORQUE, None, rr.Scalars.columns(scalars=phi[:, 3:6]))
+        send(bp.EE_VELOCITY, None, rr.Scalars.columns(scalars=phi[:, 6:9]))
+        for maps, limb, total in (
+            (b.truth, bp.TRUTH_LIMB, bp.TOTAL_TRUTH),
+            (b.estimate, bp.ESTIMATE_LIMB, bp.TOTAL_ESTIMATE),
+        ):
+            mask, stacked = _present(maps)
+            if stacked is None:
+                continue
+            t, n = stacked.shape
+            flat = stacked.reshape(-1)
+            send(
+                limb,
+                mask,
+                [
+                    *rr.Points3D.columns(colors=heat_colors(flat, vmax)).partition([n] * t),
+                    *rr.AnyValues.columns(**{bp.FORCE_FIELD: _rows(flat, t, n)}),
+                ],
+            )
+            send(total, mask, rr.Scalars.columns(scalars=stacked.sum(axis=1, dtype=np.float64)))
+        mask = np.array([r is not None for r in b.rmse])
+        if mask.any():
+            values = np.array([r for r in b.rmse if r is not None], dtype=np.float64)
+            send(bp.RMSE, mask, rr.Scalars.columns(scalars=values))
+        self._send_pose(b, send)
+        self._send_contacts(b, send)
+        mask, garment = _present(b.garment)
+        if garment is not None:
+            g, v, _ = garment.shape
+            verts = rr.Mesh3D.columns(vertex_positions=garment.reshape(-1, 3)).partition([v] * g)
+            send(bp.GARMENT, mask, verts)
+
+    def _send_pose(self, b: _Buffer, send: Any) -> None:
+        import rerun as rr
+
+        mask, pose = _present(b.pose)
+        if pose is None:
+            return
+        send(bp.EE, mask, rr.Transform3D.columns(translation=pose[:, :3], quaternion=pose[:, 3:7]))
+        self._path_so_far.append(pose[:, :3])
+        path = np.concatenate(self._path_so_far)
+        assert self.recording is not None
+        self.recording.log(
+            bp.EE_PATH, rr.LineStrips3D([path], colors=[60, 60, 60], radii=0.002), static=True
+        )
+
+    def _send_contacts(self, b: _Buffer, send: Any) -> None:
+        import rerun as rr
+
+        mask = np.array([c is not None for c in b.contacts])
+        if not mask.any():
+            return
+        items = [c for c in b.contacts if c is not None]
+        counts = [len(c) for c in items]
+        allc = np.concatenate(items)
+        vectors = allc["normal_force"][:, None] * allc["normal"] + allc["friction"]
+        magnitude = contact_magnitudes(allc)[:, None]
+        length = ARROW_MAX * magnitude / (magnitude + ARROW_HALF)
+        send(
+            bp.CONTACTS,
+            mask,
+            rr.Points3D.columns(
+                positions=allc["position"],
+                radii=np.full(len(allc), 0.003),
+                colors=np.tile(np.array([[20, 20, 20]], np.uint8), (len(allc), 1)),
+            ).partition(counts),
+        )
+        send(
+            bp.CONTACT_FORCES,
+            mask,
+            rr.Arrows3D.columns(
+                origins=allc["position"],
+                vectors=vectors * (length / np.maximum(magnitude, 1e-12)),
+                colors=np.tile(np.array([ARROW_COLOR], np.uint8), (len(allc), 1)),
+            ).partition(counts),
+        )
+
+
+def _present(items: list[np.ndarray | None]) -> tuple[np.ndarray, np.ndarray | None]:
+    """Mask of the steps that have this item, and those items stacked (None if no step has)."""
+    mask = np.array([x is not None for x in items], dtype=bool)
+    if not mask.any():
+        return mask, None
+    return mask, np.stack([x for x in items if x is not None])
+
+
+def _rows(flat: np.ndarray, t: int, n: int) -> Any:
+    """`t` rows of `n` values as an Arrow list array: Rerun takes it without a Python loop."""
+    import pyarrow as pa
+
+    offsets = np.arange(0, t * n + 1, n, dtype=np.int32)
+    return pa.ListArray.from_arrays(pa.array(offsets), pa.array(flat))
+
+
+def _stack(items: list[np.ndarray | None]) -> list[np.ndarray]:
+    present = [x for x in items if x is not None]
+    return [np.stack(present)] if present else []

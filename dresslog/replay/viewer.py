@@ -1,0 +1,93 @@
+"""`dresslog view`: a trial or .rrd in the Rerun viewer, native or web, or just saved.
+
+An MCAP is first replayed into an .rrd (with the model when one is available,
+otherwise ground truth alone), so the viewer always opens a complete file with
+its default blueprint; the viewer itself is Rerun's own executable.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from urllib.parse import quote
+
+from dresslog.errors import DresslogError, TrialWriteError
+from dresslog.io.writer import temporary_path
+from dresslog.replay.pipeline import InferenceReport, replay_file
+from dresslog.replay.rerun_sink import check_output
+
+RRD_SUFFIXES = (".rrd",)
+
+
+def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = None) -> str:
+    """Write what `view` would show to `out`; returns a one-line description."""
+    path, out = Path(path), Path(out)
+    check_output(out)
+    if path.suffix in RRD_SUFFIXES:
+        if not path.is_file():
+            raise DresslogError("no such file", path=path)
+        tmp = temporary_path(out)
+        try:
+            shutil.copyfile(path, tmp)
+            tmp.replace(out)
+        except OSError as err:
+            tmp.unlink(missing_ok=True)
+            raise TrialWriteError(f"could not copy: {err.strerror}", path=out) from None
+        return f"{path} -> {out}"
+    report: InferenceReport = replay_file(
+        path, model=model, require_model=model is not None, rrd=out
+    )
+    return report.summary()
+
+
+def web_address(web_port: int, grpc_port: int) -> str:
+    """The URL that opens the web viewer connected to the local gRPC server."""
+    proxy = quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
+    return f"http://127.0.0.1:{web_port}/?url={proxy}"
+
+
+def viewer_command(rrd: Path, *, web: bool, web_port: int, grpc_port: int) -> list[str]:
+    """The `rerun` invocation: the native viewer, or a web viewer served on localhost only."""
+    cmd = [sys.executable, "-m", "rerun"]
+    if web:
+        cmd += ["--serve-web", "--bind", "127.0.0.1"]
+        cmd += ["--web-viewer-port", str(web_port), "--port", str(grpc_port)]
+    return [*cmd, str(rrd)]
+
+
+def view_file(
+    path: str | Path,
+    *,
+    model: str | Path | None = None,
+    web: bool = False,
+    web_port: int = 9090,
+    grpc_port: int = 9876,
+    echo: Callable[[str], None] = print,
+) -> None:
+    """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed (or Ctrl-C)."""
+    path = Path(path)
+    with tempfile.TemporaryDirectory(prefix="dresslog-view-") as tmp:
+        rrd = path
+        if path.suffix not in RRD_SUFFIXES:
+            rrd = Path(tmp) / f"{path.stem}.rrd"
+            echo(save_rrd(path, rrd, model=model))
+        elif not path.is_file():
+            raise DresslogError("no such file", path=path)
+        cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
+        if web:
+            echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")
+        process = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+        try:
+            _, err = process.communicate()
+        except KeyboardInterrupt:
+            process.terminate()
+            process.wait()
+            return
+        if process.returncode != 0:
+            last = (err or "").strip().splitlines()[-1:] or ["no output"]
+            hint = "" if web else "; without a display, try --web or --save"
+            raise DresslogError(f"the Rerun viewer failed: {last[0][:200]}{hint}", path=path)

@@ -1,0 +1,197 @@
+"""The replay engine: streaming equals whole-sequence inference, sinks agree, bad input stops."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dresslog.cli.main import main
+from dresslog.errors import TrialFormatError
+from dresslog.io import well_known as wk
+from dresslog.io.reader import TrialReader, read_trial
+from dresslog.model import ModelCard, Normalisation, load_model, save_model
+from dresslog.model.numpy_lstm import expected_shapes
+from dresslog.model.postprocess import sequence_rmse
+from dresslog.replay.engine import Replay, run, trial_context, trial_steps
+from dresslog.replay.live import SimulationSource
+from dresslog.replay.mcap_sink import McapSink
+from dresslog.replay.metrics import MetricsSink
+from dresslog.replay.pipeline import MODELS_ENV, replay_file
+from dresslog.spec import Task
+from tests.test_bad_input import TWIST, _raw_mcap, _vectors, missing_twist, nan_wrench
+
+STEPS = 40
+N_POINTS = {Task.GOWN: 300, Task.SHORTS: 400}
+
+
+def save_random_model(folder: Path, task: Task = Task.GOWN, seed: int = 0) -> Path:
+    """A real model folder (save_model) with random weights large enough to saturate gates."""
+    rng = np.random.default_rng(seed)
+    shapes = expected_shapes(N_POINTS[task])
+    weights = {k: rng.normal(0, 0.4, size=s).astype(np.float32) for k, s in shapes.items()}
+    weights["input_mean"][:] = 0.0
+    weights["input_std"][:] = 2.0
+    path = folder / f"model-{task.value}"
+    norm = Normalisation(mean=[0.0] * 9, std=[2.0] * 9)
+    save_model(path, weights, ModelCard(task=task, n_points=N_POINTS[task], normalisation=norm))
+    return path
+
+
+@pytest.fixture
+def gown(make_trial, tmp_path: Path) -> tuple[Path, Path]:
+    trial, _ = make_trial(Task.GOWN, STEPS)
+    return trial, save_random_model(tmp_path)
+
+
+def test_step_by_step_replay_equals_whole_sequence_inference(gown) -> None:
+    trial_path, model_path = gown
+    trial = read_trial(trial_path)
+    model = load_model(model_path)
+    results = run(trial_context(trial), trial_steps(trial), model.estimator())
+    streamed = np.stack([r.estimate for r in results])
+    whole, contact = model.estimator().run(trial.measurements.phi)
+    assert streamed.shape == (STEPS, 300)
+    assert np.abs(streamed).max() > 0.01, "the test model should estimate some force"
+    np.testing.assert_allclose(streamed, whole, atol=1e-5)
+    np.testing.assert_allclose(np.stack([r.contact for r in results]), contact, atol=1e-5)
+
+
+def test_metrics_match_the_papers_rmse(gown) -> None:
+    trial_path, model_path = gown
+    trial = read_trial(trial_path)
+    metrics = MetricsSink()
+    results = run(
+        trial_context(trial), trial_steps(trial), load_model(model_path).estimator(), [metrics]
+    )
+    estimate = np.stack([r.estimate for r in results])
+    truth = trial.force_map.forces
+    assert metrics.metrics.rmse == pytest.approx(sequence_rmse(truth, estimate), rel=1e-6)
+    assert metrics.metrics.zero_rmse == pytest.approx(sequence_rmse(truth, 0 * truth), rel=1e-6)
+    assert metrics.metrics.per_step[3] == pytest.approx(sequence_rmse(truth[3], estimate[3]))
+
+
+def test_mcap_copy_holds_the_trial_and_the_engines_estimate(gown, tmp_path: Path) -> None:
+    trial_path, model_path = gown
+    trial = read_trial(trial_path)
+    out = tmp_path / "with_estimate.mcap"
+    results = run(
+        trial_context(trial, trial_path),
+        trial_steps(trial),
+        load_model(model_path).estimator(),
+        [McapSink(out)],
+    )
+    with TrialReader(out) as reader:
+        copy = reader.read()
+    assert copy.metadata == trial.metadata
+    np.testing.assert_array_equal(copy.wrench.values, trial.wrench.values)
+    np.testing.assert_array_equal(copy.force_map.forces, trial.force_map.forces)
+    assert len(copy.garment.t_ns) == len(trial.garment.t_ns)
+    np.testing.assert_array_equal(copy.estimate.forces, np.stack([r.estimate for r in results]))
+    np.testing.assert_array_equal(copy.estimate.contact, np.stack([r.contact for r in results]))
+
+
+def test_a_live_simulation_goes_through_the_same_engine(gown) -> None:
+    from dresslog.sim.simulate import SimStart, SimStep
+
+    trial_path, model_path = gown
+    trial = read_trial(trial_path)
+    model = load_model(model_path)
+    expected = run(trial_context(trial), trial_steps(trial), model.estimator())
+    live = SimulationSource(model.estimator())
+    with live:
+        live.start(SimStart(trial.metadata.spec, trial.limb_points, trial.garment.triangles))
+        for step in trial_steps(trial):
+            i = step.index
+            wrench, twist = trial.wrench.values[i], trial.twist.values[i]
+            sim = SimStep(i, step.t_ns, wrench, twist, step.pose, step.contacts, step.truth, None)
+            live.step(sim)
+    assert live.metrics.metrics.steps == STEPS
+    assert live.metrics.metrics.per_step == pytest.approx([r.rmse for r in expected])
+
+
+def test_a_nan_measurement_stops_a_live_replay(gown) -> None:
+    trial_path, model_path = gown
+    trial = read_trial(trial_path)
+    steps = list(trial_steps(trial))
+    bad = steps[3].__class__(3, steps[3].t_ns, np.full(9, np.nan, np.float32))
+    replay = Replay(load_model(model_path).estimator())
+    replay.start(trial_context(trial))
+    with pytest.raises(TrialFormatError, match="NaN or infinite measurement at step 3"):
+        replay.push(bad)
+
+
+def test_infer_prints_rmse_and_writes_both_outputs(gown, tmp_path: Path) -> None:
+    trial_path, model_path = gown
+    rrd, mcap = tmp_path / "out.rrd", tmp_path / "out.mcap"
+    args = ["infer", str(trial_path), "--model", str(model_path), "-o", str(rrd)]
+    result = CliRunner().invoke(main, [*args, "--mcap-out", str(mcap)])
+    assert result.exit_code == 0, result.output
+    assert "40 steps" in result.output and "RMSE" in result.output
+    assert rrd.stat().st_size > 0 and mcap.stat().st_size > 0
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
+
+
+def test_infer_finds_the_bundled_model_for_the_trials_task(gown, tmp_path, monkeypatch) -> None:
+    trial_path, model_path = gown
+    (tmp_path / "bundled").mkdir()
+    model_path.rename(tmp_path / "bundled" / "gown")
+    monkeypatch.setenv(MODELS_ENV, str(tmp_path / "bundled"))
+    report = replay_file(trial_path, rrd=tmp_path / "x.rrd")
+    assert report.model == tmp_path / "bundled" / "gown"
+    assert report.rmse is not None
+
+
+def other_task_model(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
+    return trial, save_random_model(tmp, Task.SHORTS)
+
+
+def no_twist(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
+    return missing_twist(tmp, trial), model
+
+
+def no_wrench(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
+    path = tmp / "no_wrench.mcap"
+    _raw_mcap(path, {wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6))))}, True)
+    return path, model
+
+
+def nan_measurement(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
+    return nan_wrench(tmp, trial), model
+
+
+def no_bundled_model(tmp: Path, trial: Path, model: Path) -> tuple[Path, None]:
+    return trial, None
+
+
+def missing_folder(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
+    return trial, model
+
+
+BAD = [
+    (other_task_model, "model is for shorts but the trial is gown", "out.rrd"),
+    (no_twist, "missing channel /ee/twist", "out.rrd"),
+    (no_wrench, "missing channel /ee/wrench", "out.rrd"),
+    (nan_measurement, "channel /ee/wrench: NaN", "out.rrd"),
+    (no_bundled_model, "no bundled gown model", "out.rrd"),
+    (missing_folder, "folder does not exist", "missing/out.rrd"),
+]
+
+
+@pytest.mark.parametrize(("make", "message", "output"), BAD, ids=[b[0].__name__ for b in BAD])
+def test_bad_input_is_one_line_and_writes_nothing(
+    gown, tmp_path: Path, monkeypatch, make, message: str, output: str
+) -> None:
+    monkeypatch.setattr("dresslog.replay.pipeline.bundled_model", lambda task: None)
+    trial, model = make(tmp_path, *gown)
+    out = tmp_path / "results"
+    out.mkdir()
+    args = ["infer", str(trial), "-o", str(out / output), "--mcap-out", str(out / "copy.mcap")]
+    result = CliRunner().invoke(main, [*args, *(["--model", str(model)] if model else [])])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: "), result.output
+    assert message in lines[0]
+    assert list(out.iterdir()) == []

@@ -1,0 +1,161 @@
+"""The Rerun recording, read back with Rerun's own reader: entities, steps, values, layout."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dresslog.cli.main import main
+from dresslog.io.reader import read_trial
+from dresslog.model import load_model
+from dresslog.replay import blueprint as bp
+from dresslog.replay.engine import run, trial_context, trial_steps
+from dresslog.spec import Task
+from tests.test_replay import STEPS, save_random_model
+
+rc = pytest.importorskip("rerun.chunk")
+
+
+def temporal(rrd: Path) -> dict[str, list]:
+    """Entity path (no leading slash) -> its non-static chunks as Arrow record batches."""
+    out: dict[str, list] = {}
+    for chunk in rc.RrdReader(rrd).store().stream():
+        if not chunk.is_static:
+            out.setdefault(chunk.entity_path.lstrip("/"), []).append(chunk.to_record_batch())
+    return out
+
+
+def column(batches: list, name: str) -> list:
+    return [v for batch in batches for v in batch.column(name).to_pylist()]
+
+
+@pytest.fixture
+def inferred(make_trial, tmp_path: Path) -> tuple[Path, Path, Path]:
+    trial, _ = make_trial(Task.GOWN, STEPS)
+    model = save_random_model(tmp_path)
+    rrd = tmp_path / "trial.rrd"
+    result = CliRunner().invoke(main, ["infer", str(trial), "-m", str(model), "-o", str(rrd)])
+    assert result.exit_code == 0, result.output
+    return trial, model, rrd
+
+
+def test_recording_has_every_entity_for_every_step(inferred) -> None:
+    _, _, rrd = inferred
+    entities = temporal(rrd)
+    per_step = [
+        bp.TRUTH_LIMB, bp.ESTIMATE_LIMB, bp.EE, bp.CONTACTS, bp.CONTACT_FORCES, bp.EE_FORCE,
+        bp.EE_TORQUE, bp.EE_VELOCITY, bp.TOTAL_TRUTH, bp.TOTAL_ESTIMATE, bp.RMSE,
+    ]  # fmt: skip
+    for path in per_step:
+        assert column(entities[path], bp.STEP) == list(range(STEPS)), path
+    assert column(entities[bp.GARMENT], bp.STEP) == list(range(0, STEPS, 10))
+    sim_time = column(entities[bp.EE_FORCE], bp.SIM_TIME)
+    assert (sim_time[1] - sim_time[0]).total_seconds() == pytest.approx(0.01)
+    static = {c.entity_path.lstrip("/") for c in rc.RrdReader(rrd).store().stream() if c.is_static}
+    assert {bp.SPEC, bp.EE_PATH, bp.ESTIMATE, bp.GARMENT} <= static
+    assert rc.RrdReader(rrd).blueprints(), "the default blueprint is in the file"
+
+
+def test_logged_estimate_equals_the_engines_output(inferred) -> None:
+    trial_path, model_path, rrd = inferred
+    trial = read_trial(trial_path)
+    results = run(trial_context(trial), trial_steps(trial), load_model(model_path).estimator())
+    entities = temporal(rrd)
+    logged = np.array(column(entities[bp.ESTIMATE_LIMB], bp.FORCE_FIELD), dtype=np.float32)
+    engine = np.stack([r.estimate for r in results])
+    np.testing.assert_array_equal(logged, engine)
+    truth = np.array(column(entities[bp.TRUTH_LIMB], bp.FORCE_FIELD), dtype=np.float32)
+    np.testing.assert_array_equal(truth, trial.force_map.forces)
+    rmse = np.array(column(entities[bp.RMSE], "Scalars:scalars")).ravel()
+    np.testing.assert_allclose(rmse, [r.rmse for r in results], rtol=1e-12)
+    total = np.array(column(entities[bp.TOTAL_ESTIMATE], "Scalars:scalars")).ravel()
+    np.testing.assert_allclose(total, engine.sum(axis=1), rtol=1e-5)
+
+
+def test_rerun_verifies_the_recording(inferred) -> None:
+    _, _, rrd = inferred
+    check = subprocess.run(
+        [sys.executable, "-m", "rerun", "rrd", "verify", str(rrd)], capture_output=True, text=True
+    )
+    assert check.returncode == 0, check.stderr[-2000:]
+
+
+def test_view_save_without_a_model_shows_ground_truth_alone(make_trial, tmp_path, monkeypatch):
+    monkeypatch.setattr("dresslog.replay.pipeline.bundled_model", lambda task: None)
+    trial, _ = make_trial(Task.GOWN, 12)
+    rrd = tmp_path / "view.rrd"
+    result = CliRunner().invoke(main, ["view", str(trial), "--save", str(rrd)])
+    assert result.exit_code == 0, result.output
+    assert "ground truth only" in result.output
+    entities = temporal(rrd)
+    assert bp.TRUTH_LIMB in entities and bp.ESTIMATE_LIMB not in entities
+
+
+def test_view_save_copies_an_rrd(inferred, tmp_path: Path) -> None:
+    _, _, rrd = inferred
+    out = tmp_path / "copy.rrd"
+    result = CliRunner().invoke(main, ["view", str(rrd), "--save", str(out)])
+    assert result.exit_code == 0, result.output
+    assert out.read_bytes() == rrd.read_bytes()
+
+
+def _software_vulkan() -> bool:
+    return any(Path("/usr/share/vulkan/icd.d").glob("lvp_icd*.json"))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _software_vulkan(), reason="needs Mesa's software Vulkan (lavapipe)")
+def test_default_layout_renders_headless(inferred, tmp_path: Path) -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    from screenshot import capture
+
+    _, _, rrd = inferred
+    png = tmp_path / "shot.png"
+    capture(rrd, png, step=20, port=9871, settle=1.0)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.slow
+def test_record_live_streams_the_simulation_through_the_engine(tmp_path: Path) -> None:
+    import rerun as rr
+
+    from dresslog.replay.live import record_live
+    from dresslog.sim import random_spec
+
+    model = save_random_model(tmp_path)
+    rrd = tmp_path / "live.rrd"
+    rec = rr.RecordingStream("dresslog-test")
+    rec.save(rrd)
+    spec = random_spec(Task.GOWN, 3, duration=0.25)
+    result, metrics = record_live(spec, tmp_path / "live.mcap", model=model, recording=rec)
+    rec.flush()
+    rec.disconnect()
+    assert metrics.steps == result.steps == 25
+    assert metrics.rmse is not None
+    entities = temporal(rrd)
+    assert column(entities[bp.ESTIMATE_LIMB], bp.STEP) == list(range(25))
+    assert len(column(entities[bp.GARMENT], bp.STEP)) >= 2
+    assert read_trial(tmp_path / "live.mcap").force_map.forces.shape == (25, 300)
+
+
+def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> None:
+    from dresslog.io.writer import TrialWriter
+    from dresslog.replay.pipeline import replay_file
+    from dresslog.spec import TrialMetadata
+
+    t_ns = np.arange(15, dtype=np.int64) * 10_000_000
+    log = tmp_path / "converted.mcap"
+    with TrialWriter(log, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_wrench(t_ns, np.random.default_rng(0).normal(size=(15, 6)))
+        writer.write_twist(t_ns, np.random.default_rng(1).normal(size=(15, 6)))
+    rrd = tmp_path / "converted.rrd"
+    report = replay_file(log, model=save_random_model(tmp_path), rrd=rrd)
+    assert report.steps == 15 and report.rmse is None
+    entities = temporal(rrd)
+    assert len(column(entities[bp.ESTIMATE_LIMB], bp.FORCE_FIELD)[0]) == 300
+    assert bp.TRUTH_LIMB not in entities
