@@ -7,6 +7,7 @@ from collections.abc import Callable
 from typing import ParamSpec, TypeVar
 
 import click
+from pydantic import ValidationError
 
 from dresslog.errors import DresslogError
 
@@ -23,8 +24,10 @@ def reports_errors(command: Callable[P, R]) -> Callable[P, R]:
             return command(*args, **kwargs)
         except DresslogError as err:
             raise click.ClickException(str(err)) from None
+        except ValidationError as err:  # a spec built from options: name the bad value
+            first = err.errors()[0]
+            where = ".".join(str(part) for part in first["loc"]) or "value"
+            raise click.ClickException(f"invalid {where}: {first['msg']}") from None
 
     return wrapper
 
-
-existing_file = click.Path(exists=False, dir_okay=True, path_type=str)

@@ -2,36 +2,42 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
-from dresslog.errors import DresslogError
+from dresslog.cli.common import reports_errors
 from dresslog.spec import LimbRotation, Task
 
 
 @click.command("record")
 @click.option("--task", type=click.Choice([t.value for t in Task]), required=True)
-@click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
-@click.option("--seed", type=int, default=0, show_default=True, help="draws the random spec")
-@click.option("--speed", type=float, help="end-effector speed, m/s")
-@click.option("--offset", type=float, nargs=3, help="limb offset X Y Z, m")
-@click.option("--rotation", type=(click.Choice(["x", "y", "z"]), float), help="AXIS DEG")
-@click.option("--duration", type=float, help="recorded motion, s")
-@click.option("--overwrite", is_flag=True, help="replace an existing file")
-def record(task, output, seed, speed, offset, rotation, duration, overwrite) -> None:
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True)
+@click.option("--seed", type=int, default=0, show_default=True, help="Draws the random spec.")
+@click.option("--speed", type=float, help="End-effector speed, m/s.")
+@click.option("--offset", type=float, nargs=3, help="Limb offset X Y Z, m.")
+@click.option("--rotation", type=(click.Choice(["x", "y", "z"]), float), help="AXIS DEG.")
+@click.option("--duration", type=float, help="Recorded motion, s.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing file.")
+@click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
+@click.option("--model", type=click.Path(path_type=Path), help="Model for --live [bundled].")
+@reports_errors
+def record(task, output, seed, speed, offset, rotation, duration, overwrite, live, model) -> None:
     """Simulate one trial (random spec from --seed, or set explicitly) and record it."""
     from dresslog.sim import random_spec, record_trial
 
-    overrides: dict[str, object] = {}
-    if speed is not None:
-        overrides["speed"] = speed
+    overrides: dict[str, object] = {"speed": speed, "duration": duration}
     if offset:
         overrides["limb_offset"] = tuple(offset)
     if rotation:
         overrides["limb_rotation"] = LimbRotation(axis=rotation[0], degrees=rotation[1])
-    if duration is not None:
-        overrides["duration"] = duration
-    try:
-        result = record_trial(random_spec(task, seed, **overrides), output, overwrite=overwrite)
-    except (DresslogError, ValueError) as err:
-        raise click.ClickException(str(err)) from err
+    spec = random_spec(task, seed, **{k: v for k, v in overrides.items() if v is not None})
+    if live:
+        from dresslog.replay.live import record_live
+
+        result, metrics = record_live(spec, output, model=model, overwrite=overwrite)
+        if metrics.rmse is not None:
+            click.echo(f"estimate RMSE {metrics.rmse:.4g} N (all-zero {metrics.zero_rmse:.4g} N)")
+    else:
+        result = record_trial(spec, output, overwrite=overwrite)
     click.echo(result.summary())

@@ -15,7 +15,7 @@ from dresslog.replay.engine import (
     trial_context,
     trial_steps,
 )
-from dresslog.replay.live import FanOut, SimulationSource, live_source, live_viewer
+from dresslog.replay.live import SimulationSource, live_source, live_viewer
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.replay.pipeline import InferenceReport, bundled_model, replay_file
@@ -23,7 +23,6 @@ from dresslog.replay.rerun_sink import RerunSink
 
 __all__ = [
     "Estimator",
-    "FanOut",
     "InferenceReport",
     "McapSink",
     "MetricsSink",

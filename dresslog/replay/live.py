@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, Self
+from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
@@ -83,21 +83,6 @@ class SimulationSource:
             self.abort()
 
 
-class FanOut:
-    """One `simulate()` sink that forwards to several (e.g. the MCAP recorder and the live view)."""
-
-    def __init__(self, *sinks: Any) -> None:
-        self.sinks = sinks
-
-    def start(self, info: SimStart) -> None:
-        for sink in self.sinks:
-            sink.start(info)
-
-    def step(self, step: SimStep) -> None:
-        for sink in self.sinks:
-            sink.step(step)
-
-
 def live_viewer(
     *,
     spawn: bool = True,
@@ -154,15 +139,9 @@ def record_live(
     The MCAP is written exactly as `record_trial` writes it; the live view gets the
     same steps through `SimulationSource` (spawned viewer unless `recording` is given).
     """
-    from dresslog.io.writer import TrialWriter
-    from dresslog.sim import WriterSink, simulate
+    from dresslog.sim import record_trial
 
-    metadata = TrialMetadata(task=spec.task, spec=spec)
-    with TrialWriter(path, metadata, overwrite=overwrite) as writer:
-        live = live_source(model, spec.task, recording=recording, vmax=vmax)
-        with live:
-            sink = WriterSink(writer)
-            result = simulate(spec, FanOut(sink, live))
-            sink.flush()
-        writer.metadata = metadata.model_copy(update={"outcome": result.outcome})
+    live = live_source(model, spec.task, recording=recording, vmax=vmax)
+    with live:
+        result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
     return result, live.metrics.metrics

@@ -1,6 +1,6 @@
 """The pybullet dressing simulator (the only package that imports pybullet)."""
 
-from dresslog.sim.record import WriterSink, record_trial
+from dresslog.sim.record import FanOut, WriterSink, record_trial
 from dresslog.sim.simulate import (
     SimResult,
     SimStart,
@@ -11,6 +11,7 @@ from dresslog.sim.simulate import (
 )
 
 __all__ = [
+    "FanOut",
     "SimResult",
     "SimStart",
     "SimStep",

@@ -6,12 +6,13 @@ path removes its temporary file, so no file appears under the final name.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from dresslog.io.writer import TrialWriter
-from dresslog.sim.simulate import SimResult, SimStart, SimStep, simulate
+from dresslog.sim.simulate import SimResult, SimStart, SimStep, StepSink, simulate
 from dresslog.spec import TrialMetadata, TrialSpec
 
 
@@ -52,12 +53,33 @@ class WriterSink:
         self.writer.write_force_map(t, np.asarray(self._fmap, dtype=np.float32))
 
 
-def record_trial(spec: TrialSpec, path: str | Path, *, overwrite: bool = False) -> SimResult:
-    """Simulate `spec` and write it to `path` (atomically); returns the result summary."""
+class FanOut:
+    """One `simulate()` sink that forwards to several (e.g. the recorder and a live view)."""
+
+    def __init__(self, *sinks: StepSink) -> None:
+        self.sinks = sinks
+
+    def start(self, info: SimStart) -> None:
+        for sink in self.sinks:
+            sink.start(info)
+
+    def step(self, step: SimStep) -> None:
+        for sink in self.sinks:
+            sink.step(step)
+
+
+def record_trial(
+    spec: TrialSpec,
+    path: str | Path,
+    *,
+    overwrite: bool = False,
+    sinks: Sequence[StepSink] = (),
+) -> SimResult:
+    """Simulate `spec` and write it to `path` (atomically); `sinks` see every step too."""
     metadata = TrialMetadata(task=spec.task, spec=spec)
     with TrialWriter(path, metadata, overwrite=overwrite) as writer:
         sink = WriterSink(writer)
-        result = simulate(spec, sink)
+        result = simulate(spec, FanOut(sink, *sinks) if sinks else sink)
         sink.flush()
         writer.metadata = metadata.model_copy(update={"outcome": result.outcome})
     return result

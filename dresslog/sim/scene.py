@@ -14,9 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pybullet as pb
 
 from dresslog.limb import Limb
+from dresslog.sim._pybullet import pb
 from dresslog.sim.garments import Garment
 from dresslog.spec import SimParams
 
