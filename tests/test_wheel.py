@@ -44,6 +44,9 @@ def test_wheel_holds_the_cli_and_schemas_inside_the_package(venv: Path) -> None:
     in_repo |= {f"dresslog/{p.relative_to(REPO).as_posix()}" for p in (REPO / "cli").glob("*.py")}
     installed = {p.relative_to(site).as_posix() for p in (site / "dresslog").rglob("*.py")}
     assert in_repo <= installed, f"missing from the wheel: {sorted(in_repo - installed)}"
+    samples = {p.relative_to(REPO).as_posix() for p in (REPO / "samples").rglob("*") if p.is_file()}
+    shipped = {p.relative_to(site / "dresslog").as_posix() for p in (site / "dresslog").rglob("*")}
+    assert samples - {"samples/__init__.py"} <= shipped
 
 
 def test_installed_command_reads_a_trial_outside_the_checkout(venv: Path, tmp_path: Path) -> None:

@@ -1,0 +1,1 @@
+"""Bundled sample trials and models; installed as `dresslog.samples` so a wheel has them too."""
