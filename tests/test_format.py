@@ -9,9 +9,10 @@ import pytest
 
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
+from dresslog.io.files import temporary_path
 from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader, read_trial
-from dresslog.io.writer import TrialWriter, temporary_path
+from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE
 

@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dresslog.dataset.manifest import Manifest, Split, check_files, load_manifest, sha256_file
+from dresslog.dataset.manifest import Manifest, Split, check_files, load_manifest
 from dresslog.errors import DatasetError, TrialFormatError
+from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
 
 CACHE_DIR = ".cache"
@@ -142,10 +143,8 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
 def _write(path: Path, arrays: dict[str, np.ndarray]) -> None:
     """Uncompressed (force maps are read at disk speed), written atomically."""
     path.parent.mkdir(exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    with tmp.open("wb") as stream:
+    with atomic_path(path) as tmp, tmp.open("wb") as stream:
         np.savez(stream, **arrays)
-    tmp.replace(path)
     for old in path.parent.glob("arrays-*.npz"):
         if old != path:
             old.unlink(missing_ok=True)

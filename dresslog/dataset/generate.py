@@ -30,10 +30,10 @@ from dresslog.dataset.manifest import (
     Split,
     Status,
     load_manifest,
-    sha256_file,
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogError, SimulationError
+from dresslog.io.files import sha256_file
 from dresslog.spec import Outcome, Task, TrialSpec
 
 #: Attempts per slot before generation gives up on it (each attempt is a fresh seed).

@@ -25,6 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from dresslog import __version__
 from dresslog.errors import DatasetError
+from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Outcome, Task, TrialSpec
 
 MANIFEST_FILE = "manifest.json"
@@ -154,12 +155,10 @@ class Manifest(BaseModel):
         path = Path(root) / MANIFEST_FILE
         self.updated = datetime.now(UTC).isoformat(timespec="seconds")
         self.trials.sort(key=lambda e: (e.split.value, e.slot))
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
-        with tmp.open("w", encoding="utf-8") as stream:
+        with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8") as stream:
             stream.write(self.model_dump_json(indent=1) + "\n")
             stream.flush()
             os.fsync(stream.fileno())
-        tmp.replace(path)
         return path
 
 
@@ -192,14 +191,6 @@ def load_manifest(root: str | Path) -> Manifest:
         first = err.errors()[0]
         where = ".".join(str(p) for p in first["loc"]) or "manifest"
         raise DatasetError(f"{MANIFEST_FILE}: {where}: {first['msg']}", path=root) from None
-
-
-def sha256_file(path: str | Path) -> str:
-    digest = hashlib.sha256()
-    with Path(path).open("rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def check_files(root: str | Path, manifest: Manifest, *, checksums: bool = False) -> None:

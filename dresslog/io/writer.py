@@ -6,7 +6,6 @@ until then it is a hidden temporary beside it, removed if anything fails.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -19,6 +18,7 @@ from dresslog import __version__
 from dresslog.errors import TrialWriteError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
+from dresslog.io.files import temporary_path
 from dresslog.io.msgdefs import schema_text
 from dresslog.spec import TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
@@ -37,11 +37,6 @@ def software_versions() -> dict[str, str]:
         except PackageNotFoundError:
             continue
     return out
-
-
-def temporary_path(path: Path) -> Path:
-    """The hidden name a file is written under before it is renamed into place."""
-    return path.with_name(f".{path.name}.{os.getpid()}.partial")
 
 
 class TrialWriter:

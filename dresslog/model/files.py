@@ -21,12 +21,10 @@ Public API
     hash differs from the card (tampered or replaced), and missing or mis-shaped arrays.
 ``check_task(model, task, n_points=None)``: ``ModelError`` when the model was trained for
     another task (or, given ``n_points``, for another number of limb points).
-``sha256_file(path) -> str``
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -41,6 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError
+from dresslog.io.files import sha256_file
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
 
@@ -122,14 +121,6 @@ class LoadedModel:
     def estimator(self) -> NumpyEstimator:
         """A fresh stateful estimator (each caller gets its own recurrent state)."""
         return NumpyEstimator(self.weights)
-
-
-def sha256_file(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard) -> None:

@@ -42,6 +42,7 @@ import numpy as np
 import torch
 
 from dresslog.errors import ModelError
+from dresslog.io.files import atomic_path
 from dresslog.model.files import DataProvenance, Hyperparameters, ModelCard, Normalisation
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
@@ -136,7 +137,6 @@ def _evaluate_loss(
 
 
 def _save_checkpoint(path: Path, net, optim, history: TrainHistory) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
     state = {
         "model": net.state_dict(),
         "optim": optim.state_dict(),
@@ -144,8 +144,8 @@ def _save_checkpoint(path: Path, net, optim, history: TrainHistory) -> None:
         "arch": [net.n_points, net.hidden, net.layers],
         "epochs": [asdict(e) for e in history.epochs],
     }
-    torch.save(state, tmp)
-    tmp.replace(path)
+    with atomic_path(path) as tmp:
+        torch.save(state, tmp)
 
 
 def _resume(path: Path, net, optim, history: TrainHistory) -> None:

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dresslog.errors import TrialWriteError
-from dresslog.io.writer import temporary_path
+from dresslog.io.files import temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.trial import contact_magnitudes

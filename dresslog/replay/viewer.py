@@ -16,7 +16,7 @@ from pathlib import Path
 from urllib.parse import quote
 
 from dresslog.errors import DresslogError, TrialWriteError
-from dresslog.io.writer import temporary_path
+from dresslog.io.files import atomic_path
 from dresslog.replay.pipeline import InferenceReport, replay_file
 from dresslog.replay.rerun_sink import check_output
 
@@ -30,12 +30,10 @@ def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = No
     if path.suffix in RRD_SUFFIXES:
         if not path.is_file():
             raise DresslogError("no such file", path=path)
-        tmp = temporary_path(out)
         try:
-            shutil.copyfile(path, tmp)
-            tmp.replace(out)
+            with atomic_path(out) as tmp:
+                shutil.copyfile(path, tmp)
         except OSError as err:
-            tmp.unlink(missing_ok=True)
             raise TrialWriteError(f"could not copy: {err.strerror}", path=out) from None
         return f"{path} -> {out}"
     report: InferenceReport = replay_file(
