@@ -13,34 +13,45 @@ CONTACT_ON = 0.1
 CONTACT_OFF = -0.1
 
 
+class ForceDistributor:
+    """`distribute` onto fixed limb points (N, 3), with their squared norms computed once."""
+
+    def __init__(self, limb_points: np.ndarray, k: int = 5) -> None:
+        self.limb_points = limb_points
+        self.k = min(k, len(limb_points))
+        self._sq = np.sum(limb_points**2, axis=1)[None, :]
+
+    def __call__(self, positions: np.ndarray, magnitudes: np.ndarray) -> np.ndarray:
+        """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
+        n, k = len(self.limb_points), self.k
+        if len(positions) == 0:
+            return np.zeros(n, dtype=np.float32)
+        out = np.zeros(n, dtype=np.float64)
+        positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+        magnitudes = np.asarray(magnitudes, dtype=np.float64).reshape(-1)
+        d2 = np.sum(positions**2, axis=1)[:, None] - 2.0 * positions @ self.limb_points.T + self._sq
+        idx = (
+            np.argpartition(d2, k - 1, axis=1)[:, :k]
+            if k < n
+            else np.tile(np.arange(n), (len(d2), 1))
+        )
+        d = np.sqrt(np.maximum(d2[np.arange(len(d2))[:, None], idx], 0.0))
+        if k == 1:
+            w = np.ones_like(d)
+        else:
+            total = d.sum(axis=1, keepdims=True)
+            touching = total > 0
+            safe = np.where(touching, total, 1.0)
+            w = np.where(touching, (1.0 - d / safe) / (k - 1), 1.0 / k)
+        np.add.at(out, idx.ravel(), (w * magnitudes[:, None]).ravel())
+        return out.astype(np.float32)
+
+
 def distribute(
     positions: np.ndarray, magnitudes: np.ndarray, limb_points: np.ndarray, k: int = 5
 ) -> np.ndarray:
     """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
-    n = len(limb_points)
-    out = np.zeros(n, dtype=np.float64)
-    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    magnitudes = np.asarray(magnitudes, dtype=np.float64).reshape(-1)
-    if len(positions) == 0:
-        return out.astype(np.float32)
-    k = min(k, n)
-    d2 = (
-        np.sum(positions**2, axis=1)[:, None]
-        - 2.0 * positions @ limb_points.T
-        + np.sum(limb_points**2, axis=1)[None, :]
-    )
-    idx = (
-        np.argpartition(d2, k - 1, axis=1)[:, :k] if k < n else np.tile(np.arange(n), (len(d2), 1))
-    )
-    d = np.sqrt(np.maximum(np.take_along_axis(d2, idx, axis=1), 0.0))
-    if k == 1:
-        w = np.ones_like(d)
-    else:
-        total = d.sum(axis=1, keepdims=True)
-        safe = np.where(total > 0, total, 1.0)
-        w = np.where(total > 0, (1.0 - d / safe) / (k - 1), 1.0 / k)
-    np.add.at(out, idx.ravel(), (w * magnitudes[:, None]).ravel())
-    return out.astype(np.float32)
+    return ForceDistributor(limb_points, k)(positions, magnitudes)
 
 
 def contact_map(forces: np.ndarray) -> np.ndarray:

@@ -11,6 +11,7 @@ tilted 45 degrees upward, as for a person seated with the leg stretched out.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -59,6 +60,11 @@ class Limb:
     @property
     def segment_names(self) -> tuple[str, ...]:
         return tuple(self.points_per_part)
+
+    @cached_property
+    def geometry(self) -> LimbGeometry:
+        """The parts as arrays, built on first use, for distance queries."""
+        return LimbGeometry.of(self)
 
 
 def _arm() -> Limb:
@@ -154,14 +160,63 @@ def _frustum_sdf(p: np.ndarray, a: np.ndarray, ra: float, b: np.ndarray, rb: flo
     return np.linalg.norm(p - closest, axis=1) - r
 
 
+def sum_xyz(v: np.ndarray) -> np.ndarray:
+    """`v.sum(axis=-1)` of (..., 3) bit for bit, (x + y) + z, minus numpy's slow short reduce.
+
+    With it, `np.sqrt(sum_xyz(v * v))` equals `np.linalg.norm(v, axis=-1)` exactly.
+    """
+    return v[..., 0] + v[..., 1] + v[..., 2]
+
+
+@dataclass(frozen=True)
+class LimbGeometry:
+    """A limb's parts as arrays: rows are the spheres, then the frustums, in limb order.
+
+    A sphere is a frustum that stays at t = 0: its start is its centre, its radius
+    constant. `part_distances` applies `_frustum_sdf`'s operations to all parts at
+    once (the stacked matmul makes the same BLAS call per frustum), so each value
+    is bit-identical to evaluating the parts one by one.
+    """
+
+    start: np.ndarray  # (K, 3) sphere centre or frustum start a
+    ab: np.ndarray  # (K, 3) frustum start to end, 0 for a sphere
+    r0: np.ndarray  # (K,) sphere radius or frustum ra
+    dr: np.ndarray  # (K,) frustum rb - ra, 0 for a sphere
+    u: np.ndarray  # (F, 3) frustum unit axis
+    length: np.ndarray  # (F,) frustum length
+    segment_rows: np.ndarray  # row of each of `limb.segment_names`
+
+    @classmethod
+    def of(cls, limb: Limb) -> LimbGeometry:
+        spheres = list(limb.spheres.values())
+        ends = [limb.frustum_ends(f) for f in limb.frustums]
+        ab = [b - a for a, _, b, _ in ends]
+        length = [float(np.linalg.norm(v)) for v in ab]
+        rows = [*limb.spheres, *(f.name for f in limb.frustums)]
+        return cls(
+            start=np.array([*(s.center for s in spheres), *(a for a, *_ in ends)]),
+            ab=np.array([*(np.zeros(3) for _ in spheres), *ab]),
+            r0=np.array([*(s.radius for s in spheres), *(ra for _, ra, _, _ in ends)]),
+            dr=np.array([*(0.0 for _ in spheres), *(rb - ra for _, ra, _, rb in ends)]),
+            u=np.array([v / n for v, n in zip(ab, length, strict=True)]),
+            length=np.array(length)[:, None],
+            segment_rows=np.array([rows.index(n) for n in limb.segment_names]),
+        )
+
+    def part_distances(self, p: np.ndarray) -> np.ndarray:
+        """Signed distance (K, P) from each part to each point (P, 3)."""
+        p = np.asarray(p, dtype=np.float64)
+        f = len(self.u)
+        t = np.zeros((len(self.r0), len(p)))
+        along = np.matmul(p - self.start[-f:, None], self.u[:, :, None])[..., 0]
+        t[-f:] = np.clip(along / self.length, 0.0, 1.0)
+        v = p - (self.start[:, None] + t[:, :, None] * self.ab[:, None])
+        return np.sqrt(sum_xyz(v * v)) - (self.r0[:, None] + t * self.dr[:, None])
+
+
 def limb_sdf(limb: Limb, p: np.ndarray) -> np.ndarray:
     """Signed distance (m) from points (P, 3) to the limb surface; < 0 inside."""
-    d = np.full(len(p), np.inf)
-    for s in limb.spheres.values():
-        d = np.minimum(d, np.linalg.norm(p - s.center, axis=1) - s.radius)
-    for f in limb.frustums:
-        d = np.minimum(d, _frustum_sdf(p, *limb.frustum_ends(f)))
-    return d
+    return limb.geometry.part_distances(p).min(axis=0)
 
 
 def _part_sdf(limb: Limb, p: np.ndarray, skip: set[str]) -> np.ndarray:
@@ -260,13 +315,6 @@ def limb_points(limb: Limb) -> LimbPoints:
 
 def segment_of(limb: Limb, p: np.ndarray) -> np.ndarray:
     """Index into `limb.segment_names` of the part nearest to each point (P, 3)."""
-    names = limb.segment_names
-    d = np.empty((len(p), len(names)))
-    for i, name in enumerate(names):
-        if name in limb.spheres:
-            s = limb.spheres[name]
-            d[:, i] = np.linalg.norm(p - s.center, axis=1) - s.radius
-        else:
-            f = next(f for f in limb.frustums if f.name == name)
-            d[:, i] = _frustum_sdf(p, *limb.frustum_ends(f))
-    return np.argmin(d, axis=1).astype(np.uint32)
+    geometry = limb.geometry
+    d = geometry.part_distances(p)[geometry.segment_rows]
+    return np.argmin(d, axis=0).astype(np.uint32)

@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import tempfile
 from dataclasses import dataclass
+from itertools import chain
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from dresslog.limb import Limb
-from dresslog.sim._pybullet import pb
 from dresslog.sim.garments import Garment
 from dresslog.spec import SimParams
 
@@ -141,7 +142,7 @@ class Scene:
         _, v = pb.getMeshData(
             self.cloth, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self.client
         )
-        return np.asarray(v, dtype=np.float64)
+        return np.fromiter(chain.from_iterable(v), np.float64, 3 * len(v)).reshape(-1, 3)
 
     def contacts(self) -> list[tuple]:
         """Raw garment-limb contact tuples (getContactPoints with the garment as body A)."""

@@ -6,6 +6,7 @@ for live inference: the sink sees every recorded step as it is computed.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -13,8 +14,8 @@ from typing import Protocol
 import numpy as np
 
 from dresslog.errors import SimulationError
-from dresslog.force_map import distribute
-from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, segment_of
+from dresslog.force_map import ForceDistributor
+from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, segment_of, sum_xyz
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, random_control_points
@@ -102,13 +103,16 @@ class SimResult:
         )
 
 
+#: Finite-difference steps of the surface normal, one per axis.
+_PROBES = np.eye(3) * 1e-5
+
+
 def _surface(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Closest limb-surface points to `p` (C, 3) and the outward unit normals there."""
-    eps = 1e-5
     c = len(p)
-    d = limb_sdf(limb, np.concatenate([p, *(p + e for e in np.eye(3) * eps)]))
+    d = limb_sdf(limb, np.concatenate([p[None], p + _PROBES[:, None]]).reshape(-1, 3))
     grad = (d[c:].reshape(3, c) - d[:c]).T
-    n = grad / np.maximum(np.linalg.norm(grad, axis=1, keepdims=True), 1e-12)
+    n = grad / np.maximum(np.sqrt(sum_xyz(grad * grad))[:, None], 1e-12)
     return p - d[:c, None] * n, n
 
 
@@ -120,19 +124,20 @@ def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray) -> np.ndarray:
     onto the limb surface, the normal there points from the limb to the garment.
     """
     # positionOnA, normalForce, friction1, dir1, friction2, dir2
-    flat = np.array([(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw]).reshape(-1, 12)
-    flat = flat[flat[:, 3] > 0]
-    out = np.zeros(len(flat), dtype=CONTACT_DTYPE)
-    if not len(flat):
+    rows = [(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0]
+    out = np.zeros(len(rows), dtype=CONTACT_DTYPE)
+    if not rows:
         return out
+    flat = np.array(rows)
     pos, normal = _surface(limb, flat[:, 0:3])
     out["position"] = pos
     out["normal"] = normal
     out["normal_force"] = flat[:, 3]
     out["friction"] = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
     out["segment"] = segment_of(limb, pos)
-    d2 = ((flat[:, None, 0:3] - verts[None]) ** 2).sum(-1)
-    out["vertex"] = np.argmin(d2, axis=1)
+    # squared distances to every vertex, summed per axis as .sum(-1) would: (x + y) + z
+    dx, dy, dz = (flat[:, k, None] - verts[:, k] for k in range(3))
+    out["vertex"] = np.argmin(dx * dx + dy * dy + dz * dz, axis=1)
     return out
 
 
@@ -170,11 +175,13 @@ def decide_outcome(
 
 
 def _guard(spec: TrialSpec, verts: np.ndarray, ee: np.ndarray, t: float) -> None:
-    if not np.all(np.isfinite(verts)):
+    d = verts - ee
+    far = math.sqrt(sum_xyz(d * d).max())  # the largest vertex norm, NaN if non-finite
+    if far <= MAX_VERTEX_DISTANCE:
+        return
+    if not np.isfinite(verts).all():
         raise SimulationError(f"garment exploded at t={t:.2f}s (non-finite vertices)")
-    far = float(np.max(np.linalg.norm(verts - ee, axis=1)))
-    if far > MAX_VERTEX_DISTANCE:
-        raise SimulationError(f"garment exploded at t={t:.2f}s (a vertex {far:.1f} m away)")
+    raise SimulationError(f"garment exploded at t={t:.2f}s (a vertex {far:.1f} m away)")
 
 
 def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
@@ -205,6 +212,10 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
         vel[1:] = np.diff(path, axis=0) * p.record_hz
         vel[0] = vel[1]
     accel = np.gradient(vel, axis=0) * p.record_hz if n_rec > 2 else np.zeros_like(vel)
+    twist = np.concatenate([vel, np.zeros_like(vel)], axis=1)
+    pose = np.concatenate([path, np.tile([0.0, 0.0, 0.0, 1.0], (n_rec, 1))], axis=1)
+    inertia = EE_MASS * accel
+    force_map = ForceDistributor(points.points)
 
     scene = Scene.build(limb, garment, start, p)
     timings = {"physics": 0.0, "contacts": 0.0, "sensors": 0.0, "sink": 0.0}
@@ -239,12 +250,12 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
             verts = scene.vertices()
             _guard(spec, verts, path[i], t_rec[i])
             contacts = _contacts(raw, limb, verts)
-            mags = contact_magnitudes(contacts)
-            fmap = distribute(contacts["position"], mags, points.points)
+            mags = contact_magnitudes(contacts) if len(contacts) else np.zeros(0)
+            fmap = force_map(contacts["position"], mags)
             t2 = time.perf_counter()
             # garment on gripper = -(constraint force) - weight + m a, minus the tare
             w = -(scene.constraint_wrench() - tare)
-            w[:3] += EE_MASS * accel[i]
+            w[:3] += inertia[i]
             if len(mags):
                 peak_limb = max(peak_limb, float(mags.sum()))
                 if mags.max() > p.max_limb_force:
@@ -252,7 +263,8 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
                         f"limb contact force {mags.max():.0f} N exceeds the physical bound "
                         f"{p.max_limb_force:.0f} N at t={t_rec[i]:.2f}s"
                     )
-            fmag = float(np.linalg.norm(w[:3]))
+            f = w[:3]
+            fmag = math.sqrt(f.dot(f))  # as np.linalg.norm computes it
             if not np.isfinite(fmag) or fmag > p.max_limb_force:
                 raise SimulationError(
                     f"end-effector force {fmag:.0f} N exceeds the physical bound at "
@@ -268,8 +280,8 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
                         index=i,
                         t_ns=round(t_rec[i] * 1e9),
                         wrench=w,
-                        twist=np.concatenate([vel[i], np.zeros(3)]),
-                        pose=np.concatenate([path[i], [0.0, 0.0, 0.0, 1.0]]),
+                        twist=twist[i],
+                        pose=pose[i],
                         contacts=contacts,
                         force_map=fmap,
                         garment=verts.astype(np.float32) if garment_now else None,
