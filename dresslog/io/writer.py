@@ -54,6 +54,7 @@ class TrialWriter:
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[str, int] = {}
+        self._contact_head: np.ndarray | None = None
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
@@ -192,11 +193,25 @@ class TrialWriter:
         self._write(topic, times, msgs)
 
     def write_contacts(self, t_ns: int, contacts: np.ndarray) -> None:
-        """Every garment-limb contact at one step, a CONTACT_DTYPE array (possibly empty)."""
+        """Every garment-limb contact at one step, a CONTACT_DTYPE array (possibly empty).
+
+        Called every step by the simulator, so it skips the general path: the
+        message is its header laid out for zero contacts (from the .msg text),
+        followed by the contacts' bytes, whose layout is the CDR element layout.
+        """
         contacts = np.asarray(contacts, dtype=CONTACT_DTYPE)
-        times, msgs = self._stamped(wk.CONTACTS, t_ns, {"contacts": len(contacts)}, 1)
-        msgs["contacts"][0] = contacts
-        self._write(wk.CONTACTS, times, msgs)
+        if self._contact_head is None:
+            _, self._contact_head = self._stamped(wk.CONTACTS, 0, {"contacts": 0}, 1)
+        head = self._contact_head
+        head["header.stamp.sec"], head["header.stamp.nanosec"] = divmod(int(t_ns), 1_000_000_000)
+        head["contacts.len"] = len(contacts)
+        channel = self._channel(wk.CONTACTS)
+        assert self._writer is not None
+        seq = self._sequence[wk.CONTACTS]
+        self._writer.add_message(
+            channel, int(t_ns), head.tobytes() + contacts.tobytes(), int(t_ns), seq
+        )
+        self._sequence[wk.CONTACTS] = seq + 1
 
     def write_limb_points(self, t_ns: int, limb_points: LimbPoints) -> None:
         """The force-map sites, once at the start."""

@@ -1,4 +1,4 @@
-"""pybullet, imported without the build-time banner its C code prints on import.
+"""pybullet, without the build-time banner its C code prints on import.
 
 A command's output is one summary line or one error line; the banner would break that.
 """
@@ -8,9 +8,14 @@ from __future__ import annotations
 import ctypes
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+__all__ = ["pb"]
 
 
-def _import_quietly():
+@contextmanager
+def _silenced_c_output() -> Iterator[None]:
     sys.stdout.flush()
     sys.stderr.flush()
     saved = {fd: os.dup(fd) for fd in (1, 2)}
@@ -18,15 +23,14 @@ def _import_quietly():
     try:
         for fd in saved:
             os.dup2(devnull, fd)
-        import pybullet
-
-        ctypes.CDLL(None).fflush(None)  # a banner still in C's stdio buffers goes too
+        yield
+        ctypes.CDLL(None).fflush(None)  # what C buffered goes to /dev/null too
     finally:
         for fd, copy in saved.items():
             os.dup2(copy, fd)
             os.close(copy)
         os.close(devnull)
-    return pybullet
 
 
-pb = _import_quietly()
+with _silenced_c_output():
+    import pybullet as pb

@@ -15,9 +15,9 @@ from itertools import chain
 from pathlib import Path
 
 import numpy as np
-import pybullet as pb
 
 from dresslog.limb import Limb
+from dresslog.sim._pybullet import pb
 from dresslog.sim.garments import Garment
 from dresslog.spec import SimParams
 
