@@ -16,6 +16,9 @@ from dresslog.cli.common import reports_errors
 @click.option("--layers", type=click.IntRange(min=1), default=3, show_default=True)
 @click.option("--lr", type=click.FloatRange(min=0, min_open=True), default=1e-3, show_default=True)
 @click.option("--normalise", is_flag=True, help="Standardise inputs (not in the paper).")
+@click.option(
+    "--balance-loss", is_flag=True, help="Scale force targets to the contact map's 0.1 in the loss."
+)
 @click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--overwrite", is_flag=True, help="Replace an existing model folder.")

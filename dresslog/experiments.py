@@ -7,8 +7,8 @@ user make the same one call.
 Public API
 ----------
 ``train_dataset(data, out, *, epochs=10, batch_size=16, hidden=50, layers=3, lr=1e-3,
-normalise=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
-on_epoch=None) -> ModelCard``
+normalise=False, balance_loss=False, window=None, seed=0, overwrite=False, workers=None,
+progress=True, on_epoch=None) -> ModelCard``
     Trains on the training split (holding out ``val_fraction`` of it for the per-epoch
     validation loss), scores the test split, and saves a model folder whose card names
     the data by its manifest hash. Resumes from ``.<out>.checkpoint.pt`` beside `out`.
@@ -50,6 +50,7 @@ def train_dataset(
     layers: int = 3,
     lr: float = 1e-3,
     normalise: bool = False,
+    balance_loss: bool = False,
     window: int | None = None,
     seed: int = 0,
     overwrite: bool = False,
@@ -83,6 +84,7 @@ def train_dataset(
         seed=seed,
         window=window,
         normalise=normalise,
+        balance_loss=balance_loss,
         progress=progress,
         checkpoint=checkpoint,
         on_epoch=on_epoch,

@@ -163,6 +163,21 @@ def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: P
         train(phis, forces, checkpoint=ckpt, **{**kwargs, "epochs": 4})
 
 
+def test_balanced_loss_makes_training_invariant_to_the_force_unit():
+    """With --balance-loss, forces 100x smaller train the same network, outputs 100x smaller."""
+    phis, forces = synthetic(8, seed=4, n_points=4)
+    kwargs = {"epochs": 2, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
+    big, big_history = train(phis, forces, balance_loss=True, **kwargs)
+    small, small_history = train(phis, [f / 100 for f in forces], balance_loss=True, **kwargs)
+    positive = np.concatenate([f[f > 0] for f in forces])
+    assert big_history.settings.force_scale == pytest.approx(0.1 / positive.mean(), rel=1e-5)
+    scales = small_history.settings.force_scale, big_history.settings.force_scale
+    assert scales[0] == pytest.approx(100 * scales[1])
+    out_big, _ = NumpyEstimator(big).run(phis[0])
+    out_small, _ = NumpyEstimator(small).run(phis[0])
+    np.testing.assert_allclose(out_small * 100, out_big, rtol=1e-3, atol=1e-5)
+
+
 def test_training_rejects_mismatched_data_in_one_line():
     with pytest.raises(ModelError, match="sequence 0"):
         train([np.zeros((5, 9), np.float32)], [np.zeros((4, 3), np.float32)], progress=False)

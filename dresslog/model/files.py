@@ -69,6 +69,9 @@ class Hyperparameters(BaseModel):
     seed: int = 0
     window: int | None = None
     val_fraction: float = 0.1
+    #: force targets were multiplied by this in the loss (1 = the paper), folded back
+    #: into the head afterwards, so outputs are in newtons either way
+    force_scale: float = 1.0
 
 
 class DataProvenance(BaseModel):

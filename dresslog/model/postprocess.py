@@ -38,10 +38,10 @@ def contact_targets(forces: np.ndarray) -> np.ndarray:
     return np.where(np.asarray(forces) > 0, CONTACT_LEVEL, -CONTACT_LEVEL).astype(np.float32)
 
 
-def network_targets(forces: np.ndarray) -> np.ndarray:
-    """The per-step training target [force map, contact map], (T, 2N) float32."""
+def network_targets(forces: np.ndarray, force_scale: float = 1.0) -> np.ndarray:
+    """The per-step training target [force map x force_scale, contact map], (T, 2N) float32."""
     forces = np.asarray(forces, dtype=np.float32)
-    return np.concatenate([forces, contact_targets(forces)], axis=-1)
+    return np.concatenate([forces * np.float32(force_scale), contact_targets(forces)], axis=-1)
 
 
 def split_output(out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
