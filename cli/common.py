@@ -9,7 +9,7 @@ from typing import ParamSpec, TypeVar
 import click
 from pydantic import ValidationError
 
-from dresslog.errors import DresslogError
+from dresslog.errors import DresslogError, first_problem
 
 P = ParamSpec("P")
 R = TypeVar("R")
@@ -25,9 +25,6 @@ def reports_errors(command: Callable[P, R]) -> Callable[P, R]:
         except DresslogError as err:
             raise click.ClickException(str(err)) from None
         except ValidationError as err:  # a spec built from options: name the bad value
-            first = err.errors()[0]
-            where = ".".join(str(part) for part in first["loc"]) or "value"
-            raise click.ClickException(f"invalid {where}: {first['msg']}") from None
+            raise click.ClickException(f"invalid {first_problem(err)}") from None
 
     return wrapper
-

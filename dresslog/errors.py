@@ -6,6 +6,10 @@ The CLI turns these into one line and exit code 1; anything else is a bug.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from pydantic import ValidationError
 
 
 class DresslogError(Exception):
@@ -45,3 +49,10 @@ class ConversionError(DresslogError):
 
 class DatasetError(DresslogError):
     """A dataset folder has no manifest, or missing or corrupt trials."""
+
+
+def first_problem(err: ValidationError, whole: str = "value") -> str:
+    """The first problem pydantic found, as `field.path: message`, for a one-line error."""
+    first = err.errors()[0]
+    where = ".".join(str(part) for part in first["loc"]) or whole
+    return f"{where}: {first['msg']}"

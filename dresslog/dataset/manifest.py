@@ -24,7 +24,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from dresslog import __version__
-from dresslog.errors import DatasetError
+from dresslog.errors import DatasetError, first_problem
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Outcome, Task, TrialSpec
 
@@ -188,9 +188,8 @@ def load_manifest(root: str | Path) -> Manifest:
     try:
         return Manifest.model_validate(raw)
     except ValidationError as err:
-        first = err.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "manifest"
-        raise DatasetError(f"{MANIFEST_FILE}: {where}: {first['msg']}", path=root) from None
+        problem = first_problem(err, "manifest")
+        raise DatasetError(f"{MANIFEST_FILE}: {problem}", path=root) from None
 
 
 def check_files(root: str | Path, manifest: Manifest, *, checksums: bool = False) -> None:

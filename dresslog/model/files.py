@@ -38,7 +38,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from dresslog import __version__
-from dresslog.errors import ModelError
+from dresslog.errors import ModelError, first_problem
 from dresslog.io.files import sha256_file
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
@@ -192,9 +192,7 @@ def _read_card(path: Path) -> ModelCard:
     try:
         return ModelCard.model_validate(raw)
     except ValidationError as err:
-        first = err.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "card"
-        raise ModelError(f"{CARD_FILE}: {where}: {first['msg']}", path=path) from None
+        raise ModelError(f"{CARD_FILE}: {first_problem(err, 'card')}", path=path) from None
 
 
 def load_model(path: str | Path) -> LoadedModel:
