@@ -20,16 +20,16 @@ class ForceDistributor:
         self.limb_points = limb_points
         self.k = min(k, len(limb_points))
         self._sq = np.sum(limb_points**2, axis=1)[None, :]
+        self._points_t = limb_points.T
 
     def __call__(self, positions: np.ndarray, magnitudes: np.ndarray) -> np.ndarray:
         """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
         n, k = len(self.limb_points), self.k
         if len(positions) == 0:
             return np.zeros(n, dtype=np.float32)
-        out = np.zeros(n, dtype=np.float64)
         positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
         magnitudes = np.asarray(magnitudes, dtype=np.float64).reshape(-1)
-        d2 = np.sum(positions**2, axis=1)[:, None] - 2.0 * positions @ self.limb_points.T + self._sq
+        d2 = (positions**2).sum(axis=1)[:, None] - 2.0 * positions @ self._points_t + self._sq
         idx = (
             np.argpartition(d2, k - 1, axis=1)[:, :k]
             if k < n
@@ -43,7 +43,8 @@ class ForceDistributor:
             touching = total > 0
             safe = np.where(touching, total, 1.0)
             w = np.where(touching, (1.0 - d / safe) / (k - 1), 1.0 / k)
-        np.add.at(out, idx.ravel(), (w * magnitudes[:, None]).ravel())
+        # bincount adds the shares in index order starting from 0.0, as np.add.at into zeros does
+        out = np.bincount(idx.ravel(), (w * magnitudes[:, None]).ravel(), minlength=n)
         return out.astype(np.float32)
 
 

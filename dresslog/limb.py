@@ -203,15 +203,29 @@ class LimbGeometry:
             segment_rows=np.array([rows.index(n) for n in limb.segment_names]),
         )
 
+    @cached_property
+    def _views(self) -> tuple[np.ndarray, ...]:
+        """The broadcast views `part_distances` uses, made once."""
+        f = len(self.u)
+        return (
+            self.start[-f:, None],
+            self.u[:, :, None],
+            self.start[:, None],
+            self.ab[:, None],
+            self.r0[:, None],
+            self.dr[:, None],
+        )
+
     def part_distances(self, p: np.ndarray) -> np.ndarray:
         """Signed distance (K, P) from each part to each point (P, 3)."""
         p = np.asarray(p, dtype=np.float64)
         f = len(self.u)
+        start_f, u_col, start, ab, r0, dr = self._views
         t = np.zeros((len(self.r0), len(p)))
-        along = np.matmul(p - self.start[-f:, None], self.u[:, :, None])[..., 0]
-        t[-f:] = np.clip(along / self.length, 0.0, 1.0)
-        v = p - (self.start[:, None] + t[:, :, None] * self.ab[:, None])
-        return np.sqrt(sum_xyz(v * v)) - (self.r0[:, None] + t * self.dr[:, None])
+        along = np.matmul(p - start_f, u_col)[..., 0]
+        t[-f:] = (along / self.length).clip(0.0, 1.0)
+        v = p - (start + t[:, :, None] * ab)
+        return np.sqrt(sum_xyz(v * v)) - (r0 + t * dr)
 
 
 def limb_sdf(limb: Limb, p: np.ndarray) -> np.ndarray:
@@ -317,4 +331,4 @@ def segment_of(limb: Limb, p: np.ndarray) -> np.ndarray:
     """Index into `limb.segment_names` of the part nearest to each point (P, 3)."""
     geometry = limb.geometry
     d = geometry.part_distances(p)[geometry.segment_rows]
-    return np.argmin(d, axis=0).astype(np.uint32)
+    return d.argmin(axis=0).astype(np.uint32)

@@ -34,7 +34,10 @@ def empty_contacts(n: int = 0) -> np.ndarray:
 def contact_magnitudes(contacts: np.ndarray) -> np.ndarray:
     """Total force magnitude of each contact: |normal force + friction|."""
     normal = contacts["normal_force"][:, None] * contacts["normal"]
-    return np.linalg.norm(normal + contacts["friction"], axis=1)
+    v = normal + contacts["friction"]
+    # np.linalg.norm(v, axis=1) bit for bit: sqrt of the row sums (x + y) + z of v * v
+    s = v * v
+    return np.sqrt(s[:, 0] + s[:, 1] + s[:, 2])
 
 
 @dataclass(frozen=True)

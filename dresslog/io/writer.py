@@ -6,6 +6,7 @@ until then it is a hidden temporary beside it, removed if anything fails.
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -24,6 +25,9 @@ from dresslog.spec import TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
 
 CHUNK_SIZE = 4 * 1024 * 1024
+#: Layouts of the Contacts header stamp (sec int32, nanosec uint32) and count (uint32).
+_HEAD_STAMP = struct.Struct("<iI")
+_HEAD_LEN = struct.Struct("<I")
 
 
 def software_versions() -> dict[str, str]:
@@ -54,7 +58,8 @@ class TrialWriter:
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[str, int] = {}
-        self._contact_head: np.ndarray | None = None
+        self._contact_head: bytes | None = None
+        self._contact_stamp_at = self._contact_len_at = 0
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
@@ -201,17 +206,33 @@ class TrialWriter:
         """
         contacts = np.asarray(contacts, dtype=CONTACT_DTYPE)
         if self._contact_head is None:
-            _, self._contact_head = self._stamped(wk.CONTACTS, 0, {"contacts": 0}, 1)
-        head = self._contact_head
-        head["header.stamp.sec"], head["header.stamp.nanosec"] = divmod(int(t_ns), 1_000_000_000)
-        head["contacts.len"] = len(contacts)
+            self._contact_head = self._contact_template()
+        head = bytearray(self._contact_head)
+        sec, nanosec = divmod(int(t_ns), 1_000_000_000)
+        _HEAD_STAMP.pack_into(head, self._contact_stamp_at, sec, nanosec)
+        _HEAD_LEN.pack_into(head, self._contact_len_at, len(contacts))
         channel = self._channel(wk.CONTACTS)
         assert self._writer is not None
         seq = self._sequence[wk.CONTACTS]
-        self._writer.add_message(
-            channel, int(t_ns), head.tobytes() + contacts.tobytes(), int(t_ns), seq
-        )
+        head += contacts.tobytes()
+        self._writer.add_message(channel, int(t_ns), bytes(head), int(t_ns), seq)
         self._sequence[wk.CONTACTS] = seq + 1
+
+    def _contact_template(self) -> bytes:
+        """The contacts header for zero contacts as bytes; notes where stamp and count go."""
+        _, head = self._stamped(wk.CONTACTS, 0, {"contacts": 0}, 1)
+        fields = head.dtype.fields
+        assert fields is not None
+        sec, nanosec, count = (
+            fields[n] for n in ("header.stamp.sec", "header.stamp.nanosec", "contacts.len")
+        )
+        # the struct formats below must be the fields' own layouts
+        if (sec[0], nanosec[0], count[0]) != (np.dtype("<i4"), np.dtype("<u4"), np.dtype("<u4")):
+            raise TrialWriteError("unexpected Contacts header layout", path=self.path)
+        if nanosec[1] != sec[1] + 4:
+            raise TrialWriteError("unexpected Contacts header layout", path=self.path)
+        self._contact_stamp_at, self._contact_len_at = sec[1], count[1]
+        return head.tobytes()
 
     def write_limb_points(self, t_ns: int, limb_points: LimbPoints) -> None:
         """The force-map sites, once at the start."""
