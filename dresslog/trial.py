@@ -6,7 +6,7 @@ the replay engine pass around; no I/O happens here.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -120,7 +120,6 @@ class Trial:
     contacts: Contacts | None = None
     limb_points: LimbPoints | None = None
     garment: GarmentStates | None = None
-    extras: dict[str, object] = field(default_factory=dict)
 
     @property
     def measurements(self) -> Measurements:
