@@ -8,10 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Contact-map target values (Eq. 1 of the paper).
-CONTACT_ON = 0.1
-CONTACT_OFF = -0.1
-
 
 class ForceDistributor:
     """`distribute` onto fixed limb points (N, 3), with their squared norms computed once."""
@@ -53,8 +49,3 @@ def distribute(
 ) -> np.ndarray:
     """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
     return ForceDistributor(limb_points, k)(positions, magnitudes)
-
-
-def contact_map(forces: np.ndarray) -> np.ndarray:
-    """+0.1 where the force map is positive, -0.1 elsewhere (same shape, float32)."""
-    return np.where(np.asarray(forces) > 0, CONTACT_ON, CONTACT_OFF).astype(np.float32)

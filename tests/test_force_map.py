@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dresslog.force_map import contact_map, distribute
+from dresslog.force_map import distribute
+from dresslog.model.postprocess import contact_targets
 
 
 def _reference(positions, magnitudes, points, k=5):
@@ -54,5 +55,5 @@ def test_no_contacts_give_zeros_and_a_contact_on_a_point_is_safe() -> None:
 
 
 def test_contact_map_is_plus_minus_a_tenth() -> None:
-    cm = contact_map(np.array([[0.0, 0.3], [1e-6, -1.0]], dtype=np.float32))
+    cm = contact_targets(np.array([[0.0, 0.3], [1e-6, -1.0]], dtype=np.float32))
     np.testing.assert_array_equal(cm, np.array([[-0.1, 0.1], [0.1, -0.1]], dtype=np.float32))
