@@ -21,7 +21,7 @@ from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from pydantic import ValidationError
 
-from dresslog.errors import TrialFormatError
+from dresslog.errors import TrialFormatError, first_problem
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
 from dresslog.spec import TrialMetadata
@@ -172,7 +172,11 @@ class TrialReader:
             )
         try:
             self._metadata = TrialMetadata.model_validate(json.loads(metadata["trial"]))
-        except (KeyError, json.JSONDecodeError, ValidationError) as err:
+        except ValidationError as err:
+            problem = first_problem(err, "metadata")
+            message = f"metadata record is invalid: {problem}"
+            raise TrialFormatError(message, path=self.path) from None
+        except (KeyError, json.JSONDecodeError) as err:
             first = str(err).splitlines()[0]
             raise TrialFormatError(f"metadata record is invalid: {first}", path=self.path) from None
 
