@@ -1,0 +1,106 @@
+"""How well could any estimator do on a dataset? Oracle bounds on the paper's RMSE ratio.
+
+The paper scores force maps by RMSE over every step and limb point against the
+all-zero estimate. How low that ratio can go depends on the data as much as on
+the model: a force map made of a few sharp peaks is only matched by an estimate
+that puts the force on the right 2 cm of limb. This script scores estimators
+that are handed part of the truth, on a dataset's test split:
+
+- misplaced truth: the exact force map blurred along the limb by a Gaussian of
+  sigma cm (an estimate that knows every force but places it to within sigma);
+- exact total force per step spread by the training split's mean profile at that
+  step, or by the sequence's own time-averaged profile;
+- unpredictable flicker: the truth against its own 3-step moving average.
+
+    python scripts/learnability.py data/gown data/shorts [--model gown=M ...] [-o docs/learnability.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+SIGMAS_CM = (0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
+#: The paper's ratios (Sec. V-B), the issue's first bar.
+PAPER_RATIO = {"gown": 0.45, "shorts": 0.48}
+
+
+def _ratio(truth: np.ndarray, est: np.ndarray) -> float:
+    """Per-sequence RMSE averaged, over the same for the all-zero estimate."""
+    err = np.sqrt(((truth - est) ** 2).mean(axis=(1, 2))).mean()
+    return float(err / np.sqrt((truth**2).mean(axis=(1, 2))).mean())
+
+
+def bounds(data: Path) -> tuple[str, dict[str, float]]:
+    """The task and {oracle name: ratio} for `data`'s test split."""
+    from scipy.ndimage import uniform_filter1d
+
+    from dresslog.dataset import Split, load_dataset
+    from dresslog.limb import build_limb, limb_points
+
+    arrays = load_dataset(data, progress=False)
+    task = arrays.task.value
+    test = np.stack(arrays.force_maps(arrays.rows(Split.TEST))).astype(np.float64)
+    train = np.stack(arrays.force_maps(arrays.rows(Split.TRAIN))).astype(np.float64)
+    points = limb_points(build_limb(arrays.task, (0.0, 0.0, 0.0))).points
+    dist = np.linalg.norm(points[:, None] - points[None], axis=-1)
+    out: dict[str, float] = {}
+    for sigma in SIGMAS_CM:
+        kernel = np.exp(-0.5 * (dist / (sigma / 100)) ** 2)
+        kernel /= kernel.sum(axis=0, keepdims=True)  # each point's force keeps its total
+        out[f"blur {sigma:g} cm"] = _ratio(test, test @ kernel.T)
+    total = test.sum(axis=2, keepdims=True)
+    mean_t = train.mean(axis=0)
+    profile = mean_t / np.maximum(mean_t.sum(axis=1, keepdims=True), 1e-12)
+    out["total x mean profile"] = _ratio(test, total * profile[None])
+    own = test.sum(axis=1, keepdims=True)
+    own /= np.maximum(own.sum(axis=2, keepdims=True), 1e-12)
+    out["total x own profile"] = _ratio(test, total * own)
+    out["3-step flicker"] = _ratio(test, uniform_filter1d(test, 3, axis=1))
+    return task, out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("data", nargs="+", type=Path)
+    parser.add_argument("--model", action="append", default=[], help="TASK=MODEL_FOLDER")
+    parser.add_argument("-o", "--out", type=Path, default=Path("docs/learnability.png"))
+    args = parser.parse_args()
+    models = dict(m.split("=", 1) for m in args.model)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    for data in args.data:
+        task, ratios = bounds(data)
+        for name, value in ratios.items():
+            print(f"{task:7s} {name:22s} {value:.3f}")
+        line = ax.plot(SIGMAS_CM, [ratios[f"blur {s:g} cm"] for s in SIGMAS_CM], "o-",
+                       label=f"{task}: exact forces misplaced by sigma")  # fmt: skip
+        colour = line[0].get_color()
+        ax.axhline(PAPER_RATIO[task], color=colour, ls=":", label=f"{task}: paper's LSTM")
+        if task in models:
+            from dresslog.experiments import evaluate_dataset
+
+            ratio = evaluate_dataset(models[task], data, progress=False).overall.ratio
+            print(f"{task:7s} {'model ' + models[task]:22s} {ratio:.3f}")
+            ax.axhline(ratio, color=colour, ls="--", label=f"{task}: our LSTM")
+    ax.set_xlabel("sigma of the misplacement along the limb (cm)")
+    ax.set_ylabel("RMSE / all-zero RMSE")
+    ax.set_ylim(0, 1.05)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    ax.set_title("How precisely must an estimate place the force?")
+    fig.tight_layout()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(args.out, dpi=120)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
