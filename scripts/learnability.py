@@ -12,7 +12,8 @@ that are handed part of the truth, on a dataset's test split:
   step, or by the sequence's own time-averaged profile;
 - unpredictable flicker: the truth against its own 3-step moving average.
 
-    python scripts/learnability.py data/gown data/shorts [--model gown=M ...] [-o docs/learnability.png]
+    python scripts/learnability.py data/gown data/shorts \
+        [--model gown=M ...] [-o docs/learnability.png]
 """
 
 from __future__ import annotations
