@@ -1,4 +1,4 @@
-"""`dresslog eval MODEL DATA [--json]`: the paper's RMSE on the test split, and more."""
+"""`dresslog eval MODEL DATA [--bounds] [--json]`: the paper's RMSE on the test split, and more."""
 
 from __future__ import annotations
 
@@ -12,11 +12,16 @@ from dresslog.cli.common import reports_errors
 @click.argument("data", type=click.Path())
 @click.option("--split", type=click.Choice(["test", "train"]), default="test", show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option(
+    "--bounds", is_flag=True, help="Add oracle ratios: how low the data let any model go."
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
-def evaluate(model: str, data: str, split: str, as_json: bool, quiet: bool) -> None:
+def evaluate(model: str, data: str, split: str, bounds: bool, as_json: bool, quiet: bool) -> None:
     """RMSE after Eq. 2, the all-zero baseline, their ratio, per outcome; contact P/R."""
     from dresslog.experiments import evaluate_dataset
 
-    report = evaluate_dataset(model, data, split=split, progress=not quiet and not as_json)
+    report = evaluate_dataset(
+        model, data, split=split, bounds=bounds, progress=not quiet and not as_json
+    )
     click.echo(report.to_json() if as_json else report.table())

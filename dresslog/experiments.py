@@ -125,6 +125,8 @@ class EvalReport:
     manifest_sha256: str
     overall: Scores
     per_outcome: dict[str, Scores] = field(default_factory=dict)
+    #: oracle name -> its ratio on the same split (`dresslog.model.bounds`), if asked for
+    bounds: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> str:
         """JSON with nan as null (JSON has no nan)."""
@@ -142,6 +144,9 @@ class EvalReport:
                 f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
                 f"{s.contact_precision:>7.3f}{s.contact_recall:>7.3f}"
             )
+        if self.bounds:
+            lines.append("oracle ratios on the same sequences (the data's limits):")
+            lines += [f"  {name:<28}{value:>8.3f}" for name, value in self.bounds.items()]
         return "\n".join(lines)
 
 
@@ -165,10 +170,15 @@ def evaluate_dataset(
     data: str | Path,
     *,
     split: Split | str = Split.TEST,
+    bounds: bool = False,
     workers: int | None = None,
     progress: bool = True,
 ) -> EvalReport:
-    """Score `model` on one split of `data`, overall and per outcome (dressed/missed/caught)."""
+    """Score `model` on one split of `data`, overall and per outcome (dressed/missed/caught).
+
+    With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
+    so the model's ratio can be read against what the data allow.
+    """
     loaded = load_model(model)
     check_task(loaded, load_manifest(data).task)
     arrays = load_dataset(data, workers=workers, progress=progress)
@@ -187,7 +197,20 @@ def evaluate_dataset(
         manifest_sha256=arrays.manifest_sha256,
         overall=_scores(loaded, arrays, rows),
         per_outcome=per_outcome,
+        bounds=_bounds(arrays, rows) if bounds else {},
     )
+
+
+def _bounds(arrays: DatasetArrays, rows: Sequence[int]) -> dict[str, float]:
+    from dresslog.limb import build_limb, limb_points
+    from dresslog.model.bounds import oracle_ratios
+
+    truths = arrays.force_maps(rows)
+    if not any(t.any() for t in truths):
+        return {}  # no force anywhere: nothing to place, no bound
+    train = arrays.rows(Split.TRAIN)
+    points = limb_points(build_limb(arrays.task)).points
+    return oracle_ratios(truths, points, arrays.force_maps(train) if len(train) else None)
 
 
 # -- generalisation sweeps -----------------------------------------------------------

@@ -1,5 +1,6 @@
 """How well could any estimator do on a dataset? Oracle bounds on the paper's RMSE ratio.
 
+A plot over `dresslog.model.bounds` (also `dresslog eval MODEL DATA --bounds`).
 The paper scores force maps by RMSE over every step and limb point against the
 all-zero estimate. How low that ratio can go depends on the data as much as on
 the model: a force map made of a few sharp peaks is only matched by an estimate
@@ -21,46 +22,21 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
-SIGMAS_CM = (0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
 #: The paper's ratios (Sec. V-B), the issue's first bar.
 PAPER_RATIO = {"gown": 0.45, "shorts": 0.48}
 
 
-def _ratio(truth: np.ndarray, est: np.ndarray) -> float:
-    """Per-sequence RMSE averaged, over the same for the all-zero estimate."""
-    err = np.sqrt(((truth - est) ** 2).mean(axis=(1, 2))).mean()
-    return float(err / np.sqrt((truth**2).mean(axis=(1, 2))).mean())
-
-
 def bounds(data: Path) -> tuple[str, dict[str, float]]:
     """The task and {oracle name: ratio} for `data`'s test split."""
-    from scipy.ndimage import uniform_filter1d
-
     from dresslog.dataset import Split, load_dataset
     from dresslog.limb import build_limb, limb_points
+    from dresslog.model.bounds import oracle_ratios
 
     arrays = load_dataset(data, progress=False)
-    task = arrays.task.value
-    test = np.stack(arrays.force_maps(arrays.rows(Split.TEST))).astype(np.float64)
-    train = np.stack(arrays.force_maps(arrays.rows(Split.TRAIN))).astype(np.float64)
-    points = limb_points(build_limb(arrays.task, (0.0, 0.0, 0.0))).points
-    dist = np.linalg.norm(points[:, None] - points[None], axis=-1)
-    out: dict[str, float] = {}
-    for sigma in SIGMAS_CM:
-        kernel = np.exp(-0.5 * (dist / (sigma / 100)) ** 2)
-        kernel /= kernel.sum(axis=0, keepdims=True)  # each point's force keeps its total
-        out[f"blur {sigma:g} cm"] = _ratio(test, test @ kernel.T)
-    total = test.sum(axis=2, keepdims=True)
-    mean_t = train.mean(axis=0)
-    profile = mean_t / np.maximum(mean_t.sum(axis=1, keepdims=True), 1e-12)
-    out["total x mean profile"] = _ratio(test, total * profile[None])
-    own = test.sum(axis=1, keepdims=True)
-    own /= np.maximum(own.sum(axis=2, keepdims=True), 1e-12)
-    out["total x own profile"] = _ratio(test, total * own)
-    out["3-step flicker"] = _ratio(test, uniform_filter1d(test, 3, axis=1))
-    return task, out
+    points = limb_points(build_limb(arrays.task)).points
+    test, train = arrays.rows(Split.TEST), arrays.rows(Split.TRAIN)
+    ratios = oracle_ratios(arrays.force_maps(test), points, arrays.force_maps(train))
+    return arrays.task.value, ratios
 
 
 def main() -> None:
@@ -72,6 +48,8 @@ def main() -> None:
     models = dict(m.split("=", 1) for m in args.model)
 
     import matplotlib
+
+    from dresslog.model.bounds import SIGMAS_CM
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

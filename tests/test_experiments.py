@@ -56,6 +56,11 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     assert sum(s["n"] for s in report["per_outcome"].values()) == 1
     code, output = invoke("eval", model, data, "-q")
     assert code == 0 and "RMSE (N)" in output
+    code, output = invoke("eval", model, data, "--bounds", "--json")
+    assert code == 0, output
+    bounds = json.loads(output)["bounds"]
+    if bounds:  # the short test trial may never touch the limb: then there is no bound
+        assert 0 <= bounds["blur 0.5 cm"] <= bounds["blur 8 cm"] <= 1.0
 
 
 @pytest.mark.slow
