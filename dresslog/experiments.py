@@ -12,9 +12,12 @@ progress=True, on_epoch=None) -> ModelCard``
     Trains on the training split (holding out ``val_fraction`` of it for the per-epoch
     validation loss), scores the test split, and saves a model folder whose card names
     the data by its manifest hash. Resumes from ``.<out>.checkpoint.pt`` beside `out`.
-``evaluate_dataset(model, data, *, split="test", workers=None, progress=True) -> EvalReport``
+``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
+-> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome,
-    with contact-map precision and recall.
+    with contact-map precision and recall; with ``bounds``, the oracle ratios too.
+``dataset_bounds(data, *, split="test", workers=None) -> dict[str, float]``
+    Those oracle ratios alone (`dresslog.model.bounds`): how low the data let any model go.
 ``sweep(model, out, *, speeds=(), rotations=(), n=128, seed=0, ...) -> SweepReport``
     Figs. 12 and 13: the same `n` fresh sequences (sweep seeds, disjoint from every
     training and test seed) re-simulated per setting; RMSE per setting and its ratio to
@@ -199,6 +202,14 @@ def evaluate_dataset(
         per_outcome=per_outcome,
         bounds=_bounds(arrays, rows) if bounds else {},
     )
+
+
+def dataset_bounds(
+    data: str | Path, *, split: Split | str = Split.TEST, workers: int | None = None
+) -> dict[str, float]:
+    """The oracle ratios of `dresslog.model.bounds` on one split of `data`, with no model."""
+    arrays = load_dataset(data, workers=workers, progress=False)
+    return _bounds(arrays, arrays.rows(split))
 
 
 def _bounds(arrays: DatasetArrays, rows: Sequence[int]) -> dict[str, float]:

@@ -26,17 +26,17 @@ from pathlib import Path
 PAPER_RATIO = {"gown": 0.45, "shorts": 0.48}
 
 
-def bounds(data: Path) -> tuple[str, dict[str, float]]:
-    """The task and {oracle name: ratio} for `data`'s test split."""
-    from dresslog.dataset import Split, load_dataset
-    from dresslog.limb import build_limb, limb_points
-    from dresslog.model.bounds import oracle_ratios
+def ratios_for(data: Path, models: dict[str, str]) -> tuple[str, dict[str, float], float | None]:
+    """Task, {oracle name: ratio} on `data`'s test split, and its task's model's ratio there."""
+    from dresslog.dataset import load_manifest
+    from dresslog.experiments import dataset_bounds, evaluate_dataset
 
-    arrays = load_dataset(data, progress=False)
-    points = limb_points(build_limb(arrays.task)).points
-    test, train = arrays.rows(Split.TEST), arrays.rows(Split.TRAIN)
-    ratios = oracle_ratios(arrays.force_maps(test), points, arrays.force_maps(train))
-    return arrays.task.value, ratios
+    task = load_manifest(data).task.value
+    model = models.get(task)
+    if model is None:
+        return task, dataset_bounds(data), None
+    report = evaluate_dataset(model, data, bounds=True, progress=False)  # one dataset load
+    return task, report.bounds, report.overall.ratio
 
 
 def main() -> None:
@@ -56,19 +56,19 @@ def main() -> None:
 
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     for data in args.data:
-        task, ratios = bounds(data)
+        task, ratios, model_ratio = ratios_for(data, models)
+        if not ratios:
+            print(f"{data}: no force anywhere in the test split, nothing to bound")
+            continue
         for name, value in ratios.items():
             print(f"{task:7s} {name:22s} {value:.3f}")
         line = ax.plot(SIGMAS_CM, [ratios[f"blur {s:g} cm"] for s in SIGMAS_CM], "o-",
                        label=f"{task}: exact forces misplaced by sigma")  # fmt: skip
         colour = line[0].get_color()
         ax.axhline(PAPER_RATIO[task], color=colour, ls=":", label=f"{task}: paper's LSTM")
-        if task in models:
-            from dresslog.experiments import evaluate_dataset
-
-            ratio = evaluate_dataset(models[task], data, progress=False).overall.ratio
-            print(f"{task:7s} {'model ' + models[task]:22s} {ratio:.3f}")
-            ax.axhline(ratio, color=colour, ls="--", label=f"{task}: our LSTM")
+        if model_ratio is not None:
+            print(f"{task:7s} {'model ' + models[task]:22s} {model_ratio:.3f}")
+            ax.axhline(model_ratio, color=colour, ls="--", label=f"{task}: our LSTM")
     ax.set_xlabel("sigma of the misplacement along the limb (cm)")
     ax.set_ylabel("RMSE / all-zero RMSE")
     ax.set_ylim(0, 1.05)

@@ -11,6 +11,7 @@ from click.testing import CliRunner
 
 from dresslog.cli.main import main
 from dresslog.dataset import generate, load_manifest
+from dresslog.experiments import dataset_bounds
 from dresslog.model.files import ModelCard, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 
@@ -59,6 +60,7 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     code, output = invoke("eval", model, data, "--bounds", "--json")
     assert code == 0, output
     bounds = json.loads(output)["bounds"]
+    assert dataset_bounds(data) == pytest.approx(bounds)  # the same oracles without a model
     if bounds:  # the short test trial may never touch the limb: then there is no bound
         assert 0 <= bounds["blur 0.5 cm"] <= bounds["blur 8 cm"] <= 1.0
 
