@@ -57,7 +57,9 @@ class SimParams(BaseModel):
     wind_accel: float = Field(2.0, description="peak random acceleration per vertex, m/s^2")
     garment_mass: float = Field(0.25, description="kg")
     elastic_stiffness: float = 40.0
-    damping_stiffness: float = 0.1
+    damping_stiffness: float = Field(
+        1.0, description="spring damping; at 0.1 the cloth rings and its limb contacts chatter"
+    )
     bending_stiffness: float = 2.0
     friction: float = 0.5
     collision_margin: float = 0.006

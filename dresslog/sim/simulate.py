@@ -116,28 +116,37 @@ def _surface(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return p - d[:c, None] * n, n
 
 
-def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray) -> np.ndarray:
+def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int = 1) -> np.ndarray:
     """CONTACT_DTYPE array of the contacts that carry force (garment = body A, limb = B).
 
-    pybullet also lists garment nodes merely within the collision margin, with
-    zero force; those are not contacts. The garment-side point is projected
-    onto the limb surface, the normal there points from the limb to the garment.
+    `raw` holds the contact tuples of `substeps` physics steps; each garment vertex
+    becomes one contact whose forces are the mean over those steps and whose place
+    is its latest. pybullet also lists garment nodes merely within the collision
+    margin, with zero force; those are not contacts. The garment-side point is
+    projected onto the limb surface, the normal there points from the limb to the garment.
     """
     # positionOnA, normalForce, friction1, dir1, friction2, dir2
     rows = [(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0]
-    out = np.zeros(len(rows), dtype=CONTACT_DTYPE)
     if not rows:
-        return out
+        return np.zeros(0, dtype=CONTACT_DTYPE)
     flat = np.array(rows)
-    pos, normal = _surface(limb, flat[:, 0:3])
-    out["position"] = pos
-    out["normal"] = normal
-    out["normal_force"] = flat[:, 3]
-    out["friction"] = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
-    out["segment"] = segment_of(limb, pos)
     # squared distances to every vertex, summed per axis as .sum(-1) would: (x + y) + z
     d = flat[:, None, 0:3] - verts
-    out["vertex"] = sum_xyz(d * d).argmin(axis=1)
+    vertex = sum_xyz(d * d).argmin(axis=1)
+    friction = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
+    # one row per vertex: the latest (np.unique on the reversed rows finds last occurrences)
+    ids, last, inverse = np.unique(vertex[::-1], return_index=True, return_inverse=True)
+    last = len(vertex) - 1 - last
+    inverse = inverse[::-1]
+    out = np.zeros(len(ids), dtype=CONTACT_DTYPE)
+    pos, normal = _surface(limb, flat[last, 0:3])
+    out["position"] = pos
+    out["normal"] = normal
+    out["normal_force"] = np.bincount(inverse, flat[:, 3], len(ids)) / substeps
+    for axis in range(3):
+        out["friction"][:, axis] = np.bincount(inverse, friction[:, axis], len(ids)) / substeps
+    out["segment"] = segment_of(limb, pos)
+    out["vertex"] = ids
     return out
 
 
@@ -248,21 +257,29 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
 
         peak_limb, peak_ee, final_force = 0.0, 0.0, 0.0
         for i in range(n_rec):
-            t0 = time.thread_time()
+            # Contacts and wrench are averaged over the substeps: a recorded step carries
+            # the impulse of its whole interval, not the chatter of its last substep.
+            raw: list[tuple] = []
+            wrench = np.zeros(6)
             for k in range(sub):
+                t0 = time.thread_time()
                 scene.move_ee(path_phys[i * sub + k])
                 scene.step()
+                t1 = time.thread_time()
+                raw += scene.contacts()
+                wrench += scene.constraint_wrench()
+                timings["physics"] += t1 - t0
+                timings["contacts"] += time.thread_time() - t1
             t1 = time.thread_time()
-            raw = scene.contacts()
             garment_now = (i % garment_every == 0) or i == n_rec - 1
             verts = scene.vertices()
             _guard(spec, verts, path[i], t_rec[i])
-            contacts = _contacts(raw, limb, verts)
+            contacts = _contacts(raw, limb, verts, sub)
             mags = contact_magnitudes(contacts) if len(contacts) else np.zeros(0)
             fmap = force_map(contacts["position"], mags)
             t2 = time.thread_time()
             # garment on gripper = -(constraint force) - weight + m a, minus the tare
-            w = -(scene.constraint_wrench() - tare)
+            w = -(wrench / sub - tare)
             w[:3] += inertia[i]
             if len(mags):
                 peak_limb = max(peak_limb, float(mags.sum()))
@@ -296,7 +313,6 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
                     )
                 )
             t4 = time.thread_time()
-            timings["physics"] += t1 - t0
             timings["contacts"] += t2 - t1
             timings["sensors"] += t3 - t2
             timings["sink"] += t4 - t3
