@@ -12,6 +12,7 @@ import pytest
 from dresslog.errors import SimulationError
 from dresslog.limb import build_limb, limb_sdf
 from dresslog.sim import SimStart, SimStep, random_spec, record_trial, simulate
+from dresslog.sim.simulate import _contacts
 from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import contact_magnitudes
 
@@ -69,6 +70,7 @@ def test_contacts_lie_on_the_limb_where_the_garment_touches_it(task: Task) -> No
     touched = [s for s in sink.steps if len(s.contacts)]
     assert touched, "the garment never touched the limb"
     for s in touched:
+        assert len(np.unique(s.contacts["vertex"])) == len(s.contacts)  # one per garment node
         on_surface = limb_sdf(limb, s.contacts["position"])
         assert np.all(np.abs(on_surface) < 0.01)
         if s.garment is not None:
@@ -79,6 +81,25 @@ def test_contacts_lie_on_the_limb_where_the_garment_touches_it(task: Task) -> No
     if first.garment is not None:
         clear = limb_sdf(limb, first.garment.astype(float)).min() > 0.02
         assert not clear or len(first.contacts) == 0
+
+
+def test_a_recorded_contact_is_the_mean_over_the_substeps() -> None:
+    """Node 0 pressed by 2 N, 4 N, then only within the margin (0 N) over 3 substeps: 2 N."""
+    limb = build_limb(Task.GOWN)
+    verts = np.array([[0.15, 0.0, 0.05], [0.25, 0.0, 0.05]])  # just above the forearm
+
+    def raw(node: int, normal_force: float, x: float) -> tuple:
+        friction_dir = (1.0, 0.0, 0.0)
+        at = (verts[node, 0] + x, 0.0, 0.05)
+        return (0, 9, 4, -1, -1, at, at, (0.0, 0.0, -1.0), 0.0, normal_force,
+                0.5, friction_dir, 0.0, friction_dir)  # fmt: skip
+
+    substeps = [[raw(0, 2.0, -0.01)], [raw(0, 4.0, 0.0), raw(1, 0.0, 0.0)], [raw(0, 0.0, 0.0)]]
+    contacts = _contacts([c for s in substeps for c in s], limb, verts, len(substeps))
+    assert len(contacts) == 1 and contacts["vertex"][0] == 0
+    assert contacts["normal_force"][0] == pytest.approx(2.0)
+    np.testing.assert_allclose(contacts["friction"][0], [1.0 / 3, 0.0, 0.0])
+    np.testing.assert_allclose(contacts["position"][0], [0.15, 0.0, 0.044], atol=1e-3)  # latest
 
 
 @pytest.mark.parametrize("task", list(Task))
