@@ -116,7 +116,7 @@ def _surface(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return p - d[:c, None] * n, n
 
 
-def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int = 1) -> np.ndarray:
+def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) -> np.ndarray:
     """CONTACT_DTYPE array of the contacts that carry force (garment = body A, limb = B).
 
     `raw` holds the contact tuples of `substeps` physics steps; each garment vertex
