@@ -130,21 +130,23 @@ def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) ->
     if not rows:
         return np.zeros(0, dtype=CONTACT_DTYPE)
     flat = np.array(rows)
-    # squared distances to every vertex, summed per axis as .sum(-1) would: (x + y) + z
-    d = flat[:, None, 0:3] - verts
-    vertex = sum_xyz(d * d).argmin(axis=1)
+    # nearest vertex by |v|^2 - 2 p.v (|p|^2 is the same for every vertex): one small
+    # matmul instead of a (rows, vertices, 3) difference; garment nodes are centimetres
+    # apart, so rounding cannot change which vertex is nearest
+    vertex = (sum_xyz(verts * verts) - 2.0 * (flat[:, 0:3] @ verts.T)).argmin(axis=1)
+    n = len(verts)
+    latest = np.full(n, -1)
+    np.maximum.at(latest, vertex, np.arange(len(vertex)))  # each vertex's last row
+    ids = np.flatnonzero(latest >= 0)
+    pos, normal = _surface(limb, flat[latest[ids], 0:3])
     friction = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
-    # one row per vertex: the latest (np.unique on the reversed rows finds last occurrences)
-    ids, last, inverse = np.unique(vertex[::-1], return_index=True, return_inverse=True)
-    last = len(vertex) - 1 - last
-    inverse = inverse[::-1]
     out = np.zeros(len(ids), dtype=CONTACT_DTYPE)
-    pos, normal = _surface(limb, flat[last, 0:3])
     out["position"] = pos
     out["normal"] = normal
-    out["normal_force"] = np.bincount(inverse, flat[:, 3], len(ids)) / substeps
+    # per-vertex sums over the rows in order, as the substeps' impulses add up
+    out["normal_force"] = np.bincount(vertex, flat[:, 3], n)[ids] / substeps
     for axis in range(3):
-        out["friction"][:, axis] = np.bincount(inverse, friction[:, axis], len(ids)) / substeps
+        out["friction"][:, axis] = np.bincount(vertex, friction[:, axis], n)[ids] / substeps
     out["segment"] = segment_of(limb, pos)
     out["vertex"] = ids
     return out
