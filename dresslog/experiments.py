@@ -371,9 +371,17 @@ def _plot(path: Path, report: SweepReport) -> None:
     for ax, kind in zip(axes[0], kinds, strict=True):
         chosen = [s for s in report.settings if s.kind == kind]
         for axis in sorted({s.axis for s in chosen}):
-            line = sorted((s.value, s.scores.rmse) for s in chosen if s.axis == axis and s.scores)
+            line = sorted(
+                (s.value, s.scores.rmse, s.scores.zero_rmse)
+                for s in chosen
+                if s.axis == axis and s.scores
+            )
+            values, rmse, zero = zip(*line, strict=True)
             label = f"about {axis}" if axis else "model"
-            ax.plot([v for v, _ in line], [r for _, r in line], "o-", label=label)
+            (drawn,) = ax.plot(values, rmse, "o-", label=label)
+            # the all-zero estimate of the same sequences: how much force there was to find
+            zero_label = f"{label}, all-zero" if axis else "all-zero estimate"
+            ax.plot(values, zero, ":", color=drawn.get_color(), label=zero_label)
         ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
         ax.set_ylabel("RMSE (N)")
