@@ -83,6 +83,13 @@ def test_contacts_lie_on_the_limb_where_the_garment_touches_it(task: Task) -> No
         assert not clear or len(first.contacts) == 0
 
 
+@pytest.mark.parametrize("y", [-0.2, 0.2])
+def test_the_gown_touches_the_arm_even_at_the_widest_offset(y: float) -> None:
+    """As in the paper, every arm position of the training range meets the garment."""
+    sink = run(short(Task.GOWN, offset=(0.30, y, 0.0), duration=1.5))
+    assert max(s.force_map.sum() for s in sink.steps) > 0
+
+
 def test_a_recorded_contact_is_the_mean_over_the_substeps() -> None:
     """Node 0 pressed by 2 N, 4 N, then only within the margin (0 N) over 3 substeps: 2 N."""
     limb = build_limb(Task.GOWN)
