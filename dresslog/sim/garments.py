@@ -53,6 +53,26 @@ def _strip(a: np.ndarray, b: np.ndarray) -> list[tuple[int, int, int]]:
     return tris
 
 
+def _doubling_strip(a: np.ndarray, b: np.ndarray) -> list[tuple[int, int, int]]:
+    """Triangles joining a closed ring to one with twice its vertices (b[2i] beside a[i])."""
+    n = len(a)
+    tris = []
+    for i in range(n):
+        j = (i + 1) % n
+        b0, b1, b2 = b[2 * i], b[2 * i + 1], b[(2 * i + 2) % (2 * n)]
+        tris += [(a[i], b0, b1), (a[i], b1, a[j]), (a[j], b1, b2)]
+    return tris
+
+
+def _circle(verts: list, x: float, r: float, n: int, zc: float) -> np.ndarray:
+    """Append n vertices on a circle of radius r in the plane at x, centre (y 0, z zc)."""
+    start = len(verts)
+    for i in range(n):
+        a = 2 * np.pi * i / n
+        verts.append((x, r * np.sin(a), r * np.cos(a) + zc))
+    return np.arange(start, start + n)
+
+
 def _top(ring: np.ndarray, verts: list, count: int) -> list[int]:
     z = np.array([verts[i][2] for i in ring])
     return [int(ring[i]) for i in np.argsort(-z)[:count]]
@@ -74,33 +94,13 @@ def gown(
     misses the arm entirely in about a quarter of trials.
     """
     verts: list[tuple[float, float, float]] = []
-    rings = []
-    for j in range(rows):
-        x = length * j / (rows - 1)
-        idx = []
-        for i in range(ring):
-            a = 2 * np.pi * i / ring
-            idx.append(len(verts))
-            verts.append((x, radius * np.sin(a), radius * np.cos(a) - radius))
-        rings.append(np.array(idx))
+    rings = [_circle(verts, length * j / (rows - 1), radius, ring, -radius) for j in range(rows)]
     tris = [t for j in range(rows - 1) for t in _strip(rings[j], rings[j + 1])]
     gripped = sorted(i for r in rings for i in _top(r, verts, 3))
     inner = rings[0]
-    for k, rad in enumerate(body):
-        n = 2 * ring if k else ring
-        idx = []
-        for i in range(n):
-            a = 2 * np.pi * i / n
-            idx.append(len(verts))
-            verts.append((0.0, rad * np.sin(a), rad * np.cos(a) - radius))
-        outer = np.array(idx)
-        if n == len(inner):
-            tris += _strip(inner, outer)
-        else:
-            for i in range(ring):
-                j = (i + 1) % ring
-                b0, b1, b2 = outer[2 * i], outer[2 * i + 1], outer[(2 * i + 2) % n]
-                tris += [(inner[i], b0, b1), (inner[i], b1, inner[j]), (inner[j], b1, b2)]
+    for k, r in enumerate(body):
+        outer = _circle(verts, 0.0, r, 2 * ring if k else ring, -radius)
+        tris += (_doubling_strip if k == 1 else _strip)(inner, outer)
         inner = outer
     return Garment(
         name="gown",
