@@ -19,6 +19,9 @@ from dresslog.cli.common import reports_errors
 @click.option(
     "--balance-loss", is_flag=True, help="Scale force targets to the contact map's 0.1 in the loss."
 )
+@click.option(
+    "--keep-best", is_flag=True, help="Keep the epoch of lowest validation loss, not the last."
+)
 @click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--overwrite", is_flag=True, help="Replace an existing model folder.")

@@ -163,6 +163,35 @@ def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: P
         train(phis, forces, checkpoint=ckpt, **{**kwargs, "epochs": 4})
 
 
+def test_keep_best_returns_the_epoch_of_lowest_validation_loss_across_a_resume(tmp_path: Path):
+    phis, forces = synthetic(12, seed=5, n_points=4)
+    kwargs = {"batch_size": 2, "hidden": 6, "layers": 1, "lr": 0.02, "seed": 3, "threads": 1}
+    kwargs |= {"val_fraction": 0.25, "progress": False}  # a noisy validation loss
+    best, history = train(phis, forces, epochs=6, keep_best=True, **kwargs)
+    run = {"epochs": 6, "keep_best": True, **kwargs}
+    kept = history.kept
+    assert kept is not None and kept.epoch < 6  # the validation loss rose after its best
+    assert kept.val_loss == min(e.val_loss for e in history.epochs)
+    # Each epoch's shuffle depends only on (seed, epoch): stopping there gives those weights.
+    stopped, _ = train(phis, forces, epochs=kept.epoch, **kwargs)
+    for name, value in stopped.items():
+        np.testing.assert_array_equal(best[name], value, err_msg=name)
+
+    def stop_after(record: EpochRecord) -> None:
+        if record.epoch == kept.epoch + 1:
+            raise KeyboardInterrupt
+
+    ckpt = tmp_path / "run.ckpt"
+    with pytest.raises(KeyboardInterrupt):
+        train(phis, forces, checkpoint=ckpt, on_epoch=stop_after, **run)
+    resumed, _ = train(phis, forces, checkpoint=ckpt, **run)
+    for name, value in best.items():
+        np.testing.assert_array_equal(resumed[name], value, err_msg=name)
+    card = make_card(Task.GOWN, best, history)
+    assert card.hyperparameters.keep_best and card.metrics["kept_epoch"] == kept.epoch
+    assert card.metrics["val_loss"] == kept.val_loss
+
+
 def test_balanced_loss_makes_training_invariant_to_the_force_unit():
     """With --balance-loss, forces 100x smaller train the same network, outputs 100x smaller."""
     phis, forces = synthetic(8, seed=4, n_points=4)

@@ -72,6 +72,8 @@ class Hyperparameters(BaseModel):
     #: force targets were multiplied by this in the loss (1 = the paper), folded back
     #: into the head afterwards, so outputs are in newtons either way
     force_scale: float = 1.0
+    #: the weights are those of the epoch with the lowest validation loss, not the last
+    keep_best: bool = False
 
 
 class DataProvenance(BaseModel):

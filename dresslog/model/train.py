@@ -3,8 +3,9 @@
 Public API
 ----------
 ``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
-seed=0, window=None, val_fraction=0.1, val=None, normalise=False, threads=None,
-progress=True, checkpoint=None, on_epoch=None) -> (weights, TrainHistory)``
+seed=0, window=None, val_fraction=0.1, val=None, normalise=False, balance_loss=False,
+keep_best=False, threads=None, progress=True, checkpoint=None, on_epoch=None)
+-> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
     maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
     the optimiser RMSprop, as in the paper. ``weights`` is the float32 dict that
@@ -17,17 +18,19 @@ progress=True, checkpoint=None, on_epoch=None) -> (weights, TrainHistory)``
     mid-trial from a zero state, unlike inference; full sequences are the default).
 
     ``val``: (sequences, forces) to validate on; otherwise ``val_fraction`` of the
-    sequences (chosen by the seed) is held out. Same data, seed and threads give the same
-    weights. ``checkpoint``: a file written after every epoch (torch's weights-only
-    format) from which an interrupted run resumes. ``threads``: torch CPU threads,
-    default min(2, cores), restored afterwards.
+    sequences (chosen by the seed) is held out. ``keep_best``: return the weights of the
+    epoch with the lowest validation loss rather than the last (the paper kept the last).
+    Same data, seed and threads give the same weights. ``checkpoint``: a file written
+    after every epoch (torch's weights-only format) from which an interrupted run resumes.
+    ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
 
 ``make_card(task, weights, history, *, data=None, metrics=None) -> ModelCard``
     The card for freshly trained weights: sizes and normalisation read from the weights,
     hyperparameters and final losses from the history; ``save_model`` adds the hash.
 
 ``TrainHistory``: ``settings``, ``epochs`` (list of ``EpochRecord(epoch, train_loss,
-    val_loss, seconds)``), ``n_train``, ``n_val``, ``final_train_loss``, ``final_val_loss``.
+    val_loss, seconds)``), ``n_train``, ``n_val``, ``final_train_loss``, ``final_val_loss``,
+    ``kept`` (the record of the epoch whose weights were returned).
 """
 
 from __future__ import annotations
@@ -76,6 +79,14 @@ class TrainHistory:
     @property
     def final_val_loss(self) -> float | None:
         return self.epochs[-1].val_loss if self.epochs else None
+
+    @property
+    def kept(self) -> EpochRecord | None:
+        """The epoch whose weights `train` returns: the last, or the best if `keep_best`."""
+        scored = [e for e in self.epochs if e.val_loss is not None]
+        if self.settings.keep_best and scored:
+            return min(scored, key=lambda e: e.val_loss or 0.0)
+        return self.epochs[-1] if self.epochs else None
 
 
 def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -> int:
@@ -136,9 +147,10 @@ def _evaluate_loss(
     return total / count
 
 
-def _save_checkpoint(path: Path, net, optim, history: TrainHistory) -> None:
+def _save_checkpoint(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
     state = {
         "model": net.state_dict(),
+        "best": best,
         "optim": optim.state_dict(),
         "settings": history.settings.model_dump(),
         "arch": [net.n_points, net.hidden, net.layers],
@@ -148,7 +160,7 @@ def _save_checkpoint(path: Path, net, optim, history: TrainHistory) -> None:
         torch.save(state, tmp)
 
 
-def _resume(path: Path, net, optim, history: TrainHistory) -> None:
+def _resume(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
     """Continue from a checkpoint of the same settings; refuse one from another run."""
     try:
         state = torch.load(path, weights_only=True)
@@ -159,6 +171,7 @@ def _resume(path: Path, net, optim, history: TrainHistory) -> None:
         raise ModelError("checkpoint is from a run with other settings", path=path)
     net.load_state_dict(state["model"])
     optim.load_state_dict(state["optim"])
+    best.update(state.get("best", {}))
     history.epochs = [EpochRecord(**e) for e in state["epochs"]]
 
 
@@ -177,6 +190,7 @@ def train(
     val: tuple[Sequence[np.ndarray], Sequence[np.ndarray]] | None = None,
     normalise: bool = False,
     balance_loss: bool = False,
+    keep_best: bool = False,
     threads: int | None = None,
     progress: bool = True,
     checkpoint: str | Path | None = None,
@@ -207,6 +221,7 @@ def train(
         window=window,
         val_fraction=0.0 if val is not None else val_fraction,
         force_scale=scale,
+        keep_best=keep_best,
     )
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
     previous_threads = torch.get_num_threads()
@@ -219,9 +234,13 @@ def train(
             net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
         optim = torch.optim.RMSprop(net.parameters(), lr=lr)
         ckpt = Path(checkpoint) if checkpoint is not None else None
+        best: dict[str, torch.Tensor] = {}  # the kept epoch's weights, if keep_best
         if ckpt is not None and ckpt.exists():
-            _resume(ckpt, net, optim, history)
-        _fit(net, optim, phis, targets, val_phis, val_targets, history, progress, ckpt, on_epoch)
+            _resume(ckpt, net, optim, history, best)
+        fit = (phis, targets, val_phis, val_targets)
+        _fit(net, optim, *fit, history, progress, ckpt, on_epoch, best)
+        if best:
+            net.load_state_dict(best)
     finally:
         torch.set_num_threads(previous_threads)
     weights = net.weights()
@@ -256,6 +275,7 @@ def _fit(
     progress: bool,
     ckpt: Path | None,
     on_epoch: Callable[[EpochRecord], None] | None,
+    best: dict[str, torch.Tensor],
 ) -> None:
     from tqdm import tqdm
 
@@ -287,8 +307,10 @@ def _fit(
         val_loss = _evaluate_loss(net, val_phis, val_targets, 64) if val_phis else None
         record = EpochRecord(epoch + 1, total / count, val_loss, time.perf_counter() - started)
         history.epochs.append(record)
+        if s.keep_best and history.kept is record:
+            best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
         if ckpt is not None:
-            _save_checkpoint(ckpt, net, optim, history)
+            _save_checkpoint(ckpt, net, optim, history, best)
         bar.set_postfix(loss=f"{record.train_loss:.3g}", val=f"{val_loss or float('nan'):.3g}")
         bar.update()
         if on_epoch is not None:
@@ -310,9 +332,12 @@ def make_card(
     identity = not mean.any() and bool(np.all(std == 1.0))
     data = data or DataProvenance()
     data = data.model_copy(update={"n_train": history.n_train, "n_val": history.n_val})
-    losses = {"train_loss": history.final_train_loss}
-    if history.final_val_loss is not None:
-        losses["val_loss"] = history.final_val_loss
+    kept = history.kept
+    losses = {"train_loss": kept.train_loss if kept else float("nan")}
+    if kept is not None and kept.val_loss is not None:
+        losses["val_loss"] = kept.val_loss
+    if history.settings.keep_best and kept is not None:
+        losses["kept_epoch"] = float(kept.epoch)
     return ModelCard(
         task=Task(task),
         n_points=n_points,
