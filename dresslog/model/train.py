@@ -237,8 +237,10 @@ def train(
         best: dict[str, torch.Tensor] = {}  # the kept epoch's weights, if keep_best
         if ckpt is not None and ckpt.exists():
             _resume(ckpt, net, optim, history, best)
-        fit = (phis, targets, val_phis, val_targets)
-        _fit(net, optim, *fit, history, progress, ckpt, on_epoch, best)
+        _fit(
+            net, optim, phis, targets, val_phis, val_targets, history, progress, ckpt, on_epoch,
+            best,
+        )  # fmt: skip
         if best:
             net.load_state_dict(best)
     finally:

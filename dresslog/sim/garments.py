@@ -100,7 +100,7 @@ def gown(
     inner = rings[0]
     for k, r in enumerate(body):
         outer = _circle(verts, 0.0, r, 2 * ring if k else ring, -radius)
-        tris += (_doubling_strip if k == 1 else _strip)(inner, outer)
+        tris += (_strip if len(outer) == len(inner) else _doubling_strip)(inner, outer)
         inner = outer
     return Garment(
         name="gown",
