@@ -22,6 +22,13 @@ from dresslog.cli.common import reports_errors
 @click.option(
     "--keep-best", is_flag=True, help="Keep the epoch of lowest validation loss, not the last."
 )
+@click.option(
+    "--lr-schedule",
+    type=click.Choice(["constant", "cosine"]),
+    default="constant",
+    show_default=True,
+    help="cosine: anneal the learning rate to 0 over the epochs (the paper: constant).",
+)
 @click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--overwrite", is_flag=True, help="Replace an existing model folder.")

@@ -31,7 +31,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
 from dresslog.errors import DatasetError, ModelError
@@ -55,6 +55,7 @@ def train_dataset(
     normalise: bool = False,
     balance_loss: bool = False,
     keep_best: bool = False,
+    lr_schedule: Literal["constant", "cosine"] = "constant",
     window: int | None = None,
     seed: int = 0,
     overwrite: bool = False,
@@ -90,6 +91,7 @@ def train_dataset(
         normalise=normalise,
         balance_loss=balance_loss,
         keep_best=keep_best,
+        lr_schedule=lr_schedule,
         progress=progress,
         checkpoint=checkpoint,
         on_epoch=on_epoch,

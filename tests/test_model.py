@@ -26,9 +26,10 @@ from dresslog.model import (
     zero_baseline_rmse,
 )
 from dresslog.model.evaluate import evaluate
+from dresslog.model.files import Hyperparameters
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.postprocess import sequence_rmse
-from dresslog.model.train import EpochRecord, make_card, train
+from dresslog.model.train import EpochRecord, epoch_lr, make_card, train
 from dresslog.spec import Task
 
 N = 24
@@ -190,6 +191,32 @@ def test_keep_best_returns_the_epoch_of_lowest_validation_loss_across_a_resume(t
     card = make_card(Task.GOWN, best, history)
     assert card.hyperparameters.keep_best and card.metrics["kept_epoch"] == kept.epoch
     assert card.metrics["val_loss"] == kept.val_loss
+
+
+def test_cosine_schedule_anneals_the_learning_rate_and_resumes_on_the_same_curve(tmp_path: Path):
+    settings = Hyperparameters(epochs=4, lr=0.01, lr_schedule="cosine")
+    assert [epoch_lr(settings, e) for e in range(4)] == pytest.approx(
+        [0.01, 0.01 * (1 + 0.5**0.5) / 2, 0.005, 0.01 * (1 - 0.5**0.5) / 2]
+    )
+    assert epoch_lr(Hyperparameters(epochs=4, lr=0.01), 3) == 0.01
+    phis, forces = synthetic(8, seed=2, n_points=4)
+    kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
+    cosine, history = train(phis, forces, lr_schedule="cosine", **kwargs)
+    constant, _ = train(phis, forces, **kwargs)
+    assert not np.array_equal(cosine["head.weight"], constant["head.weight"])
+
+    def stop_after_first(record: EpochRecord) -> None:
+        if record.epoch == 1:
+            raise KeyboardInterrupt
+
+    ckpt = tmp_path / "run.ckpt"
+    with pytest.raises(KeyboardInterrupt):
+        train(phis, forces, lr_schedule="cosine", checkpoint=ckpt, on_epoch=stop_after_first,
+              **kwargs)  # fmt: skip
+    resumed, _ = train(phis, forces, lr_schedule="cosine", checkpoint=ckpt, **kwargs)
+    for name, value in cosine.items():
+        np.testing.assert_array_equal(resumed[name], value, err_msg=name)
+    assert make_card(Task.GOWN, cosine, history).hyperparameters.lr_schedule == "cosine"
 
 
 def test_balanced_loss_makes_training_invariant_to_the_force_unit():

@@ -74,6 +74,8 @@ class Hyperparameters(BaseModel):
     force_scale: float = 1.0
     #: the weights are those of the epoch with the lowest validation loss, not the last
     keep_best: bool = False
+    #: "cosine": the learning rate of epoch e is lr (1 + cos(pi e / epochs)) / 2
+    lr_schedule: Literal["constant", "cosine"] = "constant"
 
 
 class DataProvenance(BaseModel):

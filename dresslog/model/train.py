@@ -4,7 +4,8 @@ Public API
 ----------
 ``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
 seed=0, window=None, val_fraction=0.1, val=None, normalise=False, balance_loss=False,
-keep_best=False, threads=None, progress=True, checkpoint=None, on_epoch=None)
+keep_best=False, lr_schedule="constant", threads=None, progress=True, checkpoint=None,
+on_epoch=None)
 -> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
     maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
@@ -20,6 +21,9 @@ keep_best=False, threads=None, progress=True, checkpoint=None, on_epoch=None)
     ``val``: (sequences, forces) to validate on; otherwise ``val_fraction`` of the
     sequences (chosen by the seed) is held out. ``keep_best``: return the weights of the
     epoch with the lowest validation loss rather than the last (the paper kept the last).
+    ``lr_schedule="cosine"`` anneals the learning rate from ``lr`` towards 0 over the
+    epochs (set per epoch from its number alone, so a resumed run follows the same curve);
+    the paper's is constant.
     Same data, seed and threads give the same weights. ``checkpoint``: a file written
     after every epoch (torch's weights-only format) from which an interrupted run resumes.
     ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
@@ -35,11 +39,13 @@ keep_best=False, threads=None, progress=True, checkpoint=None, on_epoch=None)
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import torch
@@ -191,6 +197,7 @@ def train(
     normalise: bool = False,
     balance_loss: bool = False,
     keep_best: bool = False,
+    lr_schedule: Literal["constant", "cosine"] = "constant",
     threads: int | None = None,
     progress: bool = True,
     checkpoint: str | Path | None = None,
@@ -222,6 +229,7 @@ def train(
         val_fraction=0.0 if val is not None else val_fraction,
         force_scale=scale,
         keep_best=keep_best,
+        lr_schedule=lr_schedule,
     )
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
     previous_threads = torch.get_num_threads()
@@ -266,6 +274,13 @@ def balanced_force_scale(forces: Sequence[np.ndarray]) -> float:
     return 0.1 / (total / count) if count else 1.0
 
 
+def epoch_lr(settings: Hyperparameters, epoch: int) -> float:
+    """The learning rate of 0-based `epoch`: constant, or annealed by half a cosine."""
+    if settings.lr_schedule == "cosine":
+        return settings.lr * 0.5 * (1.0 + math.cos(math.pi * epoch / settings.epochs))
+    return settings.lr
+
+
 def _fit(
     net: ForceMapLSTM,
     optim: torch.optim.Optimizer,
@@ -287,6 +302,8 @@ def _fit(
         started = time.perf_counter()
         # Each epoch's shuffle depends only on (seed, epoch), so a resumed run matches.
         rng = np.random.default_rng([s.seed, epoch])
+        for group in optim.param_groups:
+            group["lr"] = epoch_lr(s, epoch)
         order = rng.permutation(len(phis))
         net.train()
         total, count = 0.0, 0
