@@ -63,9 +63,6 @@ class SimParams(BaseModel):
     bending_stiffness: float = 2.0
     friction: float = 0.5
     collision_margin: float = 0.006
-    grip_clearance: float = Field(
-        0.01, description="gripper and held garment edge keep this far off the limb, m"
-    )
     max_limb_force: float = Field(200.0, description="instability guard, N")
 
 

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from dresslog.limb import POINT_LIFT, build_limb, limb_points, limb_sdf, segment_of
-from dresslog.sim.trajectory import keep_clear
 from dresslog.spec import LimbRotation, Task
 
 
@@ -64,16 +63,3 @@ def test_segment_of_points_is_their_part() -> None:
     lp = limb_points(limb)
     agree = np.mean(segment_of(limb, lp.points) == lp.segment)
     assert agree > 0.9
-
-
-def test_keep_clear_lifts_only_where_the_held_edge_comes_near_the_limb() -> None:
-    limb = build_limb(Task.GOWN, (0.0, 0.0, 0.10))  # the arm raised into the path
-    held = np.array([[0.0, 0.0, 0.0], [0.1, 0.04, 0.0], [0.2, -0.04, 0.0]])
-    path = np.stack([np.linspace(0.8, 0.1, 50), np.zeros(50), np.full(50, 0.10)], axis=1)
-    lifted = keep_clear(path, limb, held, 0.01)
-    d = limb_sdf(limb, (lifted[:, None] + held[None]).reshape(-1, 3)).reshape(50, 3).min(axis=1)
-    before = limb_sdf(limb, (path[:, None] + held[None]).reshape(-1, 3)).reshape(50, 3).min(axis=1)
-    assert before.min() < 0 and d.min() >= 0.01 - 1e-6
-    far = before >= 0.01
-    assert far.any() and np.array_equal(lifted[far], path[far])  # clear steps: untouched
-    assert np.array_equal(lifted[:, :2], path[:, :2]) and np.all(lifted[:, 2] >= path[:, 2])

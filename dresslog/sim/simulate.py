@@ -15,17 +15,10 @@ import numpy as np
 
 from dresslog.errors import SimulationError
 from dresslog.force_map import ForceDistributor
-from dresslog.limb import (
-    Limb,
-    build_limb,
-    limb_points,
-    limb_surface,
-    segment_of,
-    sum_xyz,
-)
+from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, segment_of, sum_xyz
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
-from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
+from dresslog.sim.trajectory import constant_speed, random_control_points
 from dresslog.spec import LimbRotation, Outcome, Task, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
 
@@ -110,6 +103,19 @@ class SimResult:
         )
 
 
+#: Finite-difference steps of the surface normal, one per axis.
+_PROBES = np.eye(3) * 1e-5
+
+
+def _surface(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closest limb-surface points to `p` (C, 3) and the outward unit normals there."""
+    c = len(p)
+    d = limb_sdf(limb, np.concatenate([p[None], p + _PROBES[:, None]]).reshape(-1, 3))
+    grad = (d[c:].reshape(3, c) - d[:c]).T
+    n = grad / np.maximum(np.sqrt(sum_xyz(grad * grad))[:, None], 1e-12)
+    return p - d[:c, None] * n, n
+
+
 def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) -> np.ndarray:
     """CONTACT_DTYPE array of the contacts that carry force (garment = body A, limb = B).
 
@@ -132,7 +138,7 @@ def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) ->
     latest = np.full(n, -1)
     np.maximum.at(latest, vertex, np.arange(len(vertex)))  # each vertex's last row
     ids = np.flatnonzero(latest >= 0)
-    pos, normal = limb_surface(limb, flat[latest[ids], 0:3])
+    pos, normal = _surface(limb, flat[latest[ids], 0:3])
     friction = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
     out = np.zeros(len(ids), dtype=CONTACT_DTYPE)
     out["position"] = pos
@@ -215,11 +221,10 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     garment = garment_for(task)
     n_rec = round(spec.duration * p.record_hz)
     t_rec = np.arange(n_rec) / p.record_hz
-    held = garment.vertices[garment.gripped]
-    path = keep_clear(constant_speed(ctrl, spec.speed, t_rec), limb, held, p.grip_clearance)
+    path = constant_speed(ctrl, spec.speed, t_rec)
     start = path[0]
     t_phys = np.arange(n_rec * sub) / p.physics_hz
-    path_phys = keep_clear(constant_speed(ctrl, spec.speed, t_phys), limb, held, p.grip_clearance)
+    path_phys = constant_speed(ctrl, spec.speed, t_phys)
     vel = np.zeros_like(path)
     if n_rec > 1:
         vel[1:] = np.diff(path, axis=0) * p.record_hz

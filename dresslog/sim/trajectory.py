@@ -3,15 +3,13 @@ Hermite (Catmull-Rom) spline through them, sampled at constant speed.
 
 The nominal path runs from a fixed start beyond the hand or foot along the limb
 (world -x) to a fixed end; the end effector holds still at the end if the trial
-lasts longer than the path. `keep_clear` lifts the gripper where it, or the garment
-edge it holds, would come near the limb: a robot drives neither into the person.
+lasts longer than the path.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from dresslog.limb import Limb, limb_sdf
 from dresslog.spec import Task
 
 #: Nominal waypoints (world frame, m) of the end effector (the gripper, at the
@@ -77,33 +75,3 @@ def constant_speed(points: np.ndarray, speed: float, times: np.ndarray) -> np.nd
 def path_length(points: np.ndarray) -> float:
     dense = hermite(points)
     return float(np.linalg.norm(np.diff(dense, axis=0), axis=1).sum())
-
-
-def keep_clear(
-    path: np.ndarray, limb: Limb, held: np.ndarray, clearance: float, rounds: int = 100
-) -> np.ndarray:
-    """`path` (T, 3) raised where needed so every held point (path + `held` offsets,
-    (K, 3)) stays `clearance` (m) above the limb surface.
-
-    In both tasks the limb lies below the gripper's path, so the gripper lifts: at each
-    step by the held points' shortfall, which never overshoots (a distance changes no
-    faster than the point moves) and converges as the held edge rises over the limb.
-    Unchanged where the path already keeps clear, so such trials record as before.
-    Without it, the gripped edge is dragged through the limb: the gripper then feels
-    the limb push the held cloth, which no contact on the limb reports.
-    """
-    path = np.array(path, dtype=float)
-    held = np.asarray(held, dtype=float).reshape(-1, 3)
-    if clearance <= 0 or len(held) == 0:
-        return path
-    near = np.arange(len(path))
-    for _ in range(rounds):
-        points = path[near, None, :] + held[None]
-        d = limb_sdf(limb, points.reshape(-1, 3)).reshape(len(near), len(held))
-        short = clearance - d.min(axis=1)
-        keep = short > 1e-6
-        near, short = near[keep], short[keep]
-        if len(near) == 0:
-            break
-        path[near, 2] += short
-    return path
