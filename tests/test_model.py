@@ -144,19 +144,24 @@ def test_training_lowers_the_loss(trained):
     assert history.final_val_loss is not None and np.isfinite(history.final_val_loss)
 
 
+def interrupted_then_resumed(ckpt: Path, stop_after: int, phis, forces, **kwargs):
+    """`train` stopped (KeyboardInterrupt) after epoch `stop_after`, then run again on `ckpt`."""
+
+    def stop(record: EpochRecord) -> None:
+        if record.epoch == stop_after:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
+    return train(phis, forces, checkpoint=ckpt, **kwargs)
+
+
 def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: Path):
     phis, forces = synthetic(8, seed=2, n_points=4)
     kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
     reference, _ = train(phis, forces, **kwargs)
-
-    def stop_after_first(record: EpochRecord) -> None:
-        if record.epoch == 1:
-            raise KeyboardInterrupt
-
     ckpt = tmp_path / "run.ckpt"
-    with pytest.raises(KeyboardInterrupt):
-        train(phis, forces, checkpoint=ckpt, on_epoch=stop_after_first, **kwargs)
-    resumed, history = train(phis, forces, checkpoint=ckpt, **kwargs)
+    resumed, history = interrupted_then_resumed(ckpt, 1, phis, forces, **kwargs)
     assert [e.epoch for e in history.epochs] == [1, 2, 3]
     for name, value in reference.items():
         np.testing.assert_array_equal(resumed[name], value, err_msg=name)
@@ -177,15 +182,9 @@ def test_keep_best_returns_the_epoch_of_lowest_validation_loss_across_a_resume(t
     stopped, _ = train(phis, forces, epochs=kept.epoch, **kwargs)
     for name, value in stopped.items():
         np.testing.assert_array_equal(best[name], value, err_msg=name)
-
-    def stop_after(record: EpochRecord) -> None:
-        if record.epoch == kept.epoch + 1:
-            raise KeyboardInterrupt
-
-    ckpt = tmp_path / "run.ckpt"
-    with pytest.raises(KeyboardInterrupt):
-        train(phis, forces, checkpoint=ckpt, on_epoch=stop_after, **run)
-    resumed, _ = train(phis, forces, checkpoint=ckpt, **run)
+    resumed, _ = interrupted_then_resumed(
+        tmp_path / "run.ckpt", kept.epoch + 1, phis, forces, **run
+    )
     for name, value in best.items():
         np.testing.assert_array_equal(resumed[name], value, err_msg=name)
     card = make_card(Task.GOWN, best, history)
@@ -204,16 +203,9 @@ def test_cosine_schedule_anneals_the_learning_rate_and_resumes_on_the_same_curve
     cosine, history = train(phis, forces, lr_schedule="cosine", **kwargs)
     constant, _ = train(phis, forces, **kwargs)
     assert not np.array_equal(cosine["head.weight"], constant["head.weight"])
-
-    def stop_after_first(record: EpochRecord) -> None:
-        if record.epoch == 1:
-            raise KeyboardInterrupt
-
-    ckpt = tmp_path / "run.ckpt"
-    with pytest.raises(KeyboardInterrupt):
-        train(phis, forces, lr_schedule="cosine", checkpoint=ckpt, on_epoch=stop_after_first,
-              **kwargs)  # fmt: skip
-    resumed, _ = train(phis, forces, lr_schedule="cosine", checkpoint=ckpt, **kwargs)
+    resumed, _ = interrupted_then_resumed(
+        tmp_path / "run.ckpt", 1, phis, forces, lr_schedule="cosine", **kwargs
+    )
     for name, value in cosine.items():
         np.testing.assert_array_equal(resumed[name], value, err_msg=name)
     assert make_card(Task.GOWN, cosine, history).hyperparameters.lr_schedule == "cosine"
