@@ -63,6 +63,12 @@ class SimParams(BaseModel):
     bending_stiffness: float = 2.0
     friction: float = 0.5
     collision_margin: float = 0.006
+    grip_clearance: float = Field(
+        0.01, description="the gripper and the garment edge it holds keep this far off the limb, m"
+    )
+    max_grip_lift: float = Field(
+        0.10, description="the gripper stops where keeping clear would lift it more, m"
+    )
     max_limb_force: float = Field(200.0, description="instability guard, N")
 
 

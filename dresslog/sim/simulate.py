@@ -18,7 +18,7 @@ from dresslog.force_map import ForceDistributor
 from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, segment_of, sum_xyz
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
-from dresslog.sim.trajectory import constant_speed, random_control_points
+from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
 from dresslog.spec import LimbRotation, Outcome, Task, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
 
@@ -222,9 +222,14 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     n_rec = round(spec.duration * p.record_hz)
     t_rec = np.arange(n_rec) / p.record_hz
     path = constant_speed(ctrl, spec.speed, t_rec)
-    start = path[0]
     t_phys = np.arange(n_rec * sub) / p.physics_hz
     path_phys = constant_speed(ctrl, spec.speed, t_phys)
+    held = garment.vertices[garment.gripped]
+    rise = spec.speed / p.physics_hz  # the lift moves no faster than the path
+    cleared = keep_clear(path_phys, limb, held, p.grip_clearance, p.max_grip_lift, rise)
+    if cleared is not path_phys:  # a path left alone keeps its own 100 Hz samples
+        path_phys, path = cleared, cleared[::sub]
+    start = path[0]
     vel = np.zeros_like(path)
     if n_rec > 1:
         vel[1:] = np.diff(path, axis=0) * p.record_hz

@@ -3,13 +3,15 @@ Hermite (Catmull-Rom) spline through them, sampled at constant speed.
 
 The nominal path runs from a fixed start beyond the hand or foot along the limb
 (world -x) to a fixed end; the end effector holds still at the end if the trial
-lasts longer than the path.
+lasts longer than the path. `keep_clear` then lifts it over a limb raised into its
+way, or stops it where the limb blocks the way.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from dresslog.limb import Limb, limb_sdf
 from dresslog.spec import Task
 
 #: Nominal waypoints (world frame, m) of the end effector (the gripper, at the
@@ -75,3 +77,68 @@ def constant_speed(points: np.ndarray, speed: float, times: np.ndarray) -> np.nd
 def path_length(points: np.ndarray) -> float:
     dense = hermite(points)
     return float(np.linalg.norm(np.diff(dense, axis=0), axis=1).sum())
+
+
+def required_lift(
+    path: np.ndarray, limb: Limb, held: np.ndarray, clearance: float, rounds: int = 100
+) -> np.ndarray:
+    """Per step, how far (m) the gripper must rise for every held point (path + `held`
+    offsets (K, 3)) to keep `clearance` off the limb: 0 where it already does, inf
+    where rising does not clear it (an upright part of the limb in the way).
+
+    Each round raises a step by its held points' shortfall, which never overshoots (a
+    distance changes no faster than the point moves); over the top of a limb the
+    shortfall shrinks round by round, against an upright part it does not.
+    """
+    lift = np.zeros(len(path))
+    near = np.arange(len(path))
+    for _ in range(rounds):
+        points = path[near, None, :] + held[None]
+        points[..., 2] += lift[near, None]
+        d = limb_sdf(limb, points.reshape(-1, 3)).reshape(len(near), len(held))
+        short = clearance - d.min(axis=1)
+        keep = short > 1e-6
+        near, short = near[keep], short[keep]
+        if len(near) == 0:
+            break
+        lift[near] += short
+    else:
+        lift[near[short > 1e-4]] = np.inf  # still short after every round
+    return lift
+
+
+def keep_clear(
+    path: np.ndarray,
+    limb: Limb,
+    held: np.ndarray,
+    clearance: float,
+    max_lift: float,
+    max_rise: float,
+) -> np.ndarray:
+    """`path` (T, 3) lifted so the gripper and the garment edge it holds (`held` offsets,
+    (K, 3)) keep `clearance` (m) off the limb, rising or sinking at most `max_rise` per
+    step, and holding still from the first step that would need more than `max_lift`.
+
+    A robot does not push the cloth it holds through the person: without this the
+    held edge is dragged through a limb raised into the path, and the gripper feels the
+    limb push that cloth while no contact on the limb reports it. The lift is the
+    smallest rate-limited envelope over the needed lift, so it starts early enough
+    rather than jumping; where lifting cannot help (the upper arm across the gown's
+    path, a lift beyond `max_lift`) the gripper stops, as a robot stops when blocked.
+    Returns `path` itself where nothing changes, so such trials record as before.
+    """
+    if clearance <= 0 or len(held) == 0 or len(path) == 0:
+        return path
+    need = required_lift(path, limb, held, clearance)
+    blocked = np.flatnonzero(need > max_lift)
+    stop = max(int(blocked[0]), 1) if len(blocked) else len(path)
+    if stop == len(path) and not need.any():
+        return path
+    # smallest envelope over `need` with slope <= max_rise: max_s need(s) - rise |t - s|
+    ramp = max_rise * np.arange(stop)
+    before = np.maximum.accumulate(need[:stop] + ramp) - ramp
+    after = np.maximum.accumulate((need[:stop] - ramp)[::-1])[::-1] + ramp
+    out = np.array(path, dtype=float)
+    out[:stop, 2] += np.maximum(before, after)
+    out[stop:] = out[stop - 1]
+    return out
