@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from dresslog.limb import POINT_LIFT, build_limb, limb_points, limb_sdf, segment_of
+from dresslog.sim.trajectory import keep_clear
 from dresslog.spec import LimbRotation, Task
 
 
@@ -63,3 +64,44 @@ def test_segment_of_points_is_their_part() -> None:
     lp = limb_points(limb)
     agree = np.mean(segment_of(limb, lp.points) == lp.segment)
     assert agree > 0.9
+
+
+def clearance(limb, path: np.ndarray, held: np.ndarray) -> np.ndarray:
+    """Per step, how far the nearest held point is from the limb surface."""
+    points = (path[:, None] + held[None]).reshape(-1, 3)
+    return limb_sdf(limb, points).reshape(len(path), len(held)).min(axis=1)
+
+
+HELD = np.array([[0.0, 0.0, 0.0], [0.1, 0.04, 0.0], [0.2, -0.04, 0.0]])
+
+
+def test_keep_clear_lifts_over_a_raised_arm_no_faster_than_the_path_moves() -> None:
+    limb = build_limb(Task.GOWN, (0.0, 0.0, 0.10))  # the arm raised into the path
+    n, step = 400, 0.7 / 399
+    path = np.stack([np.linspace(0.8, 0.1, n), np.zeros(n), np.full(n, 0.10)], axis=1)
+    lifted = keep_clear(path, limb, HELD, 0.01, max_lift=0.10, max_rise=step)
+    before = clearance(limb, path, HELD)
+    assert before.min() < 0 and clearance(limb, lifted, HELD).min() >= 0.01 - 1e-6
+    assert np.array_equal(lifted[:, :2], path[:, :2]) and np.all(lifted[:, 2] >= path[:, 2])
+    assert np.abs(np.diff(lifted[:, 2])).max() <= step + 1e-12  # no jumps
+    assert np.array_equal(lifted[:20], path[:20])  # far from the arm: untouched
+
+
+def test_keep_clear_stops_where_lifting_would_not_clear_the_limb() -> None:
+    limb = build_limb(Task.GOWN, (0.0, 0.0, 0.0))
+    # along the forearm, 10 cm up, and on into the upright upper arm
+    n = 400
+    path = np.stack([np.linspace(0.6, -0.2, n), np.zeros(n), np.full(n, 0.10)], axis=1)
+    held = HELD[:1]
+    out = keep_clear(path, limb, held, 0.01, max_lift=0.10, max_rise=0.8 / n)
+    moving = np.flatnonzero(np.any(np.diff(out, axis=0) != 0, axis=1))
+    stop = moving[-1] + 1
+    assert 0 < stop < n - 1 and np.all(out[stop:] == out[stop])  # holds still
+    assert clearance(limb, out, held).min() >= 0.01 - 1e-6  # never pushed into the arm
+    assert clearance(limb, path, held)[stop + 1 :].min() < 0.01  # where it would have gone
+
+
+def test_keep_clear_leaves_a_clear_path_as_it_is() -> None:
+    limb = build_limb(Task.GOWN, (0.0, 1.0, 0.0))  # the arm far to the side
+    path = np.stack([np.linspace(0.8, 0.1, 50), np.zeros(50), np.full(50, 0.10)], axis=1)
+    assert keep_clear(path, limb, HELD, 0.01, max_lift=0.10, max_rise=0.01) is path

@@ -12,6 +12,7 @@ import pytest
 from dresslog.errors import SimulationError
 from dresslog.limb import build_limb, limb_sdf
 from dresslog.sim import SimStart, SimStep, random_spec, record_trial, simulate
+from dresslog.sim.garments import garment_for
 from dresslog.sim.simulate import _contacts
 from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import contact_magnitudes
@@ -51,7 +52,7 @@ def test_same_spec_same_bytes(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("task", list(Task))
 def test_steps_stream_at_100_hz_with_consistent_shapes(task: Task) -> None:
-    sink = run(short(task, duration=1.0))
+    sink = run(short(task, offset=AWAY, duration=1.0))  # no lift: the speed stays constant
     n = len(sink.info.limb_points)
     assert len(sink.steps) == 100
     t = np.array([s.t_ns for s in sink.steps])
@@ -88,6 +89,40 @@ def test_the_gown_touches_the_arm_even_at_the_widest_offset(y: float) -> None:
     """As in the paper, every arm position of the training range meets the garment."""
     sink = run(short(Task.GOWN, offset=(0.30, y, 0.0), duration=1.5))
     assert max(s.force_map.sum() for s in sink.steps) > 0
+
+
+class Held:
+    """Where the gripped garment vertices are, at the 10 Hz garment states."""
+
+    def start(self, info: SimStart) -> None:
+        self.states: list[np.ndarray] = []
+        self.wrench: list[np.ndarray] = []
+
+    def step(self, step: SimStep) -> None:
+        self.wrench.append(step.wrench)
+        if step.garment is not None:
+            self.states.append(step.garment)
+
+
+@pytest.mark.parametrize(
+    ("task", "offset"), [(Task.GOWN, (0.30, 0.0, 0.10)), (Task.SHORTS, (0.0, -0.075, 0.05))]
+)
+def test_the_gripper_keeps_the_held_edge_off_a_limb_in_its_path(task: Task, offset) -> None:
+    """A limb raised into the path: the held edge would be dragged through it; it is not."""
+    held = garment_for(task).gripped
+
+    def deepest(clearance: float) -> float:
+        spec = short(task, offset=offset).model_copy(
+            update={"sim": SimParams(grip_clearance=clearance)}
+        )
+        sink = Held()
+        simulate(spec, sink)
+        limb = build_limb(task, spec.limb_offset, spec.limb_rotation)
+        return float(limb_sdf(limb, np.stack(sink.states)[:, held].reshape(-1, 3)).min())
+
+    assert deepest(0.0) < -0.02  # dragged through the limb
+    assert deepest(0.01) > 0.0
+
 
 
 def test_a_recorded_contact_is_the_mean_over_the_substeps() -> None:
