@@ -124,7 +124,6 @@ def test_the_gripper_keeps_the_held_edge_off_a_limb_in_its_path(task: Task, offs
     assert deepest(0.01) > 0.0
 
 
-
 def test_a_recorded_contact_is_the_mean_over_the_substeps() -> None:
     """Node 0 pressed by 2 N, 4 N, then only within the margin (0 N) over 3 substeps: 2 N."""
     limb = build_limb(Task.GOWN)
