@@ -79,6 +79,15 @@ def path_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(dense, axis=0), axis=1).sum())
 
 
+_UP = np.array([0.0, 0.0, 1.0])
+
+
+def _gap(path: np.ndarray, limb: Limb, held: np.ndarray) -> np.ndarray:
+    """Per step, the distance (m) of the nearest held point (path + `held`) to the limb."""
+    points = path[:, None, :] + held[None]
+    return limb_sdf(limb, points.reshape(-1, 3)).reshape(len(path), len(held)).min(axis=1)
+
+
 def required_lift(
     path: np.ndarray, limb: Limb, held: np.ndarray, clearance: float, rounds: int = 100
 ) -> np.ndarray:
@@ -93,10 +102,7 @@ def required_lift(
     lift = np.zeros(len(path))
     near = np.arange(len(path))
     for _ in range(rounds):
-        points = path[near, None, :] + held[None]
-        points[..., 2] += lift[near, None]
-        d = limb_sdf(limb, points.reshape(-1, 3)).reshape(len(near), len(held))
-        short = clearance - d.min(axis=1)
+        short = clearance - _gap(path[near] + lift[near, None] * _UP, limb, held)
         keep = short > 1e-6
         near, short = near[keep], short[keep]
         if len(near) == 0:
@@ -134,11 +140,17 @@ def keep_clear(
     stop = max(int(blocked[0]), 1) if len(blocked) else len(path)
     if stop == len(path) and not need.any():
         return path
-    # smallest envelope over `need` with slope <= max_rise: max_s need(s) - rise |t - s|
-    ramp = max_rise * np.arange(stop)
-    before = np.maximum.accumulate(need[:stop] + ramp) - ramp
-    after = np.maximum.accumulate((need[:stop] - ramp)[::-1])[::-1] + ramp
-    out = np.array(path, dtype=float)
-    out[:stop, 2] += np.maximum(before, after)
-    out[stop:] = out[stop - 1]
-    return out
+    while True:
+        # smallest envelope over `need` with slope <= max_rise: max_s need(s) - rise |t - s|
+        ramp = max_rise * np.arange(stop)
+        before = np.maximum.accumulate(need[:stop] + ramp) - ramp
+        after = np.maximum.accumulate((need[:stop] - ramp)[::-1])[::-1] + ramp
+        out = np.array(path, dtype=float)
+        out[:stop, 2] += np.maximum(before, after)
+        out[stop:] = out[stop - 1]
+        # rising early, above a step's own need, can bring the edge to another part
+        # of the limb (the upper arm): then stop before that step too
+        near = np.flatnonzero(_gap(out[:stop], limb, held) < clearance - 1e-4)
+        if len(near) == 0 or stop == 1:
+            return out
+        stop = max(int(near[0]), 1)
