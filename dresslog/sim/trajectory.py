@@ -79,9 +79,6 @@ def path_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(dense, axis=0), axis=1).sum())
 
 
-_UP = np.array([0.0, 0.0, 1.0])
-
-
 def _gap(path: np.ndarray, limb: Limb, held: np.ndarray) -> np.ndarray:
     """Per step, the distance (m) of the nearest held point (path + `held`) to the limb."""
     points = path[:, None, :] + held[None]
@@ -102,7 +99,10 @@ def required_lift(
     lift = np.zeros(len(path))
     near = np.arange(len(path))
     for _ in range(rounds):
-        short = clearance - _gap(path[near] + lift[near, None] * _UP, limb, held)
+        points = path[near, None, :] + held[None]
+        points[..., 2] += lift[near, None]
+        d = limb_sdf(limb, points.reshape(-1, 3)).reshape(len(near), len(held))
+        short = clearance - d.min(axis=1)
         keep = short > 1e-6
         near, short = near[keep], short[keep]
         if len(near) == 0:
@@ -148,9 +148,9 @@ def keep_clear(
         out = np.array(path, dtype=float)
         out[:stop, 2] += np.maximum(before, after)
         out[stop:] = out[stop - 1]
-        # rising early, above a step's own need, can bring the edge to another part
-        # of the limb (the upper arm): then stop before that step too
-        near = np.flatnonzero(_gap(out[:stop], limb, held) < clearance - 1e-4)
-        if len(near) == 0 or stop == 1:
+        # rising early, above a step's own need, can bring the edge nearer another part
+        # of the limb (the upper arm): within the clearance is allowed, into the limb not
+        inside = np.flatnonzero(_gap(out[:stop], limb, held) < 0.0)
+        if len(inside) == 0 or stop == 1:
             return out
-        stop = max(int(near[0]), 1)
+        stop = max(int(inside[0]), 1)
