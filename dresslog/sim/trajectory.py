@@ -99,6 +99,8 @@ def required_lift(
     lift = np.zeros(len(path))
     near = np.arange(len(path))
     for _ in range(rounds):
+        # not `_gap(path + lift)`: the lift is added after the offsets, the order (and so
+        # the rounding) the v5 datasets were simulated with
         points = path[near, None, :] + held[None]
         points[..., 2] += lift[near, None]
         d = limb_sdf(limb, points.reshape(-1, 3)).reshape(len(near), len(held))
