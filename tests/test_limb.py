@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from dresslog.limb import POINT_LIFT, build_limb, limb_points, limb_sdf, segment_of
-from dresslog.sim.trajectory import keep_clear
+from dresslog.sim import random_spec
+from dresslog.sim.garments import garment_for
+from dresslog.sim.trajectory import constant_speed, keep_clear
 from dresslog.spec import LimbRotation, Task
 
 
@@ -105,3 +107,16 @@ def test_keep_clear_leaves_a_clear_path_as_it_is() -> None:
     limb = build_limb(Task.GOWN, (0.0, 1.0, 0.0))  # the arm far to the side
     path = np.stack([np.linspace(0.8, 0.1, 50), np.zeros(50), np.full(50, 0.10)], axis=1)
     assert keep_clear(path, limb, HELD, 0.01, max_lift=0.10, max_rise=0.01) is path
+
+
+def test_keep_clear_does_not_raise_the_held_edge_into_another_part_of_the_limb() -> None:
+    """A gown trial (seed 1175044 of the v5 dataset) where lifting early, for the raised
+    forearm ahead, would bring the top seam into the arm near the elbow: it stops first."""
+    spec = random_spec(Task.GOWN, 1175044)
+    limb = build_limb(Task.GOWN, spec.limb_offset, spec.limb_rotation)
+    garment = garment_for(Task.GOWN)
+    held = garment.vertices[garment.gripped]
+    path = constant_speed(np.asarray(spec.control_points), spec.speed, np.arange(2100) / 300)
+    out = keep_clear(path, limb, held, 0.01, max_lift=0.10, max_rise=spec.speed / 300)
+    assert clearance(limb, out, held).min() >= 0.0
+    assert np.all(out[-600:] == out[-1]) and not np.array_equal(out[-600:], path[-600:])
