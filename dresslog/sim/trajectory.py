@@ -79,9 +79,14 @@ def path_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(dense, axis=0), axis=1).sum())
 
 
-def _gap(path: np.ndarray, limb: Limb, held: np.ndarray) -> np.ndarray:
-    """Per step, the distance (m) of the nearest held point (path + `held`) to the limb."""
+def _gap(
+    path: np.ndarray, limb: Limb, held: np.ndarray, lift: np.ndarray | None = None
+) -> np.ndarray:
+    """Per step, the distance (m) of the nearest held point (path + `held`, raised by
+    `lift` after the offsets are added) to the limb."""
     points = path[:, None, :] + held[None]
+    if lift is not None:
+        points[..., 2] += lift[:, None]
     return limb_sdf(limb, points.reshape(-1, 3)).reshape(len(path), len(held)).min(axis=1)
 
 
@@ -99,12 +104,7 @@ def required_lift(
     lift = np.zeros(len(path))
     near = np.arange(len(path))
     for _ in range(rounds):
-        # not `_gap(path + lift)`: the lift is added after the offsets, the order (and so
-        # the rounding) the v5 datasets were simulated with
-        points = path[near, None, :] + held[None]
-        points[..., 2] += lift[near, None]
-        d = limb_sdf(limb, points.reshape(-1, 3)).reshape(len(near), len(held))
-        short = clearance - d.min(axis=1)
+        short = clearance - _gap(path[near], limb, held, lift[near])
         keep = short > 1e-6
         near, short = near[keep], short[keep]
         if len(near) == 0:
