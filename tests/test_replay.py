@@ -21,6 +21,7 @@ from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink
 from dresslog.replay.pipeline import MODELS_ENV, replay_file
 from dresslog.spec import Task
+from tests.conftest import SAMPLES
 from tests.test_bad_input import TWIST, _raw_mcap, _vectors, missing_twist, nan_wrench
 
 STEPS = 40
@@ -142,6 +143,18 @@ def test_infer_finds_the_bundled_model_for_the_trials_task(gown, tmp_path, monke
     report = replay_file(trial_path, rrd=tmp_path / "x.rrd")
     assert report.model == tmp_path / "bundled" / "gown"
     assert report.rmse is not None
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_bundled_model_beats_all_zero_on_the_bundled_trial(task: Task, tmp_path, monkeypatch):
+    """What a new user runs first: `dresslog infer samples/T.mcap` with the shipped model."""
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+    report = replay_file(SAMPLES / f"{task.value}.mcap", rrd=tmp_path / "x.rrd")
+    assert report.model == SAMPLES / "models" / task.value
+    assert report.steps == 700
+    assert report.rmse is not None and report.zero_rmse is not None
+    assert report.rmse < report.zero_rmse
+    assert load_model(report.model).card.metrics["test_ratio"] < 0.85
 
 
 def other_task_model(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
