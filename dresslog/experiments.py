@@ -371,7 +371,7 @@ def _plot(path: Path, report: SweepReport) -> None:
     import matplotlib.pyplot as plt
 
     kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
-    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 3.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 4.4), squeeze=False)
     for ax, kind in zip(axes[0], kinds, strict=True):
         chosen = [s for s in report.settings if s.kind == kind]
         for axis in sorted({s.axis for s in chosen}):
@@ -390,7 +390,8 @@ def _plot(path: Path, report: SweepReport) -> None:
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
         ax.set_ylabel("RMSE (N)")
         ax.set_title(f"{report.task}, {report.n} sequences per setting")
-        ax.legend()
+        # below the axes: inside, it hides the lines it names
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize="small")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
