@@ -146,7 +146,9 @@ def test_infer_finds_the_bundled_model_for_the_trials_task(gown, tmp_path, monke
 
 
 @pytest.mark.parametrize("task", list(Task))
-def test_bundled_model_beats_all_zero_on_the_bundled_trial(task: Task, tmp_path, monkeypatch):
+def test_bundled_model_beats_all_zero_on_the_bundled_trial(
+    task: Task, tmp_path: Path, monkeypatch
+) -> None:
     """What a new user runs first: `dresslog infer samples/T.mcap` with the shipped model."""
     monkeypatch.delenv(MODELS_ENV, raising=False)
     report = replay_file(SAMPLES / f"{task.value}.mcap", rrd=tmp_path / "x.rrd")
