@@ -69,6 +69,9 @@ class SimParams(BaseModel):
     max_grip_lift: float = Field(
         0.10, description="the gripper stops where keeping clear would lift it more, m"
     )
+    lift_smoothing: float = Field(
+        0.25, description="the gripper spreads a change of its lift rate over this long, s"
+    )
     max_limb_force: float = Field(200.0, description="instability guard, N")
 
 

@@ -89,6 +89,23 @@ def test_keep_clear_lifts_over_a_raised_arm_no_faster_than_the_path_moves() -> N
     assert np.array_equal(lifted[:20], path[:20])  # far from the arm: untouched
 
 
+def test_keep_clear_smoothing_bounds_the_vertical_acceleration() -> None:
+    """Without smoothing the lift is a tent over the raised arm: its vertical speed flips
+    from +step to -step at once. Smoothed over 75 steps it changes by at most
+    2 * step / 75 per step, still clears the arm and still lifts no faster."""
+    limb = build_limb(Task.GOWN, (0.0, 0.0, 0.10))
+    n, step = 400, 0.7 / 399
+    path = np.stack([np.linspace(0.8, 0.1, n), np.zeros(n), np.full(n, 0.10)], axis=1)
+    sharp = keep_clear(path, limb, HELD, 0.01, max_lift=0.10, max_rise=step)
+    smooth = keep_clear(path, limb, HELD, 0.01, max_lift=0.10, max_rise=step, smoothing=75)
+    assert np.abs(np.diff(sharp[:, 2], 2)).max() > step / 2  # corners: the rate jumps
+    assert np.abs(np.diff(smooth[:, 2], 2)).max() <= 2 * step / 75 + 1e-12
+    assert np.abs(np.diff(smooth[:, 2])).max() <= step + 1e-12
+    assert np.all(smooth[:, 2] >= sharp[:, 2] - 1e-12)  # never below the needed lift
+    assert clearance(limb, smooth, HELD).min() >= 0.01 - 1e-6
+    assert smooth[:, 2].max() <= sharp[:, 2].max() + 1e-12  # and no higher than needed
+
+
 def test_keep_clear_stops_where_lifting_would_not_clear_the_limb() -> None:
     limb = build_limb(Task.GOWN, (0.0, 0.0, 0.0))
     # along the forearm, 10 cm up, and on into the upright upper arm

@@ -226,7 +226,8 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     path_phys = constant_speed(ctrl, spec.speed, t_phys)
     held = garment.vertices[garment.gripped]
     rise = spec.speed / p.physics_hz  # the lift moves no faster than the path
-    cleared = keep_clear(path_phys, limb, held, p.grip_clearance, p.max_grip_lift, rise)
+    smoothing = round(p.lift_smoothing * p.physics_hz)
+    cleared = keep_clear(path_phys, limb, held, p.grip_clearance, p.max_grip_lift, rise, smoothing)
     if cleared is not path_phys:  # a path left alone keeps its own 100 Hz samples
         path_phys, path = cleared, cleared[::sub]
     start = path[0]

@@ -115,6 +115,25 @@ def required_lift(
     return lift
 
 
+def smooth_envelope(lift: np.ndarray, width: int) -> np.ndarray:
+    """`lift` made smooth without dipping below it: the moving maximum, then the moving
+    mean, each over `width` steps (rounded up to an odd count; the edges held).
+
+    Each step's mean covers `width` maxima that all include the step itself, so the
+    result never falls below `lift`; its slope is no steeper than `lift`'s, and a change
+    of slope is spread over `width` steps, so a tent-shaped lift whose slope flips from
+    +r to -r per step now changes its rate by at most 2r / `width` per step: the
+    gripper accelerates smoothly instead of reversing its vertical speed in one step.
+    """
+    if width <= 1 or len(lift) == 0:
+        return lift
+    half = width // 2
+    windows = np.lib.stride_tricks.sliding_window_view
+    padded = np.pad(lift, half, mode="edge")
+    peak = windows(padded, 2 * half + 1).max(axis=1)
+    return windows(np.pad(peak, half, mode="edge"), 2 * half + 1).mean(axis=1)
+
+
 def keep_clear(
     path: np.ndarray,
     limb: Limb,
@@ -122,10 +141,12 @@ def keep_clear(
     clearance: float,
     max_lift: float,
     max_rise: float,
+    smoothing: int = 1,
 ) -> np.ndarray:
     """`path` (T, 3) lifted so the gripper and the garment edge it holds (`held` offsets,
     (K, 3)) keep `clearance` (m) off the limb, rising or sinking at most `max_rise` per
     step, and holding still from the first step that would need more than `max_lift`.
+    `smoothing` (steps) spreads every change of the lift's rate over that many steps.
 
     A robot does not push the cloth it holds through the person: without this the
     held edge is dragged through a limb raised into the path, and the gripper feels the
@@ -148,7 +169,7 @@ def keep_clear(
         before = np.maximum.accumulate(need[:stop] + ramp) - ramp
         after = np.maximum.accumulate((need[:stop] - ramp)[::-1])[::-1] + ramp
         out = np.array(path, dtype=float)
-        out[:stop, 2] += np.maximum(before, after)
+        out[:stop, 2] += smooth_envelope(np.maximum(before, after), smoothing)
         out[stop:] = out[stop - 1]
         # rising early, above a step's own need, can bring the edge nearer another part
         # of the limb (the upper arm): within the clearance is allowed, into the limb not
