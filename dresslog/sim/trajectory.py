@@ -3,8 +3,8 @@ Hermite (Catmull-Rom) spline through them, sampled at constant speed.
 
 The nominal path runs from a fixed start beyond the hand or foot along the limb
 (world -x) to a fixed end; the end effector holds still at the end if the trial
-lasts longer than the path. `keep_clear` then lifts it over a limb raised into its
-way, or stops it where the limb blocks the way.
+lasts longer than the path. `keep_clear` then lifts it, smoothly, over a limb raised
+into its way, or stops it where the limb blocks the way.
 """
 
 from __future__ import annotations
