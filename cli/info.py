@@ -1,6 +1,8 @@
-"""`dresslog info FILE.mcap [--json]`."""
+"""`dresslog info FILE.mcap|MODEL|DATA [--json]`."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import click
 
@@ -9,11 +11,23 @@ from dresslog.cli.common import reports_errors
 
 @click.command("info")
 @click.argument("path", type=click.Path(path_type=str))
-@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print it as JSON (card, manifest).")
 @reports_errors
 def info(path: str, as_json: bool) -> None:
-    """Summarise a trial file: task, duration, rate, channels, spec, ground truth."""
-    from dresslog.io.summary import format_summary, summarize
+    """Summarise a trial file, a model folder (its card) or a dataset folder (its manifest)."""
+    if (Path(path) / "manifest.json").is_file():
+        from dresslog.dataset import load_manifest
 
-    summary = summarize(path)
-    click.echo(summary.model_dump_json(indent=2) if as_json else format_summary(summary))
+        manifest = load_manifest(path)
+        click.echo(manifest.model_dump_json(indent=1) if as_json else manifest.describe())
+    elif Path(path).is_dir():
+        from dresslog.model.files import load_model
+        from dresslog.model.summary import format_card
+
+        model = load_model(path)  # verifies the weights against the card
+        click.echo(model.card.model_dump_json(indent=2) if as_json else format_card(model))
+    else:
+        from dresslog.io.summary import format_summary, summarize
+
+        summary = summarize(path)
+        click.echo(summary.model_dump_json(indent=2) if as_json else format_summary(summary))

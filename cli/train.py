@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from dresslog.cli.common import reports_errors
@@ -36,7 +38,7 @@ from dresslog.cli.common import reports_errors
 @reports_errors
 def train(data: str, out: str, quiet: bool, **options: object) -> None:
     """Train a force-map LSTM on DATA's training split; score it on the test split."""
-    from dresslog.experiments import train_dataset
+    from dresslog.experiments import TRAINING_PLOT, train_dataset
 
     def report(epoch) -> None:
         val = "n/a" if epoch.val_loss is None else f"{epoch.val_loss:.4g}"
@@ -45,3 +47,4 @@ def train(data: str, out: str, quiet: bool, **options: object) -> None:
     card = train_dataset(data, out, progress=not quiet, on_epoch=report, **options)
     shown = ", ".join(f"{k} {v:.4g}" for k, v in card.metrics.items())
     click.echo(f"{out}: {card.task} model, {card.data.n_train} training sequences; {shown}")
+    click.echo(f"learning curve: {Path(out) / TRAINING_PLOT}")

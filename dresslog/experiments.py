@@ -7,11 +7,12 @@ user make the same one call.
 Public API
 ----------
 ``train_dataset(data, out, *, epochs=10, batch_size=16, hidden=50, layers=3, lr=1e-3,
-normalise=False, balance_loss=False, window=None, seed=0, overwrite=False, workers=None,
-progress=True, on_epoch=None) -> ModelCard``
+normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant", window=None,
+seed=0, overwrite=False, workers=None, progress=True, on_epoch=None) -> ModelCard``
     Trains on the training split (holding out ``val_fraction`` of it for the per-epoch
     validation loss), scores the test split, and saves a model folder whose card names
-    the data by its manifest hash. Resumes from ``.<out>.checkpoint.pt`` beside `out`.
+    the data by its manifest hash and keeps the per-epoch losses, with their plot
+    (``training.png``). Resumes from ``.<out>.checkpoint.pt`` beside `out`.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
 -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome,
@@ -36,7 +37,11 @@ from typing import Any, Literal
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
 from dresslog.errors import DatasetError, ModelError
 from dresslog.model.files import DataProvenance, LoadedModel, ModelCard, check_task, load_model
+from dresslog.plots import plot_sweep, plot_training
 from dresslog.spec import Task
+
+#: The learning curve `train_dataset` draws into the model folder.
+TRAINING_PLOT = "training.png"
 
 #: Mid-range speeds (m/s) the paper used for the rotation sweep (12.5 and 17.5 cm/s).
 ROTATION_SPEED = {Task.GOWN: 0.125, Task.SHORTS: 0.175}
@@ -106,6 +111,7 @@ def train_dataset(
     provenance = DataProvenance(manifest_sha256=arrays.manifest_sha256, description=str(data))
     card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
     card = save_model(out, weights, card, overwrite=overwrite)
+    plot_training(out / TRAINING_PLOT, card)
     checkpoint.unlink(missing_ok=True)
     return card
 
@@ -360,38 +366,4 @@ def _write_sweep(out: Path, report: SweepReport) -> None:
         )
     (out / "sweep.csv").write_text("\n".join(rows) + "\n")
     (out / "sweep.json").write_text(json.dumps(_finite(asdict(report)), indent=2) + "\n")
-    _plot(out / "sweep.png", report)
-
-
-def _plot(path: Path, report: SweepReport) -> None:
-    """Fig. 12 (RMSE against speed) and Fig. 13 (against rotation, one line per axis)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
-    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 4.4), squeeze=False)
-    for ax, kind in zip(axes[0], kinds, strict=True):
-        chosen = [s for s in report.settings if s.kind == kind]
-        for axis in sorted({s.axis for s in chosen}):
-            line = sorted(
-                (s.value, s.scores.rmse, s.scores.zero_rmse)
-                for s in chosen
-                if s.axis == axis and s.scores
-            )
-            values, rmse, zero = zip(*line, strict=True)
-            label = f"about {axis}" if axis else "model"
-            (drawn,) = ax.plot(values, rmse, "o-", label=label)
-            # the all-zero estimate of the same sequences: how much force there was to find
-            zero_label = f"{label}, all-zero" if axis else "all-zero estimate"
-            ax.plot(values, zero, ":", color=drawn.get_color(), label=zero_label)
-        ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
-        ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
-        ax.set_ylabel("RMSE (N)")
-        ax.set_title(f"{report.task}, {report.n} sequences per setting")
-        # below the axes: inside, it hides the lines it names
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    plot_sweep(out / "sweep.png", report)

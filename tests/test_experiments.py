@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from dresslog.cli.main import main
 from dresslog.dataset import generate, load_manifest
 from dresslog.experiments import dataset_bounds
-from dresslog.model.files import ModelCard, save_model
+from dresslog.model.files import ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 
 
@@ -45,6 +45,20 @@ def test_trained_model_card_names_its_data_and_test_scores(model: Path, data: Pa
     assert card["hidden"] == 4 and card["layers"] == 1 and card["hyperparameters"]["epochs"] == 2
     assert card["metrics"]["test_n_sequences"] == 1.0
     assert not list(data.parent.glob(".model.checkpoint.pt"))
+
+
+@pytest.mark.slow
+def test_trained_model_keeps_its_learning_curve_and_its_plot(model: Path) -> None:
+    import matplotlib.image
+
+    card = load_model(model).card
+    assert [e.epoch for e in card.history] == [1, 2]
+    assert all(e.train_loss > 0 and e.seconds > 0 for e in card.history)
+    assert card.data.n_val == 0 and all(e.val_loss is None for e in card.history)  # 3 trials
+    assert card.metrics["train_loss"] == card.history[-1].train_loss  # the last epoch kept
+    image = matplotlib.image.imread(model / "training.png")
+    assert image.shape[0] > 200 and image.shape[1] > 300
+    assert not list(model.glob(".*partial"))
 
 
 @pytest.mark.slow
@@ -109,6 +123,30 @@ def test_eval_refuses_a_tampered_model(data: Path, tmp_path: Path) -> None:
     weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
     code, output = invoke("eval", path, data)
     assert code == 1 and "does not match the sha256" in output
+
+
+@pytest.mark.slow
+def test_info_summarises_a_model_folder_and_a_dataset_folder(model: Path, data: Path) -> None:
+    code, output = invoke("info", model)
+    assert code == 0, output
+    assert "gown, 300 limb points" in output and "1x4 LSTM" in output
+    assert "2 epochs in" in output and "weights   sha256" in output
+    code, output = invoke("info", model, "--json")
+    assert code == 0 and ModelCard.model_validate_json(output) == load_model(model).card
+    code, output = invoke("info", data)
+    assert code == 0 and output.startswith("gown trials 3/3 train, 1/1 test; outcomes")
+    code, output = invoke("info", data, "--json")
+    assert code == 0 and json.loads(output)["task"] == "gown"
+
+
+def test_info_refuses_a_tampered_model_and_a_folder_that_is_neither(tmp_path: Path) -> None:
+    path = _fake_model(tmp_path / "gown", "gown")
+    weights = path / "model.safetensors"
+    weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
+    code, output = invoke("info", path)
+    assert code == 1 and output.count("\n") == 1 and "does not match the sha256" in output
+    code, output = invoke("info", tmp_path)
+    assert code == 1 and "not a dresslog model folder" in output
 
 
 def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) -> None:

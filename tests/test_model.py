@@ -26,10 +26,10 @@ from dresslog.model import (
     zero_baseline_rmse,
 )
 from dresslog.model.evaluate import evaluate
-from dresslog.model.files import Hyperparameters
+from dresslog.model.files import EpochRecord, Hyperparameters
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.postprocess import sequence_rmse
-from dresslog.model.train import EpochRecord, epoch_lr, make_card, train
+from dresslog.model.train import epoch_lr, make_card, train
 from dresslog.spec import Task
 
 N = 24
@@ -253,10 +253,11 @@ def saved(tmp_path: Path, trained) -> Path:
 
 
 def test_save_load_round_trip_gives_identical_outputs(saved: Path, trained):
-    weights, _ = trained
+    weights, history = trained
     model = load_model(saved)
     assert model.card.task is Task.GOWN and model.card.n_points == 8
     assert model.card.hidden == 12 and model.card.layers == 2 and "val_loss" in model.card.metrics
+    assert model.card.history == history.epochs  # the learning curve travels with the weights
     phi = np.random.default_rng(4).normal(size=(25, 9)).astype(np.float32)
     loaded = model.estimator().forward(phi)
     np.testing.assert_array_equal(loaded, NumpyEstimator(weights).forward(phi))

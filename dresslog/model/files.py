@@ -10,8 +10,10 @@ Public API
     ``n_points``, ``hidden``, ``layers``, ``input_dim``, ``normalisation``
     (``Normalisation(mean, std)`` or None for identity), ``hyperparameters``
     (``Hyperparameters``), ``data`` (``DataProvenance``: manifest sha256, sequence counts),
-    ``metrics`` (name -> float, e.g. "rmse", "zero_rmse", "ratio"), ``weights_sha256``,
-    ``dresslog_version``, ``created``.
+    ``metrics`` (name -> float, e.g. "rmse", "zero_rmse", "ratio"), ``history`` (one
+    ``EpochRecord(epoch, train_loss, val_loss, seconds)`` per epoch trained; empty in
+    cards written before dresslog kept it), ``weights_sha256``, ``dresslog_version``,
+    ``created``.
 ``save_model(path, weights, card, *, overwrite=False) -> ModelCard``
     Writes both files into a temporary sibling folder, then renames it into place, so an
     interrupted save never leaves a half model. Fills ``weights_sha256``; returns that card.
@@ -88,6 +90,16 @@ class DataProvenance(BaseModel):
     description: str = ""
 
 
+class EpochRecord(BaseModel):
+    """One training epoch: mean training loss, validation loss (None without a held-out set)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    epoch: int = Field(ge=1)
+    train_loss: float
+    val_loss: float | None = None
+    seconds: float = Field(ge=0)
+
+
 class ModelCard(BaseModel):
     """What a weights file is: task, sizes, normalisation, training, data, metrics, hash."""
 
@@ -103,6 +115,8 @@ class ModelCard(BaseModel):
     hyperparameters: Hyperparameters = Field(default_factory=Hyperparameters)
     data: DataProvenance = Field(default_factory=DataProvenance)
     metrics: dict[str, float] = Field(default_factory=dict)
+    #: the learning curve of the run that made the weights, so it travels with them
+    history: list[EpochRecord] = Field(default_factory=list)
     weights_sha256: str = ""
     dresslog_version: str = __version__
     created: str = Field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"))

@@ -33,8 +33,9 @@ on_epoch=None)
     hyperparameters and final losses from the history; ``save_model`` adds the hash.
 
 ``TrainHistory``: ``settings``, ``epochs`` (list of ``EpochRecord(epoch, train_loss,
-    val_loss, seconds)``), ``n_train``, ``n_val``, ``final_train_loss``, ``final_val_loss``,
-    ``kept`` (the record of the epoch whose weights were returned).
+    val_loss, seconds)``, the card's ``history``), ``n_train``, ``n_val``,
+    ``final_train_loss``, ``final_val_loss``, ``kept`` (the record of the epoch whose
+    weights were returned).
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
@@ -52,21 +53,19 @@ import torch
 
 from dresslog.errors import ModelError
 from dresslog.io.files import atomic_path
-from dresslog.model.files import DataProvenance, Hyperparameters, ModelCard, Normalisation
+from dresslog.model.files import (
+    DataProvenance,
+    EpochRecord,
+    Hyperparameters,
+    ModelCard,
+    Normalisation,
+)
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
 from dresslog.model.postprocess import network_targets
 from dresslog.spec import Task
 
 Batch = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
-
-
-@dataclass(frozen=True)
-class EpochRecord:
-    epoch: int
-    train_loss: float
-    val_loss: float | None
-    seconds: float
 
 
 @dataclass
@@ -160,7 +159,7 @@ def _save_checkpoint(path: Path, net, optim, history: TrainHistory, best: dict) 
         "optim": optim.state_dict(),
         "settings": history.settings.model_dump(),
         "arch": [net.n_points, net.hidden, net.layers],
-        "epochs": [asdict(e) for e in history.epochs],
+        "epochs": [e.model_dump() for e in history.epochs],
     }
     with atomic_path(path) as tmp:
         torch.save(state, tmp)
@@ -178,7 +177,7 @@ def _resume(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
     net.load_state_dict(state["model"])
     optim.load_state_dict(state["optim"])
     best.update(state.get("best", {}))
-    history.epochs = [EpochRecord(**e) for e in state["epochs"]]
+    history.epochs = [EpochRecord.model_validate(e) for e in state["epochs"]]
 
 
 def train(
@@ -324,7 +323,12 @@ def _fit(
             count += len(idx)
         net.eval()
         val_loss = _evaluate_loss(net, val_phis, val_targets, 64) if val_phis else None
-        record = EpochRecord(epoch + 1, total / count, val_loss, time.perf_counter() - started)
+        record = EpochRecord(
+            epoch=epoch + 1,
+            train_loss=total / count,
+            val_loss=val_loss,
+            seconds=time.perf_counter() - started,
+        )
         history.epochs.append(record)
         if s.keep_best and history.kept is record:
             best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
@@ -367,4 +371,5 @@ def make_card(
         hyperparameters=history.settings,
         data=data,
         metrics={**losses, **(metrics or {})},
+        history=history.epochs,
     )

@@ -1,0 +1,54 @@
+"""`dresslog info MODEL`: what a model folder holds, read from its verified card.
+
+Public API
+----------
+``format_card(model: LoadedModel) -> str``
+    Task and sizes, input normalisation, how it was trained (hyperparameters, data, the
+    epochs run and the one kept), its recorded test metrics and the weights hash, as
+    `dresslog info` prints it (``--json`` prints the card itself).
+"""
+
+from __future__ import annotations
+
+from dresslog.model.files import LoadedModel
+
+
+def format_card(model: LoadedModel) -> str:
+    """The human-readable form printed by `dresslog info` for a model folder."""
+    card, hp, data = model.card, model.card.hyperparameters, model.card.data
+    extras = [
+        name
+        for name, on in (
+            ("normalised inputs", card.normalisation is not None),
+            (f"force loss x{hp.force_scale:.3g}", hp.force_scale != 1.0),
+            (f"{hp.window}-step crops", hp.window is not None),
+            ("kept best epoch", hp.keep_best),
+        )
+        if on
+    ]
+    lines = [
+        f"{model.path}  (dresslog model, format {card.format_version})",
+        f"  task      {card.task.value}, {card.n_points} limb points",
+        f"  network   {card.layers}x{card.hidden} LSTM on {card.input_dim}-D input"
+        + (f"; {', '.join(extras)}" if extras else ""),
+        f"  training  {hp.epochs} epochs, batch {hp.batch_size}, {hp.optimizer} lr {hp.lr:g} "
+        f"({hp.lr_schedule}), seed {hp.seed}",
+        f"  data      {data.n_train} training + {data.n_val} validation sequences"
+        + (f" from {data.description}" if data.description else "")
+        + (f", manifest {data.manifest_sha256[:12]}" if data.manifest_sha256 else ""),
+    ]
+    if card.history:
+        last = card.history[-1]
+        kept = card.metrics.get("kept_epoch", last.epoch)
+        val = "" if last.val_loss is None else f", validation {last.val_loss:.4g}"
+        seconds = sum(e.seconds for e in card.history)
+        lines.append(
+            f"  history   {len(card.history)} epochs in {seconds:.0f} s; last: training loss "
+            f"{last.train_loss:.4g}{val}; kept epoch {kept:g}"
+        )
+    if card.metrics:
+        shown = ", ".join(f"{k} {v:.4g}" for k, v in card.metrics.items())
+        lines.append(f"  metrics   {shown}")
+    lines.append(f"  weights   sha256 {card.weights_sha256[:16]}, verified")
+    lines.append(f"  software  dresslog {card.dresslog_version}, created {card.created}")
+    return "\n".join(lines)

@@ -1,0 +1,92 @@
+"""The PNG figures dresslog writes: sweep results (Figs. 12-13) and training curves.
+
+Public API
+----------
+``plot_sweep(path, report)``: RMSE against speed and against limb rotation, each with the
+    all-zero estimate of the same sequences and the in-range line (``dresslog sweep``).
+``plot_training(path, card)``: training and validation loss per epoch from a model card's
+    ``history``, log scale, the kept epoch marked (``dresslog train`` writes it beside the
+    model as ``training.png``).
+Both write atomically and import matplotlib (Agg, no display) only when called.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from dresslog.io.files import atomic_path
+
+if TYPE_CHECKING:
+    from dresslog.experiments import SweepReport
+    from dresslog.model.files import ModelCard
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig: Any, path: str | Path) -> None:
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight")
+    _pyplot().close(fig)
+
+
+def plot_training(path: str | Path, card: ModelCard) -> None:
+    """The learning curve: is the model still improving, over-fitting, or done?"""
+    plt = _pyplot()
+    epochs = [e.epoch for e in card.history]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(epochs, [e.train_loss for e in card.history], "o-", ms=3, label="training")
+    scored = [e for e in card.history if e.val_loss is not None]
+    if scored:
+        ax.plot(
+            [e.epoch for e in scored], [e.val_loss for e in scored], "o-", ms=3, label="validation"
+        )
+    kept = card.metrics.get("kept_epoch")
+    if kept is not None:
+        ax.axvline(kept, color="gray", ls="--", label=f"kept (epoch {kept:g})")
+    ax.set_yscale("log")
+    ax.set_xlabel("epoch")
+    ax.set_ylabel("loss (MSE of force and contact map)")
+    hp = card.hyperparameters
+    ax.set_title(
+        f"{card.task.value}: {card.data.n_train} sequences, {card.layers}x{card.hidden} LSTM, "
+        f"lr {hp.lr:g} {hp.lr_schedule}"
+    )
+    ax.legend()
+    _save(fig, path)
+
+
+def plot_sweep(path: str | Path, report: SweepReport) -> None:
+    """Fig. 12 (RMSE against speed) and Fig. 13 (against rotation, one line per axis)."""
+    plt = _pyplot()
+    kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
+    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 4.4), squeeze=False)
+    for ax, kind in zip(axes[0], kinds, strict=True):
+        chosen = [s for s in report.settings if s.kind == kind]
+        for axis in sorted({s.axis for s in chosen}):
+            line = sorted(
+                (s.value, s.scores.rmse, s.scores.zero_rmse)
+                for s in chosen
+                if s.axis == axis and s.scores
+            )
+            values, rmse, zero = zip(*line, strict=True)
+            label = f"about {axis}" if axis else "model"
+            (drawn,) = ax.plot(values, rmse, "o-", label=label)
+            # the all-zero estimate of the same sequences: how much force there was to find
+            zero_label = f"{label}, all-zero" if axis else "all-zero estimate"
+            ax.plot(values, zero, ":", color=drawn.get_color(), label=zero_label)
+        ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
+        ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
+        ax.set_ylabel("RMSE (N)")
+        ax.set_title(f"{report.task}, {report.n} sequences per setting")
+        # below the axes: inside, it hides the lines it names
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize="small")
+    _save(fig, path)
