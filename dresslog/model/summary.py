@@ -46,9 +46,12 @@ def format_card(model: LoadedModel) -> str:
             f"  history   {len(card.history)} epochs in {seconds:.0f} s; last: training loss "
             f"{last.train_loss:.4g}{val}; kept epoch {kept:g}"
         )
-    if card.metrics:
-        shown = ", ".join(f"{k} {v:.4g}" for k, v in card.metrics.items())
-        lines.append(f"  metrics   {shown}")
+    test = {k.removeprefix("test_"): v for k, v in card.metrics.items() if k.startswith("test_")}
+    other = {k: v for k, v in card.metrics.items() if not k.startswith("test_")}
+    for label, metrics in (("metrics", other), ("test", test)):  # one line each, readable
+        if metrics:
+            shown = ", ".join(f"{k} {v:.4g}" for k, v in metrics.items())
+            lines.append(f"  {label:<8}  {shown}")
     lines.append(f"  weights   sha256 {card.weights_sha256[:16]}, verified")
     lines.append(f"  software  dresslog {card.dresslog_version}, created {card.created}")
     return "\n".join(lines)
