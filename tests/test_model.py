@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import matplotlib.image
 import numpy as np
 import pytest
 import torch
@@ -30,6 +31,7 @@ from dresslog.model.files import EpochRecord, Hyperparameters
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.postprocess import sequence_rmse
 from dresslog.model.train import epoch_lr, make_card, train
+from dresslog.plots import plot_training
 from dresslog.spec import Task
 
 N = 24
@@ -190,6 +192,10 @@ def test_keep_best_returns_the_epoch_of_lowest_validation_loss_across_a_resume(t
     card = make_card(Task.GOWN, best, history)
     assert card.hyperparameters.keep_best and card.metrics["kept_epoch"] == kept.epoch
     assert card.metrics["val_loss"] == kept.val_loss
+    assert [e.val_loss for e in card.history] == [e.val_loss for e in history.epochs]
+    plot_training(tmp_path / "training.png", card)  # both curves and the kept epoch
+    image = matplotlib.image.imread(tmp_path / "training.png")
+    assert image.shape[0] > 200 and image.std() > 0.05  # drawn, not blank
 
 
 def test_cosine_schedule_anneals_the_learning_rate_and_resumes_on_the_same_curve(tmp_path: Path):
