@@ -15,7 +15,9 @@ from dresslog.cli.common import reports_errors
 @reports_errors
 def info(path: str, as_json: bool) -> None:
     """Summarise a trial file, a model folder (its card) or a dataset folder (its manifest)."""
-    if (Path(path) / "manifest.json").is_file():
+    from dresslog.dataset.manifest import MANIFEST_FILE
+
+    if (Path(path) / MANIFEST_FILE).is_file():
         from dresslog.dataset import load_manifest
 
         manifest = load_manifest(path)
