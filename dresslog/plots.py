@@ -4,6 +4,7 @@ Public API
 ----------
 ``plot_sweep(path, report)``: RMSE against speed and against limb rotation, each with the
     all-zero estimate of the same sequences and the in-range line (``dresslog sweep``).
+``sweep_lines(report, kind)``: the points ``plot_sweep`` joins, per axis.
 ``plot_training(path, card)``: training and validation loss per epoch from a model card's
     ``history``, log scale, the kept epoch marked (``dresslog train`` writes it beside the
     model as ``training.png``).
@@ -12,6 +13,7 @@ Both write atomically and import matplotlib (Agg, no display) only when called.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -64,20 +66,30 @@ def plot_training(path: str | Path, card: ModelCard) -> None:
     _save(fig, path)
 
 
+def sweep_lines(report: SweepReport, kind: str) -> dict[str, tuple[list[float], ...]]:
+    """Per axis ('' for speed): setting values, RMSE and all-zero RMSE, in order of value.
+
+    A rotation axis with no 0 deg setting gets a gap (NaN) at 0: the in-range line stands
+    for 0 deg there, and a straight line from -15 to +15 deg would draw a trend never measured.
+    """
+    lines: dict[str, tuple[list[float], ...]] = {}
+    chosen = [s for s in report.settings if s.kind == kind and s.scores]
+    for axis in sorted({s.axis for s in chosen}):
+        points = [(s.value, s.scores.rmse, s.scores.zero_rmse) for s in chosen if s.axis == axis]
+        if kind == "rotation" and all(value != 0 for value, _, _ in points):
+            points.append((0.0, math.nan, math.nan))
+        values, rmse, zero = zip(*sorted(points), strict=True)
+        lines[axis] = (list(values), list(rmse), list(zero))
+    return lines
+
+
 def plot_sweep(path: str | Path, report: SweepReport) -> None:
     """Fig. 12 (RMSE against speed) and Fig. 13 (against rotation, one line per axis)."""
     plt = _pyplot()
     kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
     fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 4.4), squeeze=False)
     for ax, kind in zip(axes[0], kinds, strict=True):
-        chosen = [s for s in report.settings if s.kind == kind]
-        for axis in sorted({s.axis for s in chosen}):
-            line = sorted(
-                (s.value, s.scores.rmse, s.scores.zero_rmse)
-                for s in chosen
-                if s.axis == axis and s.scores
-            )
-            values, rmse, zero = zip(*line, strict=True)
+        for axis, (values, rmse, zero) in sweep_lines(report, kind).items():
             label = f"about {axis}" if axis else "model"
             (drawn,) = ax.plot(values, rmse, "o-", label=label)
             # the all-zero estimate of the same sequences: how much force there was to find

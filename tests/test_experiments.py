@@ -3,17 +3,21 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
+import matplotlib.image
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
 from dresslog.dataset import generate, load_manifest
-from dresslog.experiments import dataset_bounds
+from dresslog.experiments import Scores, SweepReport, dataset_bounds, sweep_settings
 from dresslog.model.files import ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
+from dresslog.plots import plot_sweep, sweep_lines
+from dresslog.spec import Task
 
 
 @pytest.fixture(scope="module")
@@ -153,3 +157,17 @@ def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) 
     (tmp_path / "m").mkdir()
     code, output = invoke("train", data, "-o", tmp_path / "m")
     assert code == 1 and "model folder exists" in output
+
+
+def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -> None:
+    settings = [
+        replace(s, scores=Scores(8, 0.01 * (i + 1), 0.02, 0.5, 0.8, 0.6))
+        for i, s in enumerate(sweep_settings(Task.SHORTS, [0.2], ["x:15", "x:-15", "z:0", "z:10"]))
+    ]
+    report = SweepReport("shorts", "m", 8, 0.01, settings)
+    x, rmse, zero = sweep_lines(report, "rotation")["x"]
+    assert x == [-15, 0, 15] and np.isnan(rmse[1]) and np.isnan(zero[1])  # a gap, not a line
+    assert sweep_lines(report, "rotation")["z"] == ([0, 10], [0.05, 0.06], [0.02, 0.02])
+    assert sweep_lines(report, "speed") == {"": ([0.2], [0.02], [0.02])}
+    plot_sweep(tmp_path / "sweep.png", report)
+    assert matplotlib.image.imread(tmp_path / "sweep.png").std() > 0.05
