@@ -94,7 +94,7 @@ def plot_sweep(path: str | Path, report: SweepReport) -> None:
             (drawn,) = ax.plot(values, rmse, "o-", label=label)
             # the all-zero estimate of the same sequences: how much force there was to find
             zero_label = f"{label}, all-zero" if axis else "all-zero estimate"
-            ax.plot(values, zero, ":", color=drawn.get_color(), label=zero_label)
+            ax.plot(values, zero, "x:", color=drawn.get_color(), label=zero_label)
         ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
         ax.set_ylabel("RMSE (N)")
