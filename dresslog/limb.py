@@ -233,6 +233,19 @@ def limb_sdf(limb: Limb, p: np.ndarray) -> np.ndarray:
     return limb.geometry.part_distances(p).min(axis=0)
 
 
+#: Finite-difference steps of the surface normal, one per axis.
+_PROBES = np.eye(3) * 1e-5
+
+
+def surface_points(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closest limb-surface points to `p` (C, 3) and the outward unit normals there."""
+    c = len(p)
+    d = limb_sdf(limb, np.concatenate([p[None], p + _PROBES[:, None]]).reshape(-1, 3))
+    grad = (d[c:].reshape(3, c) - d[:c]).T
+    n = grad / np.maximum(np.sqrt(sum_xyz(grad * grad))[:, None], 1e-12)
+    return p - d[:c, None] * n, n
+
+
 def _part_sdf(limb: Limb, p: np.ndarray, skip: set[str]) -> np.ndarray:
     d = np.full(len(p), np.inf)
     for s in limb.spheres.values():

@@ -63,6 +63,16 @@ class SimParams(BaseModel):
     bending_stiffness: float = 2.0
     friction: float = 0.5
     collision_margin: float = 0.006
+    contact_spread: int = Field(
+        3,
+        ge=0,
+        description="a cloth node's contact force is spread over its triangles, sampled at "
+        "this many intervals per edge, where they lie on the limb; 0 keeps it at the node "
+        "(simulator v6 and before)",
+    )
+    contact_reach: float = Field(
+        0.012, description="cloth samples this close to the limb surface share its force, m"
+    )
     grip_clearance: float = Field(
         0.01, description="the gripper and the garment edge it holds keep this far off the limb, m"
     )

@@ -1,12 +1,15 @@
-"""The k-nearest force distribution of Sec. IV-B."""
+"""The k-nearest force distribution of Sec. IV-B and the spread of a node's force on its cloth."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from dresslog.force_map import distribute
+from dresslog.force_map import ClothSpreader, distribute
+from dresslog.limb import Limb, build_limb, limb_sdf, surface_points
 from dresslog.model.postprocess import contact_targets
+from dresslog.sim.garments import garment_for
+from dresslog.spec import Task
 
 
 def _reference(positions, magnitudes, points, k=5):
@@ -57,3 +60,41 @@ def test_no_contacts_give_zeros_and_a_contact_on_a_point_is_safe() -> None:
 def test_contact_map_is_plus_minus_a_tenth() -> None:
     cm = contact_targets(np.array([[0.0, 0.3], [1e-6, -1.0]], dtype=np.float32))
     np.testing.assert_array_equal(cm, np.array([[-0.1, 0.1], [0.1, -0.1]], dtype=np.float32))
+
+
+def _draped_sleeve() -> tuple[Limb, np.ndarray, ClothSpreader]:
+    """The gown's sleeve laid with its ring axis on the forearm's, 2 mm larger than the arm."""
+    limb = build_limb(Task.GOWN)
+    garment = garment_for(Task.GOWN)
+    v = garment.vertices.copy()
+    # the sleeve's rings are at x in [0, 0.27], centre (y 0, z -0.10), radius 0.10
+    yz = v[:, 1:] - np.array([0.0, -0.10])
+    r = np.linalg.norm(yz, axis=1, keepdims=True)
+    sleeve = np.arange(len(v)) < 140
+    v[sleeve, 1:] = yz[sleeve] / r[sleeve] * 0.052  # onto a 5.2 cm tube round the axis
+    v[:, 0] += 0.05  # over the forearm, clear of the fist
+    spreader = ClothSpreader(garment.triangles, len(v), subdivisions=3, reach=0.012)
+    return limb, v, spreader
+
+
+def test_spread_keeps_each_nodes_force_and_puts_it_on_the_limb() -> None:
+    limb, v, spreader = _draped_sleeve()
+    nodes = np.array([30, 31, 45, 60])
+    mags = np.array([0.5, 1.0, 0.25, 2.0])
+    pos, f = spreader(limb, v, nodes, mags)
+    assert f.sum() == pytest.approx(mags.sum(), rel=1e-9)
+    assert len(pos) > 4 * len(nodes)  # spread over the cloth around each node
+    np.testing.assert_allclose(limb_sdf(limb, pos), 0.0, atol=1e-4)  # to 0.1 mm
+    for node, mag in zip(nodes, mags, strict=True):  # each alone keeps its whole force
+        _, alone = spreader(limb, v, node[None], mag[None])
+        assert alone.sum() == pytest.approx(mag, rel=1e-9) and alone.max() < mag
+
+
+def test_spread_leaves_a_force_where_the_cloth_around_it_is_off_the_limb() -> None:
+    limb, v, spreader = _draped_sleeve()
+    lifted = v.copy()
+    lifted[:, 2] += 0.5  # every node far off the arm: only the node's own sample is near
+    pos, f = spreader(limb, lifted, np.array([31]), np.array([1.5]))
+    assert len(f) == 1 and f[0] == pytest.approx(1.5)
+    np.testing.assert_allclose(pos[0], surface_points(limb, lifted[31][None])[0][0])
+    assert spreader(limb, v, np.zeros(0, int), np.zeros(0))[1].size == 0

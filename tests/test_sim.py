@@ -159,6 +159,24 @@ def test_force_map_total_equals_total_contact_force(task: Task) -> None:
     np.testing.assert_allclose(totals, expected, rtol=1e-4, atol=1e-5)
 
 
+@pytest.mark.parametrize("task", list(Task))
+def test_spreading_a_nodes_force_over_its_cloth_widens_the_map_and_keeps_the_physics(
+    task: Task,
+) -> None:
+    spread = short(task)
+    at_nodes = spread.model_copy(update={"sim": SimParams(contact_spread=0)})
+    a, b = run(spread).steps, run(at_nodes).steps
+    assert all(np.array_equal(x.wrench, y.wrench) for x, y in zip(a, b, strict=True))
+    assert all(np.array_equal(x.contacts, y.contacts) for x, y in zip(a, b, strict=True))
+    touched = [k for k, s in enumerate(b) if s.force_map.any()]
+    assert len(touched) > 10
+    fa = np.array([a[k].force_map for k in touched])
+    fb = np.array([b[k].force_map for k in touched])
+    np.testing.assert_allclose(fa.sum(axis=1), fb.sum(axis=1), rtol=1e-4, atol=1e-6)
+    assert (fa > 0).sum() > 1.3 * (fb > 0).sum()  # more limb points carry force
+    assert (fa**2).sum() < 0.9 * (fb**2).sum()  # in lower peaks
+
+
 def test_a_garment_held_back_by_the_limb_pulls_harder_than_a_free_pull() -> None:
     caught = random_spec(Task.SHORTS, 0, duration=3.0, limb_offset=(0.0, 0.0, 0.05))
     free = caught.model_copy(update={"limb_offset": AWAY})

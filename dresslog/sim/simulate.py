@@ -14,8 +14,8 @@ from typing import Protocol
 import numpy as np
 
 from dresslog.errors import SimulationError
-from dresslog.force_map import ForceDistributor
-from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, segment_of, sum_xyz
+from dresslog.force_map import ClothSpreader, ForceDistributor
+from dresslog.limb import Limb, build_limb, limb_points, segment_of, sum_xyz, surface_points
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
@@ -103,19 +103,6 @@ class SimResult:
         )
 
 
-#: Finite-difference steps of the surface normal, one per axis.
-_PROBES = np.eye(3) * 1e-5
-
-
-def _surface(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closest limb-surface points to `p` (C, 3) and the outward unit normals there."""
-    c = len(p)
-    d = limb_sdf(limb, np.concatenate([p[None], p + _PROBES[:, None]]).reshape(-1, 3))
-    grad = (d[c:].reshape(3, c) - d[:c]).T
-    n = grad / np.maximum(np.sqrt(sum_xyz(grad * grad))[:, None], 1e-12)
-    return p - d[:c, None] * n, n
-
-
 def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) -> np.ndarray:
     """CONTACT_DTYPE array of the contacts that carry force (garment = body A, limb = B).
 
@@ -138,7 +125,7 @@ def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) ->
     latest = np.full(n, -1)
     np.maximum.at(latest, vertex, np.arange(len(vertex)))  # each vertex's last row
     ids = np.flatnonzero(latest >= 0)
-    pos, normal = _surface(limb, flat[latest[ids], 0:3])
+    pos, normal = surface_points(limb, flat[latest[ids], 0:3])
     friction = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
     out = np.zeros(len(ids), dtype=CONTACT_DTYPE)
     out["position"] = pos
@@ -240,6 +227,11 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     pose = np.concatenate([path, np.tile([0.0, 0.0, 0.0, 1.0], (n_rec, 1))], axis=1)
     inertia = EE_MASS * accel
     force_map = ForceDistributor(points.points)
+    spread = (
+        ClothSpreader(garment.triangles, len(garment.vertices), p.contact_spread, p.contact_reach)
+        if p.contact_spread
+        else None
+    )
 
     scene = Scene.build(limb, garment, start, p)
     # CPU seconds of this thread per stage: a fair split even on a busy machine
@@ -284,7 +276,10 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
             _guard(spec, verts, path[i], t_rec[i])
             contacts = _contacts(raw, limb, verts, sub)
             mags = contact_magnitudes(contacts) if len(contacts) else np.zeros(0)
-            fmap = force_map(contacts["position"], mags)
+            if spread is not None:
+                fmap = force_map(*spread(limb, verts, contacts["vertex"], mags))
+            else:
+                fmap = force_map(contacts["position"], mags)
             t2 = time.thread_time()
             # garment on gripper = -(constraint force) - weight + m a, minus the tare
             w = -(wrench / sub - tare)
