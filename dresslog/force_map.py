@@ -56,7 +56,7 @@ class ClothSpreader:
     the part of that patch lying on the limb. Our garments have about 200 nodes (the
     paper's 4,400-10,400), so a node's force at its own place makes a force map of a
     few sharp peaks. Here each triangle is sampled on a barycentric grid (`subdivisions`
-    intervals per edge, about 1 cm on our meshes); a node's force goes to the samples of
+    intervals per edge, 1-1.5 cm on our meshes); a node's force goes to the samples of
     its triangles that lie within `reach` of the limb, in proportion to the node's
     linear shape function (its barycentric weight, 1 at the node, 0 at the far edge),
     and each sample is projected onto the limb surface. The shares of a node sum to its
