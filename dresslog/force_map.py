@@ -80,6 +80,7 @@ class ClothSpreader:
                     weights.append([c / s for _, c in key] + [0.0] * (3 - len(key)))
         self.parents = np.array(parents, dtype=np.int64)  # (S, 3) vertex ids
         self.weights = np.array(weights)  # (S, 3) barycentric weights, 0 where padded
+        self._at_node = self.weights.max(axis=1) == 1.0  # the samples that are nodes
         rows, slots = np.nonzero(self.weights > 0)
         owner = self.parents[rows, slots]
         order = np.argsort(owner, kind="stable")
@@ -104,7 +105,7 @@ class ClothSpreader:
         parents, w = self.parents[ids], self.weights[ids]
         pos = np.einsum("sk,skd->sd", w, vertices[parents])
         # a node's own sample always counts: its contact says it touches the limb
-        near = (limb_sdf(limb, pos) < self.reach) | (w.max(axis=1) == 1.0)
+        near = (limb_sdf(limb, pos) < self.reach) | self._at_node[ids]
         slot = np.full(self.n_vertices, -1)
         slot[nodes] = np.arange(len(nodes))
         which = slot[parents]  # (S, 3) index of a parent among `nodes`, -1 if not in contact

@@ -69,8 +69,12 @@ def main() -> None:
         )
         test_maps = [maps[r] for r in test_rows]
         scores = evaluate(NumpyEstimator(weights), [phi[r] for r in test_rows], test_maps)
-        report[name] = {"ratio": scores.ratio, "rmse": scores.rmse, "zero_rmse": scores.zero_rmse}
-        report[name]["kept_epoch"] = history.kept.epoch
+        report[name] = {
+            "ratio": scores.ratio,
+            "rmse": scores.rmse,
+            "zero_rmse": scores.zero_rmse,
+            "kept_epoch": history.kept.epoch,
+        }
         print(
             f"{name}: ratio {scores.ratio:.3f} (RMSE {scores.rmse:.5f} N, all-zero "
             f"{scores.zero_rmse:.5f} N, epoch {history.kept.epoch} kept)",
