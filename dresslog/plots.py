@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from dresslog.io.files import atomic_path
+from dresslog.spec import PAPER_AXES
 
 if TYPE_CHECKING:
     from dresslog.experiments import SweepReport
@@ -90,7 +91,7 @@ def plot_sweep(path: str | Path, report: SweepReport) -> None:
     fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 4.4), squeeze=False)
     for ax, kind in zip(axes[0], kinds, strict=True):
         for axis, (values, rmse, zero) in sweep_lines(report, kind).items():
-            label = f"about {axis}" if axis else "model"
+            label = f"about {axis} (paper's {PAPER_AXES[axis]})" if axis else "model"
             (drawn,) = ax.plot(values, rmse, "o-", label=label)
             # the all-zero estimate of the same sequences: how much force there was to find
             zero_label = f"{label}, all-zero" if axis else "all-zero estimate"

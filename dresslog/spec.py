@@ -36,8 +36,18 @@ class Outcome(StrEnum):
     UNKNOWN = "unknown"
 
 
+#: The paper's name for each of our axes. Its frame (PhysX) has y up, ours z up, so our
+#: y is its Z and our z its Y; a rotation's sign agrees (our +y, like its +Z, raises the
+#: fist towards the gripper and steepens the foot; our z, like its Y, swings the limb
+#: part sideways).
+PAPER_AXES = {"x": "X", "y": "Z", "z": "Y"}
+
+
 class LimbRotation(BaseModel):
-    """A rotation of the distal limb part: forearm about the elbow, foot about the ankle."""
+    """A rotation of the distal limb part: forearm about the elbow, foot about the ankle.
+
+    The axes are ours (z up); `PAPER_AXES` names the paper's axis for each.
+    """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 

@@ -9,7 +9,7 @@ from dresslog.limb import POINT_LIFT, build_limb, limb_points, limb_sdf, segment
 from dresslog.sim import random_spec
 from dresslog.sim.garments import garment_for
 from dresslog.sim.trajectory import constant_speed, keep_clear
-from dresslog.spec import LimbRotation, Task
+from dresslog.spec import PAPER_AXES, LimbRotation, Task
 
 
 @pytest.mark.parametrize(("task", "n"), [(Task.GOWN, 300), (Task.SHORTS, 400)])
@@ -53,6 +53,29 @@ def test_rotation_moves_only_the_forearm_about_the_elbow() -> None:
     r1 = np.linalg.norm(rot.spheres["fist"].center - elbow)
     assert r1 == pytest.approx(r0)
     assert rot.spheres["fist"].center[1] > 0.05
+
+
+def test_our_rotation_axes_do_what_the_papers_named_axes_do() -> None:
+    """The paper (y up) avoids +Z for the forearm, which lifts it into the gripper, and
+    says -Z flattens the foot; its Y swings them sideways. Ours are y and z (PAPER_AXES)."""
+    assert PAPER_AXES == {"x": "X", "y": "Z", "z": "Y"}
+
+    def distal(task: Task, axis: str, degrees: float) -> np.ndarray:
+        limb = build_limb(task, rotation=LimbRotation(axis=axis, degrees=degrees))
+        tip, pivot = ("fist", "elbow") if task is Task.GOWN else ("toe", "ankle")
+        return limb.spheres[tip].center - limb.spheres[pivot].center
+
+    straight = distal(Task.GOWN, "y", 0.0)
+    assert distal(Task.GOWN, "y", 15.0)[2] > straight[2] + 0.05  # +Z: fist up
+    assert distal(Task.GOWN, "y", -15.0)[2] < straight[2] - 0.05
+    swung = distal(Task.GOWN, "z", 15.0)
+    assert abs(swung[1]) > 0.05 and swung[2] == pytest.approx(straight[2])  # Y: sideways
+
+    def elevation(v: np.ndarray) -> float:
+        return float(np.degrees(np.arctan2(v[2], v[0])))
+
+    assert elevation(distal(Task.SHORTS, "y", 0.0)) == pytest.approx(45.0)
+    assert elevation(distal(Task.SHORTS, "y", -15.0)) == pytest.approx(30.0)  # -Z: flatter
 
 
 def test_foot_is_at_45_degrees() -> None:

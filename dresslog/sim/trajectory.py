@@ -24,7 +24,8 @@ NOMINAL = {
         [[1.12, 0.0, 0.19], [0.95, 0.0, 0.19], [0.78, 0.0, 0.15], [0.22, 0.0, 0.15]]
     ),
 }
-#: Control-point counts and deviations from the nominal path (paper, Sec. IV-A).
+#: Control-point counts and deviations from the nominal path (paper, Sec. IV-A; its y and
+#: z crossed like `OFFSET_RANGE`: the paper's +-2 cm is vertical, +-5 cm sideways).
 CONTROL_POINTS = {Task.GOWN: (7, 10), Task.SHORTS: (9, 11)}
 DEVIATION = np.array([0.03, 0.02, 0.05])
 
