@@ -83,6 +83,8 @@ def train_dataset(
     from dresslog.model.train import make_card, train
 
     checkpoint = out.with_name(f".{out.name}.checkpoint.pt")
+    if overwrite:  # start afresh: an interrupted earlier run is replaced, not resumed
+        checkpoint.unlink(missing_ok=True)
     weights, history = train(
         arrays.sequences(rows),
         arrays.force_maps(rows),

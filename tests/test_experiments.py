@@ -13,7 +13,13 @@ from click.testing import CliRunner
 
 from dresslog.cli.main import main
 from dresslog.dataset import generate, load_manifest
-from dresslog.experiments import Scores, SweepReport, dataset_bounds, sweep_settings
+from dresslog.experiments import (
+    Scores,
+    SweepReport,
+    dataset_bounds,
+    sweep_settings,
+    train_dataset,
+)
 from dresslog.model.files import ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_lines
@@ -63,6 +69,27 @@ def test_trained_model_keeps_its_learning_curve_and_its_plot(model: Path) -> Non
     image = matplotlib.image.imread(model / "training.png")
     assert image.shape[0] > 200 and image.shape[1] > 300
     assert not list(model.glob(".*partial"))
+
+
+@pytest.mark.slow
+def test_an_interrupted_run_resumes_or_is_replaced_by_overwrite(data: Path) -> None:
+    out = data.parent / "interrupted"
+
+    def stop(epoch) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train_dataset(data, out, epochs=3, hidden=4, layers=1, progress=False, on_epoch=stop)
+    checkpoint = data.parent / ".interrupted.checkpoint.pt"
+    assert checkpoint.exists() and not out.exists()
+    args = ["train", data, "-o", out, "--epochs", "2", "--hidden", "4", "--layers", "1", "-q"]
+    code, output = invoke(*args)
+    assert code != 0 and "other settings" in output and "--overwrite" in output
+    assert "Traceback" not in output and not out.exists()
+    code, output = invoke(*args, "--overwrite")
+    assert code == 0, output
+    assert [e.epoch for e in load_model(out).card.history] == [1, 2]  # afresh, not resumed
+    assert not checkpoint.exists()
 
 
 @pytest.mark.slow

@@ -173,7 +173,11 @@ def _resume(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
         raise ModelError(f"unreadable checkpoint: {err}", path=path) from None
     same_arch = state.get("arch") == [net.n_points, net.hidden, net.layers]
     if state.get("settings") != history.settings.model_dump() or not same_arch:
-        raise ModelError("checkpoint is from a run with other settings", path=path)
+        raise ModelError(
+            "checkpoint is from a run with other settings: repeat that run's options to "
+            "resume it, or pass --overwrite to start afresh",
+            path=path,
+        )
     net.load_state_dict(state["model"])
     optim.load_state_dict(state["optim"])
     best.update(state.get("best", {}))
