@@ -4,7 +4,9 @@ dresslog's numpy `NumpyEstimator.step` (Eq. 2 applied, fresh output arrays) agai
 torch's `ForceMapLSTM` fed one step at a time with its state carried, on one thread,
 measured in the same run. Target: numpy p99 <= 0.5 ms.
 
-    python tests/benchmarks/bench_step.py [--steps 5000] [--points 400]
+    python tests/benchmarks/bench_step.py [--steps 5000] [--points 400] [--hidden 50]
+
+`--hidden 100` is the bundled shorts model's width.
 """
 
 from __future__ import annotations
@@ -39,11 +41,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=5000)
     parser.add_argument("--points", type=int, default=400)
+    parser.add_argument("--hidden", type=int, default=50)
     args = parser.parse_args()
 
     torch.set_num_threads(1)
     torch.manual_seed(0)
-    net = ForceMapLSTM(args.points).eval()
+    net = ForceMapLSTM(args.points, hidden=args.hidden).eval()
     est = NumpyEstimator(net.weights())
     phi = np.random.default_rng(0).normal(size=(args.steps, 9)).astype(np.float32)
 
@@ -56,7 +59,10 @@ def main() -> None:
         out.numpy()
 
     results = {"numpy": latencies(est.step, phi), "torch": latencies(torch_step, phi)}
-    print(f"one inference step, N={args.points} limb points, {args.steps} steps, 1 thread")
+    print(
+        f"one inference step, N={args.points} limb points, {args.hidden} cells, "
+        f"{args.steps} steps, 1 thread"
+    )
     for name, ms in results.items():
         p50, p99 = np.percentile(ms, [50, 99])
         print(f"  {name:6s} p50 {p50:.4f} ms  p99 {p99:.4f} ms  mean {ms.mean():.4f} ms")
