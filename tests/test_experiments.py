@@ -72,7 +72,7 @@ def test_trained_model_keeps_its_learning_curve_and_its_plot(model: Path) -> Non
 
 
 @pytest.mark.slow
-def test_an_interrupted_run_resumes_or_is_replaced_by_overwrite(data: Path) -> None:
+def test_overwrite_replaces_an_interrupted_run_of_other_settings(data: Path) -> None:
     out = data.parent / "interrupted"
 
     def stop(epoch) -> None:
