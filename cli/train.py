@@ -33,7 +33,12 @@ from dresslog.cli.common import reports_errors
 )
 @click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--overwrite", is_flag=True, help="Replace an existing model folder.")
+@click.option(
+    "--overwrite",
+    is_flag=True,
+    help="Replace an existing model folder, and start afresh rather than resume an "
+    "interrupted run.",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors
 def train(data: str, out: str, quiet: bool, **options: object) -> None:
