@@ -129,6 +129,10 @@ class Scores:
     ratio: float
     contact_precision: float
     contact_recall: float
+    #: the ratio with the estimate rescaled to each step's true total force: where it errs
+    ratio_at_true_total: float
+    #: the ratio of the true map rescaled to the estimate's total: how much it errs
+    ratio_true_shape: float
 
 
 @dataclass(frozen=True)
@@ -159,6 +163,11 @@ class EvalReport:
                 f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
                 f"{s.contact_precision:>7.3f}{s.contact_recall:>7.3f}"
             )
+        lines.append(
+            f"half the truth: the estimate at each step's true total force "
+            f"{self.overall.ratio_at_true_total:.3f}, the true shape at the estimate's "
+            f"total {self.overall.ratio_true_shape:.3f}"
+        )
         if self.bounds:
             lines.append("oracle ratios on the same sequences (the data's limits):")
             lines += [f"  {name:<28}{value:>8.3f}" for name, value in self.bounds.items()]
@@ -177,7 +186,16 @@ def _scores(model: LoadedModel, arrays: DatasetArrays, rows: Sequence[int]) -> S
     from dresslog.model.evaluate import evaluate
 
     e = evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
-    return Scores(len(rows), e.rmse, e.zero_rmse, e.ratio, e.contact_precision, e.contact_recall)
+    return Scores(
+        len(rows),
+        e.rmse,
+        e.zero_rmse,
+        e.ratio,
+        e.contact_precision,
+        e.contact_recall,
+        e.ratio_at_true_total,
+        e.ratio_true_shape,
+    )
 
 
 def evaluate_dataset(

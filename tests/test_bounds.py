@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dresslog.limb import build_limb, limb_points
-from dresslog.model.bounds import oracle_ratios
+from dresslog.model.bounds import error_split, oracle_ratios
 
 POINTS = limb_points(build_limb("gown")).points
 
@@ -50,3 +50,13 @@ def test_flicker_is_zero_for_a_steady_map_and_large_for_one_that_blinks() -> Non
 def test_no_force_anywhere_is_refused() -> None:
     with pytest.raises(ValueError, match="nothing to place"):
         oracle_ratios([np.zeros((5, len(POINTS)))], POINTS)
+
+
+def test_error_split_tells_a_wrong_total_from_a_wrong_place() -> None:
+    truth = peaks(np.random.default_rng(2))
+    too_strong = 1.5 * truth  # every force in its place, half as strong again
+    misplaced = np.roll(truth, 7, axis=1)  # every step's total right, all of it elsewhere
+    at_total, true_shape = error_split(truth, too_strong)
+    assert at_total < 1e-12 and true_shape > 0.1 * np.sqrt(np.mean(truth**2))
+    at_total, true_shape = error_split(truth, misplaced)
+    assert true_shape < 1e-12 and at_total > 0.5 * np.sqrt(np.mean(truth**2))

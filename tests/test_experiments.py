@@ -188,7 +188,7 @@ def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) 
 
 def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -> None:
     settings = [
-        replace(s, scores=Scores(8, 0.01 * (i + 1), 0.02, 0.5, 0.8, 0.6))
+        replace(s, scores=Scores(8, 0.01 * (i + 1), 0.02, 0.5, 0.8, 0.6, 0.3, 0.4))
         for i, s in enumerate(sweep_settings(Task.SHORTS, [0.2], ["x:15", "x:-15", "z:0", "z:10"]))
     ]
     report = SweepReport("shorts", "m", 8, 0.01, settings)

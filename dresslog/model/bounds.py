@@ -16,6 +16,11 @@ Public API
     at that step), ``total x own profile`` (spread by the sequence's own average
     shape), ``3-step flicker`` (the truth against its own centred 3-step mean: the
     step-to-step noise no causal estimate follows).
+``error_split(truth, estimate) -> (at_true_total, true_shape_at_estimated_total)``
+    One sequence's RMSE with half of a model's estimate replaced by the truth: the
+    estimate rescaled to the true total force of each step (what its placement alone
+    costs), and the true map rescaled to the estimate's total (what its total alone
+    costs). Says whether a model errs in how much force there is or where it falls.
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from dresslog.model.postprocess import rmse, zero_baseline_rmse
+from dresslog.model.postprocess import rmse, sequence_rmse, zero_baseline_rmse
 
 SIGMAS_CM = (0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
 
@@ -79,3 +84,14 @@ def oracle_ratios(
     out["total x own profile"] = rmse(truths, own) / zero
     out["3-step flicker"] = rmse(truths, [_moving_mean3(t) for t in truths]) / zero
     return out
+
+
+def error_split(truth: np.ndarray, estimate: np.ndarray) -> tuple[float, float]:
+    """RMSE of the estimate at the true totals, and of the true shape at the estimated totals."""
+    truth, estimate = np.asarray(truth, np.float64), np.asarray(estimate, np.float64)
+    true_total = truth.sum(axis=1, keepdims=True)
+    est_total = estimate.sum(axis=1, keepdims=True)
+    return (
+        sequence_rmse(truth, _shape(estimate) * true_total),
+        sequence_rmse(truth, _shape(truth) * est_total),
+    )

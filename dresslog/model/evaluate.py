@@ -10,6 +10,8 @@ Public API
     estimate), ``ratio`` (rmse / zero_rmse; the paper got 0.45 gown, 0.48 shorts),
     ``contact_precision`` / ``contact_recall`` (estimated contact = contact map > 0 vs
     true force > 0, counted over all steps and points; nan when undefined),
+    ``ratio_at_true_total`` / ``ratio_true_shape`` (the ratio with the estimate's total
+    or its shape replaced by the truth's, `dresslog.model.bounds.error_split`),
     ``per_sequence`` (RMSE of each sequence), ``n_sequences``; ``as_metrics()`` gives
     the finite ones as a dict for ``ModelCard.metrics``.
 """
@@ -23,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dresslog.errors import ModelError
+from dresslog.model.bounds import error_split
 from dresslog.model.files import LoadedModel
 from dresslog.model.numpy_lstm import NumpyEstimator
 from dresslog.model.postprocess import apply_contact, sequence_rmse, split_output
@@ -35,6 +38,8 @@ class Evaluation:
     ratio: float
     contact_precision: float
     contact_recall: float
+    ratio_at_true_total: float
+    ratio_true_shape: float
     per_sequence: list[float]
     n_sequences: int
 
@@ -46,6 +51,8 @@ class Evaluation:
             "ratio": self.ratio,
             "contact_precision": self.contact_precision,
             "contact_recall": self.contact_recall,
+            "ratio_at_true_total": self.ratio_at_true_total,
+            "ratio_true_shape": self.ratio_true_shape,
             "n_sequences": float(self.n_sequences),
         }
         return {k: v for k, v in values.items() if math.isfinite(v)}
@@ -77,6 +84,8 @@ def evaluate(
             )
     per_seq = [0.0] * len(sequences)
     zero = [0.0] * len(sequences)
+    at_true_total = [0.0] * len(sequences)
+    true_shape = [0.0] * len(sequences)
     tp = fp = fn = 0
     order = np.argsort([len(p) for p in sequences])  # similar lengths together
     for start in tqdm(range(0, len(order), batch_size), disable=not progress, unit="batch"):
@@ -89,7 +98,9 @@ def evaluate(
         for row, k in enumerate(idx):
             forces_u, contact = split_output(out[row, : len(sequences[k])])
             truth = np.asarray(forces[k], np.float32)
-            per_seq[k] = sequence_rmse(truth, apply_contact(forces_u, contact))
+            estimate = apply_contact(forces_u, contact)
+            per_seq[k] = sequence_rmse(truth, estimate)
+            at_true_total[k], true_shape[k] = error_split(truth, estimate)
             zero[k] = sequence_rmse(truth, np.zeros_like(truth))
             said, real = contact > 0, truth > 0
             tp += int(np.count_nonzero(said & real))
@@ -102,6 +113,8 @@ def evaluate(
         ratio=_ratio(rmse, zero_rmse),
         contact_precision=_ratio(tp, tp + fp),
         contact_recall=_ratio(tp, tp + fn),
+        ratio_at_true_total=_ratio(float(np.mean(at_true_total)), zero_rmse),
+        ratio_true_shape=_ratio(float(np.mean(true_shape)), zero_rmse),
         per_sequence=per_seq,
         n_sequences=len(sequences),
     )
