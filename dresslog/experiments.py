@@ -187,14 +187,14 @@ def _scores(model: LoadedModel, arrays: DatasetArrays, rows: Sequence[int]) -> S
 
     e = evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
     return Scores(
-        len(rows),
-        e.rmse,
-        e.zero_rmse,
-        e.ratio,
-        e.contact_precision,
-        e.contact_recall,
-        e.ratio_at_true_total,
-        e.ratio_true_shape,
+        n=len(rows),
+        rmse=e.rmse,
+        zero_rmse=e.zero_rmse,
+        ratio=e.ratio,
+        contact_precision=e.contact_precision,
+        contact_recall=e.contact_recall,
+        ratio_at_true_total=e.ratio_at_true_total,
+        ratio_true_shape=e.ratio_true_shape,
     )
 
 
