@@ -6,7 +6,7 @@ measured in the same run. Target: numpy p99 <= 0.5 ms.
 
     python tests/benchmarks/bench_step.py [--steps 5000] [--points 400] [--hidden 50]
 
-`--hidden 100` is the bundled shorts model's width.
+`--hidden 100` is the width of both bundled models.
 """
 
 from __future__ import annotations
