@@ -24,12 +24,31 @@ class ForceDistributor:
 
     def __call__(self, positions: np.ndarray, magnitudes: np.ndarray) -> np.ndarray:
         """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
-        n, k = len(self.limb_points), self.k
-        if len(positions) == 0:
-            return np.zeros(n, dtype=np.float32)
+        positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+        return self.maps(positions, magnitudes, np.array([len(positions)]))[0]
+
+    def maps(self, positions: np.ndarray, magnitudes: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        """Force maps (B, N) float32 of B steps whose contacts are stacked step after step.
+
+        `positions` (C, 3) and `magnitudes` (C,) hold the contacts of every step,
+        `counts` (B,) how many each step has. One pass over all steps costs what one
+        step did; each map is bit-identical to its step's alone. Only the product with
+        the limb points is formed step by step: BLAS rounds a row by where it falls
+        in the matrix, so one product over all steps would change the last bits.
+        """
+        n, k, b = len(self.limb_points), self.k, len(counts)
         positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
         magnitudes = np.asarray(magnitudes, dtype=np.float64).reshape(-1)
-        d2 = (positions**2).sum(axis=1)[:, None] - 2.0 * positions @ self._points_t + self._sq
+        if len(positions) == 0:
+            return np.zeros((b, n), dtype=np.float32)
+        cross = np.empty((len(positions), n))
+        ends = np.cumsum(counts)
+        for lo, hi in zip(ends - counts, ends, strict=True):
+            if hi > lo:
+                cross[lo:hi] = 2.0 * positions[lo:hi] @ self._points_t
+        # |p|^2 - 2 p.q + |q|^2, in place: each big temporary is a fresh page-faulting block
+        d2 = np.subtract((positions**2).sum(axis=1)[:, None], cross, out=cross)
+        d2 += self._sq
         idx = (
             np.argpartition(d2, k - 1, axis=1)[:, :k]
             if k < n
@@ -43,9 +62,13 @@ class ForceDistributor:
             touching = total > 0
             safe = np.where(touching, total, 1.0)
             w = np.where(touching, (1.0 - d / safe) / (k - 1), 1.0 / k)
-        # bincount adds the shares in index order starting from 0.0, as np.add.at into zeros does
-        out = np.bincount(idx.ravel(), (w * magnitudes[:, None]).ravel(), minlength=n)
-        return out.astype(np.float32)
+        # bincount adds each point's shares in contact order starting from 0.0, as
+        # np.add.at into zeros does; the step's offset keeps the maps apart
+        step = np.repeat(np.arange(b), counts)
+        out = np.bincount(
+            (idx + (step * n)[:, None]).ravel(), (w * magnitudes[:, None]).ravel(), b * n
+        )
+        return out.reshape(b, n).astype(np.float32)
 
 
 class ClothSpreader:
@@ -96,19 +119,43 @@ class ClothSpreader:
         `vertices`: the cloth's node positions now (V, 3); `nodes`: the contacting
         nodes (C,), each once; `magnitudes`: their contact force magnitudes (C,).
         """
-        if len(nodes) == 0:
-            return np.zeros((0, 3)), np.zeros(0)
         nodes = np.asarray(nodes, dtype=np.int64)
-        ids = np.unique(
-            np.concatenate([self._samples[self._start[v] : self._start[v + 1]] for v in nodes])
+        _, pos, f = self.spread(
+            limb, vertices[None], np.zeros(len(nodes), np.int64), nodes, magnitudes
         )
+        return pos, f
+
+    def spread(
+        self,
+        limb: Limb,
+        vertices: np.ndarray,
+        step: np.ndarray,
+        nodes: np.ndarray,
+        magnitudes: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`__call__` for B steps at once: each sample's step (S,), position (S, 3), force (S,).
+
+        `vertices` (B, V, 3) holds the cloth at each step; `step`, `nodes` and
+        `magnitudes` (C,) list each step's contacting nodes, step after step. The
+        samples come out step after step too, each step's as its own call gives them.
+        """
+        if len(nodes) == 0:
+            return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0)
+        n_samples, n_vertices = len(self.parents), self.n_vertices
+        lo, hi = self._start[nodes], self._start[nodes + 1]
+        counts = hi - lo
+        first = np.cumsum(counts) - counts
+        listed = self._samples[np.arange(counts.sum()) + np.repeat(lo - first, counts)]
+        # sorted by step, then sample: each step's samples in np.unique's order
+        key = np.unique(np.repeat(step, counts) * n_samples + listed)
+        at, ids = np.divmod(key, n_samples)
         parents, w = self.parents[ids], self.weights[ids]
-        pos = np.einsum("sk,skd->sd", w, vertices[parents])
+        pos = np.einsum("sk,skd->sd", w, vertices[at[:, None], parents])
         # a node's own sample always counts: its contact says it touches the limb
         near = (limb_sdf(limb, pos) < self.reach) | self._at_node[ids]
-        slot = np.full(self.n_vertices, -1)
-        slot[nodes] = np.arange(len(nodes))
-        which = slot[parents]  # (S, 3) index of a parent among `nodes`, -1 if not in contact
+        slot = np.full(len(vertices) * n_vertices, -1)
+        slot[step * n_vertices + nodes] = np.arange(len(nodes))
+        which = slot[at[:, None] * n_vertices + parents]  # (S, 3) contact of each parent, or -1
         inside = which >= 0
         share = np.where(inside & near[:, None], w, 0.0)
         sums = np.bincount(which[inside], share[inside], len(nodes))  # > 0: own sample
@@ -117,7 +164,7 @@ class ClothSpreader:
         f = (share / sums[owner] * mags[owner]).sum(axis=1)  # share is 0 where not inside
         keep = f > 0
         surface, _ = surface_points(limb, pos[keep])
-        return surface, f[keep]
+        return at[keep], surface, f[keep]
 
 
 def distribute(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
+import re
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -18,6 +20,9 @@ from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import contact_magnitudes
 
 pytestmark = pytest.mark.slow
+
+#: The module, which `dresslog.sim.simulate` (the function) hides.
+simulation = importlib.import_module("dresslog.sim.simulate")
 
 #: Moves the limb toward the gripper's start so that a 1-2 s trial reaches it.
 NEAR = {Task.GOWN: (0.30, 0.0, 0.0), Task.SHORTS: (0.0, 0.0, 0.0)}
@@ -191,6 +196,32 @@ def test_an_unstable_trial_fails_and_leaves_no_file(tmp_path: Path) -> None:
     with pytest.raises(SimulationError, match="exceeds the physical bound"):
         record_trial(spec, tmp_path / "bad.mcap")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_steps_are_the_same_whatever_the_batch(task: Task, monkeypatch) -> None:
+    """Contacts and maps are made BATCH steps at a time; every step is bit for bit as alone."""
+    spec = short(task)
+    batched = run(spec).steps
+    monkeypatch.setattr(simulation, "BATCH", 1)
+    alone = run(spec).steps
+    assert len(batched) == len(alone) and sum(len(s.contacts) for s in alone) > 0
+    for a, b in zip(alone, batched, strict=True):
+        assert a.index == b.index and a.t_ns == b.t_ns
+        for name in ("wrench", "twist", "pose", "contacts", "force_map", "garment"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert (x is None and y is None) or x.tobytes() == y.tobytes(), (a.index, name)
+
+
+def test_a_garment_flying_apart_stops_the_trial_after_the_steps_before_it(monkeypatch) -> None:
+    """With a bound the gown's far corner crosses mid-trial, the sink has every step before."""
+    monkeypatch.setattr(simulation, "MAX_VERTEX_DISTANCE", 0.402)
+    monkeypatch.setattr(simulation, "_SURELY_NEAR", 0.2)
+    sink = Collect()
+    with pytest.raises(SimulationError, match=r"garment exploded at t=") as err:
+        simulate(short(Task.GOWN), sink)
+    t = float(re.search(r"t=([\d.]+)s", str(err.value))[1])
+    assert t > 0 and [s.index for s in sink.steps] == list(range(round(t * 100)))
 
 
 def _outcome(args: tuple[str, int]) -> str:

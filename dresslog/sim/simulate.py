@@ -107,40 +107,62 @@ class SimResult:
         )
 
 
-def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) -> np.ndarray:
-    """CONTACT_DTYPE array of the contacts that carry force (garment = body A, limb = B).
+def _contacts_of_steps(
+    raws: list[list[tuple]], limb: Limb, verts: np.ndarray, substeps: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """CONTACT_DTYPE array of the contacts that carry force at B steps, and their counts (B,).
 
-    `raw` holds the contact tuples of `substeps` physics steps; each garment vertex
-    becomes one contact whose forces are the mean over those steps and whose place
-    is its latest. pybullet also lists garment nodes merely within the collision
+    `raws[j]` holds the contact tuples (garment = body A, limb = B) of step j's
+    `substeps` physics steps, `verts[j]` the garment then (B, V, 3). Each garment
+    vertex becomes one contact whose forces are the mean over those steps and whose
+    place is its latest. pybullet also lists garment nodes merely within the collision
     margin, with zero force; those are not contacts. The garment-side point is
-    projected onto the limb surface, the normal there points from the limb to the garment.
+    projected onto the limb surface, the normal there points from the limb to the
+    garment. The contacts come out step after step, each step's as alone.
     """
+    n_steps, n = verts.shape[:2]
     # positionOnA, normalForce, friction1, dir1, friction2, dir2
-    rows = [(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0]
-    if not rows:
-        return np.zeros(0, dtype=CONTACT_DTYPE)
-    flat = np.array(rows)
-    # nearest vertex by |v|^2 - 2 p.v (|p|^2 is the same for every vertex): one small
-    # matmul instead of a (rows, vertices, 3) difference; garment nodes are centimetres
-    # apart, so rounding cannot change which vertex is nearest
-    vertex = (sum_xyz(verts * verts) - 2.0 * (flat[:, 0:3] @ verts.T)).argmin(axis=1)
-    n = len(verts)
-    latest = np.full(n, -1)
+    rows = [[(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0] for raw in raws]
+    if not any(rows):
+        return np.zeros(0, dtype=CONTACT_DTYPE), np.zeros(n_steps, np.int64)
+    flat = np.array([r for step in rows for r in step])
+    sq = sum_xyz(verts * verts)
+    vertex = np.empty(len(flat), np.int64)
+    end = 0
+    for j, step in enumerate(rows):
+        if step:
+            lo, end = end, end + len(step)
+            # nearest vertex by |v|^2 - 2 p.v (|p|^2 is the same for every vertex): one
+            # small matmul per step (BLAS rounds a row by where it falls in the matrix)
+            # instead of a (rows, vertices, 3) difference; garment nodes are centimetres
+            # apart, so rounding cannot change which vertex is nearest
+            near = (sq[j] - 2.0 * (flat[lo:end, 0:3] @ verts[j].T)).argmin(axis=1)
+            vertex[lo:end] = near + j * n
+    latest = np.full(n_steps * n, -1)
     np.maximum.at(latest, vertex, np.arange(len(vertex)))  # each vertex's last row
-    ids = np.flatnonzero(latest >= 0)
+    ids = np.flatnonzero(latest >= 0)  # by step, then vertex
+    forces = np.empty((len(flat), 4))
+    forces[:, 0] = flat[:, 3]
+    forces[:, 1:] = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
+    # per-vertex sums over the rows in order, as the substeps' impulses add up
+    sums = np.bincount(
+        (vertex[:, None] * 4 + np.arange(4)).ravel(), forces.ravel(), 4 * len(latest)
+    )
+    mean = sums.reshape(-1, 4)[ids] / substeps
     pos, normal = surface_points(limb, flat[latest[ids], 0:3])
-    friction = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
     out = np.zeros(len(ids), dtype=CONTACT_DTYPE)
     out["position"] = pos
     out["normal"] = normal
-    # per-vertex sums over the rows in order, as the substeps' impulses add up
-    out["normal_force"] = np.bincount(vertex, flat[:, 3], n)[ids] / substeps
-    for axis in range(3):
-        out["friction"][:, axis] = np.bincount(vertex, friction[:, axis], n)[ids] / substeps
+    out["normal_force"] = mean[:, 0]
+    out["friction"] = mean[:, 1:]
     out["segment"] = segment_of(limb, pos)
-    out["vertex"] = ids
-    return out
+    step_of, out["vertex"] = np.divmod(ids, n)
+    return out, np.bincount(step_of, minlength=n_steps)
+
+
+def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) -> np.ndarray:
+    """CONTACT_DTYPE array of one step's contacts (`_contacts_of_steps` of one step)."""
+    return _contacts_of_steps([raw], limb, verts[None], substeps)[0]
 
 
 def _winding(rim: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> float:
@@ -181,7 +203,7 @@ def decide_outcome(
 _SURELY_NEAR = 0.866
 
 
-def _guard(spec: TrialSpec, verts: np.ndarray, ee: np.ndarray, t: float) -> None:
+def _guard(verts: np.ndarray, ee: np.ndarray, t: float) -> None:
     d = verts - ee
     if np.abs(d).max() <= _SURELY_NEAR:  # False for NaN: then the full check decides
         return
@@ -193,6 +215,140 @@ def _guard(spec: TrialSpec, verts: np.ndarray, ee: np.ndarray, t: float) -> None
     raise SimulationError(f"garment exploded at t={t:.2f}s (a vertex {far:.1f} m away)")
 
 
+#: Recorded steps whose contacts and force maps are computed together: numpy's cost
+#: per call, not the few contacts of a step, dominates that work, so a batch costs
+#: little more than one step (larger batches lose it again to page faults). A live
+#: sink sees the steps this many at a time.
+BATCH = 10
+
+
+@dataclass(frozen=True)
+class _Motion:
+    """The gripper's recorded trajectory and what the wrench is corrected by, per step."""
+
+    t: np.ndarray  # (T,) s
+    twist: np.ndarray  # (T, 6)
+    pose: np.ndarray  # (T, 7)
+    inertia: np.ndarray  # (T, 3) gripper mass x acceleration, N
+    tare: np.ndarray  # (6,) the constraint's wrench with the garment settled
+
+
+class _StepBatch:
+    """Turns the physics' raw readings into recorded steps, BATCH steps at a time.
+
+    For each held step it checks the garment, places the contacts on the limb, makes
+    the force map and the tared wrench, checks the forces and hands the step to the
+    sink, in step order; every step comes out as it would alone.
+    """
+
+    def __init__(
+        self,
+        spec: TrialSpec,
+        limb: Limb,
+        motion: _Motion,
+        force_map: ForceDistributor,
+        spread: ClothSpreader | None,
+        sink: StepSink | None,
+        timings: dict[str, float],
+    ) -> None:
+        self.spec, self.limb, self.motion = spec, limb, motion
+        self.force_map, self.spread, self.sink, self.timings = force_map, spread, sink, timings
+        self.substeps = spec.sim.physics_hz // spec.sim.record_hz
+        self.garment_every = max(1, spec.sim.record_hz // GARMENT_HZ)
+        self._held: list[tuple[int, list[tuple], np.ndarray, np.ndarray]] = []
+        self.peak_limb, self.peak_ee = 0.0, 0.0
+        self.ee_forces: list[float] = []  # |force| at the gripper of each step handed on
+
+    def add(self, index: int, raw: list[tuple], wrench: np.ndarray, verts: np.ndarray) -> None:
+        """Hold step `index`: its substeps' raw contacts, summed constraint wrench, garment."""
+        self._held.append((index, raw, wrench, verts))
+        if len(self._held) >= BATCH:
+            self.flush()
+
+    def flush(self) -> None:
+        if not self._held:
+            return
+        held, self._held = self._held, []
+        t0 = time.thread_time()
+        index = np.array([h[0] for h in held])
+        verts = np.stack([h[3] for h in held])
+        exploded = self._exploded(index, verts)
+        if exploded is not None:  # the steps before it go first, as they happened first
+            held, index, verts = held[: exploded[0]], index[: exploded[0]], verts[: exploded[0]]
+        every, counts = _contacts_of_steps([h[1] for h in held], self.limb, verts, self.substeps)
+        mags = contact_magnitudes(every)
+        if self.spread is not None and len(every):
+            at, pos, f = self.spread.spread(
+                self.limb,
+                verts,
+                np.repeat(np.arange(len(held)), counts),
+                every["vertex"].astype(np.int64),
+                mags,
+            )
+            maps = self.force_map.maps(pos, f, np.bincount(at, minlength=len(held)))
+        else:
+            maps = self.force_map.maps(every["position"], mags, counts)
+        m = self.motion
+        # garment on gripper = -(constraint force) - weight + m a, minus the tare
+        wrench = -(np.array([h[2] for h in held]).reshape(-1, 6) / self.substeps - m.tare)
+        wrench[:, :3] += m.inertia[index]
+        last = len(m.t) - 1
+        self.timings["contacts"] += time.thread_time() - t0
+        ends = np.cumsum(counts)
+        for j, (i, lo, hi) in enumerate(zip(index, ends - counts, ends, strict=True)):
+            t1 = time.thread_time()
+            self._check(i, mags[lo:hi], wrench[j])
+            step = SimStep(
+                index=int(i),
+                t_ns=round(m.t[i] * 1e9),
+                wrench=wrench[j],
+                twist=m.twist[i],
+                pose=m.pose[i],
+                contacts=every[lo:hi],
+                force_map=maps[j],
+                garment=verts[j].astype(np.float32)
+                if i % self.garment_every == 0 or i == last
+                else None,
+            )
+            t2 = time.thread_time()
+            if self.sink is not None:
+                self.sink.step(step)
+            self.timings["sensors"] += t2 - t1
+            self.timings["sink"] += time.thread_time() - t2
+        if exploded is not None:
+            raise exploded[1]
+
+    def _exploded(self, index: np.ndarray, verts: np.ndarray) -> tuple[int, SimulationError] | None:
+        """The first held step whose garment flew apart, with its error; None if none did."""
+        ee = self.motion.pose[index, None, :3]
+        calm = np.abs(verts - ee).max(axis=(1, 2)) <= _SURELY_NEAR  # False for NaN
+        for j in np.flatnonzero(~calm):
+            try:
+                _guard(verts[j], ee[j, 0], self.motion.t[index[j]])
+            except SimulationError as e:
+                return int(j), e
+        return None
+
+    def _check(self, i: int, mags: np.ndarray, wrench: np.ndarray) -> None:
+        """Raise if the limb or the gripper feels more than physics allows; track the peaks."""
+        p, t = self.spec.sim, self.motion.t[i]
+        if len(mags):
+            self.peak_limb = max(self.peak_limb, float(mags.sum()))
+            if mags.max() > p.max_limb_force:
+                raise SimulationError(
+                    f"limb contact force {mags.max():.0f} N exceeds the physical bound "
+                    f"{p.max_limb_force:.0f} N at t={t:.2f}s"
+                )
+        f = wrench[:3]
+        fmag = math.sqrt(f.dot(f))  # as np.linalg.norm computes it
+        if not math.isfinite(fmag) or fmag > p.max_limb_force:
+            raise SimulationError(
+                f"end-effector force {fmag:.0f} N exceeds the physical bound at t={t:.2f}s"
+            )
+        self.peak_ee = max(self.peak_ee, fmag)
+        self.ee_forces.append(fmag)
+
+
 def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     """Run `spec`, streaming each recorded step to `sink`; raise SimulationError if unstable."""
     wall0 = time.perf_counter()
@@ -200,7 +356,6 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     if p.physics_hz % p.record_hz:
         raise SimulationError("physics_hz must be a multiple of record_hz")
     sub = p.physics_hz // p.record_hz
-    garment_every = max(1, p.record_hz // GARMENT_HZ)
     rng = np.random.default_rng(spec.seed)
     task = spec.task
     if spec.control_points:
@@ -229,7 +384,6 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     accel = np.gradient(vel, axis=0) * p.record_hz if n_rec > 2 else np.zeros_like(vel)
     twist = np.concatenate([vel, np.zeros_like(vel)], axis=1)
     pose = np.concatenate([path, np.tile([0.0, 0.0, 0.0, 1.0], (n_rec, 1))], axis=1)
-    inertia = EE_MASS * accel
     force_map = ForceDistributor(points.points)
     spread = (
         ClothSpreader(garment.triangles, len(garment.vertices), p.contact_spread, p.contact_reach)
@@ -257,9 +411,10 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
                 tare += scene.constraint_wrench()
         tare /= n_tare
         verts = scene.vertices()
-        _guard(spec, verts, start, 0.0)
+        _guard(verts, start, 0.0)
 
-        peak_limb, peak_ee, final_force = 0.0, 0.0, 0.0
+        motion = _Motion(t_rec, twist, pose, EE_MASS * accel, tare)
+        steps = _StepBatch(spec, limb, motion, force_map, spread, sink, timings)
         for i in range(n_rec):
             # Contacts and wrench are averaged over the substeps: a recorded step carries
             # the impulse of its whole interval, not the chatter of its last substep.
@@ -275,54 +430,13 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
                 timings["physics"] += t1 - t0
                 timings["contacts"] += time.thread_time() - t1
             t1 = time.thread_time()
-            garment_now = (i % garment_every == 0) or i == n_rec - 1
             verts = scene.vertices()
-            _guard(spec, verts, path[i], t_rec[i])
-            contacts = _contacts(raw, limb, verts, sub)
-            mags = contact_magnitudes(contacts) if len(contacts) else np.zeros(0)
-            if spread is not None:
-                fmap = force_map(*spread(limb, verts, contacts["vertex"], mags))
-            else:
-                fmap = force_map(contacts["position"], mags)
-            t2 = time.thread_time()
-            # garment on gripper = -(constraint force) - weight + m a, minus the tare
-            w = -(wrench / sub - tare)
-            w[:3] += inertia[i]
-            if len(mags):
-                peak_limb = max(peak_limb, float(mags.sum()))
-                if mags.max() > p.max_limb_force:
-                    raise SimulationError(
-                        f"limb contact force {mags.max():.0f} N exceeds the physical bound "
-                        f"{p.max_limb_force:.0f} N at t={t_rec[i]:.2f}s"
-                    )
-            f = w[:3]
-            fmag = math.sqrt(f.dot(f))  # as np.linalg.norm computes it
-            if not math.isfinite(fmag) or fmag > p.max_limb_force:
-                raise SimulationError(
-                    f"end-effector force {fmag:.0f} N exceeds the physical bound at "
-                    f"t={t_rec[i]:.2f}s"
-                )
-            peak_ee = max(peak_ee, fmag)
-            if i >= n_rec - max(1, p.record_hz // 5):
-                final_force = max(final_force, fmag)
-            t3 = time.thread_time()
-            if sink is not None:
-                sink.step(
-                    SimStep(
-                        index=i,
-                        t_ns=round(t_rec[i] * 1e9),
-                        wrench=w,
-                        twist=twist[i],
-                        pose=pose[i],
-                        contacts=contacts,
-                        force_map=fmap,
-                        garment=verts.astype(np.float32) if garment_now else None,
-                    )
-                )
-            t4 = time.thread_time()
-            timings["contacts"] += t2 - t1
-            timings["sensors"] += t3 - t2
-            timings["sink"] += t4 - t3
+            timings["contacts"] += time.thread_time() - t1
+            steps.add(i, raw, wrench, verts)
+        steps.flush()
+        peak_limb, peak_ee = steps.peak_limb, steps.peak_ee
+        final = steps.ee_forces[-max(1, p.record_hz // 5) :]
+        final_force = max(final, default=0.0)
         outcome = decide_outcome(task, limb, garment, scene.vertices(), final_force)
     finally:
         scene.close()
