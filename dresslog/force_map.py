@@ -146,13 +146,17 @@ class ClothSpreader:
         counts = hi - lo
         first = np.cumsum(counts) - counts
         listed = self._samples[np.arange(counts.sum()) + np.repeat(lo - first, counts)]
-        # sorted by step, then sample: each step's samples in np.unique's order
-        key = np.unique(np.repeat(step, counts) * n_samples + listed)
-        at, ids = np.divmod(key, n_samples)
+        # each (step, sample) once, sorted by step then sample, as np.unique would give
+        # them: marking them in a table and reading it back skips unique's sort
+        listed += np.repeat(step, counts) * n_samples
+        marked = np.zeros(len(vertices) * n_samples, dtype=bool)
+        marked[listed] = True
+        at, ids = np.divmod(np.flatnonzero(marked), n_samples)
         parents, w = self.parents[ids], self.weights[ids]
         pos = np.einsum("sk,skd->sd", w, vertices[at[:, None], parents])
         # a node's own sample always counts: its contact says it touches the limb
-        near = (limb_sdf(limb, pos) < self.reach) | self._at_node[ids]
+        depth = limb_sdf(limb, pos)
+        near = (depth < self.reach) | self._at_node[ids]
         slot = np.full(len(vertices) * n_vertices, -1)
         slot[step * n_vertices + nodes] = np.arange(len(nodes))
         which = slot[at[:, None] * n_vertices + parents]  # (S, 3) contact of each parent, or -1
@@ -163,7 +167,7 @@ class ClothSpreader:
         mags = np.asarray(magnitudes, dtype=np.float64)
         f = (share / sums[owner] * mags[owner]).sum(axis=1)  # share is 0 where not inside
         keep = f > 0
-        surface, _ = surface_points(limb, pos[keep])
+        surface, _ = surface_points(limb, pos[keep], depth[keep])
         return at[keep], surface, f[keep]
 
 

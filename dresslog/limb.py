@@ -237,13 +237,22 @@ def limb_sdf(limb: Limb, p: np.ndarray) -> np.ndarray:
 _PROBES = np.eye(3) * 1e-5
 
 
-def surface_points(limb: Limb, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closest limb-surface points to `p` (C, 3) and the outward unit normals there."""
+def surface_points(
+    limb: Limb, p: np.ndarray, sdf: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closest limb-surface points to `p` (C, 3) and the outward unit normals there.
+
+    `sdf`: `limb_sdf(limb, p)` when the caller has it already (it is not computed again).
+    """
     c = len(p)
-    d = limb_sdf(limb, np.concatenate([p[None], p + _PROBES[:, None]]).reshape(-1, 3))
-    grad = (d[c:].reshape(3, c) - d[:c]).T
+    if sdf is None:
+        d = limb_sdf(limb, np.concatenate([p[None], p + _PROBES[:, None]]).reshape(-1, 3))
+        at, probed = d[:c], d[c:]
+    else:
+        at, probed = sdf, limb_sdf(limb, (p + _PROBES[:, None]).reshape(-1, 3))
+    grad = (probed.reshape(3, c) - at).T
     n = grad / np.maximum(np.sqrt(sum_xyz(grad * grad))[:, None], 1e-12)
-    return p - d[:c, None] * n, n
+    return p - at[:, None] * n, n
 
 
 def _part_sdf(limb: Limb, p: np.ndarray, skip: set[str]) -> np.ndarray:
