@@ -394,7 +394,8 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
 
     scene = Scene.build(limb, garment, start, p)
     # CPU seconds of this thread per stage: a fair split even on a busy machine
-    timings = {"physics": 0.0, "contacts": 0.0, "sensors": 0.0, "sink": 0.0}
+    # ("queries": reading contacts, constraint and garment back from pybullet)
+    timings = {"physics": 0.0, "queries": 0.0, "contacts": 0.0, "sensors": 0.0, "sink": 0.0}
     try:
         if sink is not None:
             sink.start(SimStart(spec, points, garment.triangles))
@@ -429,10 +430,10 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
                 raw += scene.contacts()
                 wrench += scene.constraint_wrench()
                 timings["physics"] += t1 - t0
-                timings["contacts"] += time.thread_time() - t1
+                timings["queries"] += time.thread_time() - t1
             t1 = time.thread_time()
             verts = scene.vertices()
-            timings["contacts"] += time.thread_time() - t1
+            timings["queries"] += time.thread_time() - t1
             steps.add(i, raw, wrench, verts)
         steps.flush()
         peak_limb, peak_ee = steps.peak_limb, steps.peak_ee

@@ -2,7 +2,7 @@
 
 Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py`.
 Both figures come from one run per task: the simulator times its physics
-stepping and its own work (contact extraction, force map, sensors, sink)
+stepping and its own work (pybullet queries, contacts, force map, sensors, sink)
 separately; a second, bare run steps the same scene with no queries at all.
 """
 
@@ -46,7 +46,7 @@ def main(seeds: int = 3) -> None:
     from dresslog.io.writer import TrialWriter
 
     for task in Task:
-        rtf, own, phys, bare = [], [], [], []
+        rtf, own, queries, phys, bare = [], [], [], [], []
         for seed in range(seeds):
             spec = random_spec(task, seed)
             with tempfile.TemporaryDirectory() as tmp:
@@ -58,12 +58,15 @@ def main(seeds: int = 3) -> None:
                     sink.flush()
                     flush = time.thread_time() - t0
             rtf.append(r.real_time_factor)
-            own.append(r.timings["contacts"] + r.timings["sensors"] + r.timings["sink"] + flush)
+            t = r.timings
+            own.append(t["queries"] + t["contacts"] + t["sensors"] + t["sink"] + flush)
+            queries.append(t["queries"])
             phys.append(r.timings["physics"])
             bare.append(bare_physics_seconds(spec))
         print(
             f"{task.value:7s} rtf={np.mean(rtf):.2f} (min {np.min(rtf):.2f}) "
             f"own/physics={np.sum(own) / np.sum(phys):.1%} "
+            f"(pybullet queries {np.sum(queries) / np.sum(phys):.1%}) "
             f"own/bare={np.sum(own) / np.sum(bare):.1%} "
             f"physics={np.sum(phys):.1f}s bare={np.sum(bare):.1f}s over {seeds} x 7 s trials"
         )
