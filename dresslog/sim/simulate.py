@@ -161,11 +161,6 @@ def _contacts_of_steps(
     return out, np.bincount(step_of, minlength=n_steps)
 
 
-def _contacts(raw: list[tuple], limb: Limb, verts: np.ndarray, substeps: int) -> np.ndarray:
-    """CONTACT_DTYPE array of one step's contacts (`_contacts_of_steps` of one step)."""
-    return _contacts_of_steps([raw], limb, verts[None], substeps)[0]
-
-
 def _winding(rim: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> float:
     """How many times the closed rim polygon winds around the line (origin, axis)."""
     helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
