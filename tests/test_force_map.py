@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dresslog.force_map import ClothSpreader, distribute
-from dresslog.limb import Limb, build_limb, limb_sdf, surface_points
+from dresslog.force_map import ClothSpreader, ForceDistributor, distribute
+from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, surface_points
 from dresslog.model.postprocess import contact_targets
 from dresslog.sim.garments import garment_for
 from dresslog.spec import Task
@@ -98,3 +98,34 @@ def test_spread_leaves_a_force_where_the_cloth_around_it_is_off_the_limb() -> No
     assert len(f) == 1 and f[0] == pytest.approx(1.5)
     np.testing.assert_allclose(pos[0], surface_points(limb, lifted[31][None])[0][0])
     assert spreader(limb, v, np.zeros(0, int), np.zeros(0))[1].size == 0
+
+
+def test_maps_of_several_steps_are_each_steps_map_bit_for_bit() -> None:
+    """The simulator maps 10 steps in one call; each must equal its step mapped alone."""
+    limb = build_limb(Task.SHORTS)
+    distributor = ForceDistributor(limb_points(limb).points)
+    rng = np.random.default_rng(3)
+    counts = np.array([7, 0, 1, 38, 12])
+    pos, _ = surface_points(limb, rng.normal(size=(counts.sum(), 3)) * 0.1 + [0.5, 0, 0.2])
+    mag = rng.uniform(0, 2, size=counts.sum())
+    maps = distributor.maps(pos, mag, counts)
+    ends = np.cumsum(counts)
+    spans = zip(ends - counts, ends, strict=True)
+    alone = [distributor(pos[lo:hi], mag[lo:hi]) for lo, hi in spans]
+    assert maps.dtype == np.float32 and maps.tobytes() == np.stack(alone).tobytes()
+    assert not maps[1].any() and maps[3].sum() == pytest.approx(mag[8:46].sum(), rel=1e-5)
+
+
+def test_spread_of_several_steps_is_each_steps_spread_bit_for_bit() -> None:
+    limb, v, spreader = _draped_sleeve()
+    moved = v + np.array([0.01, 0.0, 0.002])  # the sleeve a little further along, a little higher
+    nodes = [np.array([30, 31, 45, 60]), np.array([31, 46])]
+    mags = [np.array([0.5, 1.0, 0.25, 2.0]), np.array([0.7, 0.1])]
+    at, pos, f = spreader.spread(
+        limb, np.stack([v, moved]), np.repeat([0, 1], [4, 2]), np.concatenate(nodes),
+        np.concatenate(mags),
+    )  # fmt: skip
+    for j, cloth in enumerate((v, moved)):
+        p, g = spreader(limb, cloth, nodes[j], mags[j])
+        assert pos[at == j].tobytes() == p.tobytes() and f[at == j].tobytes() == g.tobytes()
+    assert list(at) == sorted(at)
