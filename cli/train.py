@@ -31,6 +31,11 @@ from dresslog.cli.common import reports_errors
     show_default=True,
     help="cosine: anneal the learning rate to 0 over the epochs (the paper: constant).",
 )
+@click.option(
+    "--input-differences",
+    is_flag=True,
+    help="The network also reads the signal's change per step (9 more inputs; not in the paper).",
+)
 @click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option(

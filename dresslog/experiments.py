@@ -7,8 +7,9 @@ user make the same one call.
 Public API
 ----------
 ``train_dataset(data, out, *, epochs=10, batch_size=16, hidden=50, layers=3, lr=1e-3,
-normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant", window=None,
-seed=0, overwrite=False, workers=None, progress=True, on_epoch=None) -> ModelCard``
+normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant",
+input_differences=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
+on_epoch=None) -> ModelCard``
     Trains on the training split (holding out ``val_fraction`` of it for the per-epoch
     validation loss), scores the test split, and saves a model folder whose card names
     the data by its manifest hash and keeps the per-epoch losses, with their plot
@@ -61,6 +62,7 @@ def train_dataset(
     balance_loss: bool = False,
     keep_best: bool = False,
     lr_schedule: Literal["constant", "cosine"] = "constant",
+    input_differences: bool = False,
     window: int | None = None,
     seed: int = 0,
     overwrite: bool = False,
@@ -99,6 +101,7 @@ def train_dataset(
         balance_loss=balance_loss,
         keep_best=keep_best,
         lr_schedule=lr_schedule,
+        input_differences=input_differences,
         progress=progress,
         checkpoint=checkpoint,
         on_epoch=on_epoch,

@@ -28,6 +28,7 @@ from dresslog.model import (
 )
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import EpochRecord, Hyperparameters
+from dresslog.model.inputs import network_inputs
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.postprocess import sequence_rmse
 from dresslog.model.train import epoch_lr, make_card, train
@@ -349,3 +350,43 @@ def test_input_normalisation_is_learned_saved_and_checked(tmp_path: Path):
     (tmp_path / "m" / "card.json").write_text(json.dumps(raw))
     with pytest.raises(ModelError, match="normalisation"):
         load_model(tmp_path / "m")
+
+
+# -- a network that reads phi's change per step too ---------------------------------------
+def test_a_network_reading_phis_change_gets_it_from_phi_step_by_step_and_whole():
+    torch.manual_seed(2)
+    net = ForceMapLSTM(N, input_dim=18)
+    with torch.no_grad():
+        for p in net.parameters():
+            p.normal_(std=0.4)
+    net.set_normalisation(np.linspace(-1, 1, 18), np.linspace(0.5, 2, 18))
+    phi = np.random.default_rng(6).normal(size=(2, 60, 9)).astype(np.float32)
+    est = NumpyEstimator(net.weights())
+    assert est.differences and est.input_dim == 18
+    expected = torch_forward(net, network_inputs(phi, differences=True))
+    np.testing.assert_allclose(est.forward(phi), expected, atol=1e-5, rtol=0)
+    assert not network_inputs(phi, differences=True)[:, 0, 9:].any()  # no change at t = 0
+    for _ in range(2):  # the second pass checks that reset() forgets the last phi
+        est.reset()
+        steps = np.stack([est.step_raw(p).copy() for p in phi[1]])
+        np.testing.assert_allclose(steps, expected[1], atol=1e-5, rtol=0)
+
+
+def test_training_on_phis_change_is_recorded_and_round_trips(tmp_path: Path):
+    phis, forces = synthetic(6, seed=5, n_points=4)
+    weights, history = train(phis, forces, epochs=1, hidden=4, layers=1, normalise=True,
+                             input_differences=True, progress=False)  # fmt: skip
+    card = save_model(tmp_path / "m", weights, make_card("shorts", weights, history))
+    assert card.input_dim == 18 and card.hyperparameters.input_differences
+    assert card.normalisation is not None and len(card.normalisation.std) == 18
+    model = load_model(tmp_path / "m")
+    net = ForceMapLSTM.from_weights(model.weights)
+    x = network_inputs(phis[0], differences=True)
+    np.testing.assert_allclose(model.estimator().forward(phis[0]), torch_forward(net, x),
+                               atol=1e-5)  # fmt: skip
+    raw = json.loads((tmp_path / "m" / "card.json").read_text())
+    raw["hyperparameters"]["input_differences"] = False  # a card that misdescribes the net
+    (tmp_path / "m" / "card.json").write_text(json.dumps(raw))
+    with pytest.raises(ModelError, match="input_dim 18 for a network that reads 9") as info:
+        load_model(tmp_path / "m")
+    assert "\n" not in str(info.value)

@@ -42,6 +42,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
 from dresslog.io.files import sha256_file
+from dresslog.model.inputs import PHI_DIM
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
 
@@ -55,8 +56,8 @@ class Normalisation(BaseModel):
     """Per-channel input standardisation, (phi - mean) / std; the paper used none."""
 
     model_config = ConfigDict(extra="forbid")
-    mean: list[float] = Field(min_length=9, max_length=9)
-    std: list[float] = Field(min_length=9, max_length=9)
+    mean: list[float] = Field(min_length=9, max_length=18)
+    std: list[float] = Field(min_length=9, max_length=18)
 
 
 class Hyperparameters(BaseModel):
@@ -78,6 +79,8 @@ class Hyperparameters(BaseModel):
     keep_best: bool = False
     #: "cosine": the learning rate of epoch e is lr (1 + cos(pi e / epochs)) / 2
     lr_schedule: Literal["constant", "cosine"] = "constant"
+    #: the network reads phi's change since the last step too (`dresslog.model.inputs`)
+    input_differences: bool = False
 
 
 class DataProvenance(BaseModel):
@@ -128,6 +131,12 @@ class ModelCard(BaseModel):
                 f"format version {self.format_version} is newer than this dresslog "
                 f"reads ({FORMAT_VERSION}); upgrade dresslog"
             )
+        width = 2 * PHI_DIM if self.hyperparameters.input_differences else PHI_DIM
+        if self.input_dim != width:
+            raise ValueError(f"input_dim {self.input_dim} for a network that reads {width}")
+        norm = self.normalisation
+        if norm is not None and not len(norm.mean) == len(norm.std) == width:
+            raise ValueError(f"normalisation is not {width}-D")
         return self
 
 

@@ -8,7 +8,8 @@ Public API
     outputs ``[force map, contact map]``. Input normalisation ``(phi - mean) / std`` is
     held in buffers ``input_mean``/``input_std`` (identity by default; the paper used none).
 
-    ``forward(phi (B, T, 9), state=None) -> (out (B, T, 2N), state)``: causal, so padding
+    ``forward(x (B, T, input_dim), state=None) -> (out (B, T, 2N), state)``: ``x`` is
+    ``dresslog.model.inputs.network_inputs(phi, ...)``, phi itself for 9 inputs. Causal, so padding
     at the end of a sequence never changes its valid outputs; pass ``state`` back in to
     continue a sequence (the stateful one-step use).
 

@@ -7,7 +7,9 @@ Public API
 ----------
 ``NumpyEstimator(weights)``
     ``weights``: the flat float32 dict of ``ForceMapLSTM.weights()`` / ``load_model``.
-    Attributes ``n_points``, ``hidden``, ``layers``, ``input_dim``.
+    Attributes ``n_points``, ``hidden``, ``layers``, ``input_dim`` (9, or 18 for a
+    network that also reads phi's change per step: ``dresslog.model.inputs``; it is fed
+    9-D phi either way).
 
     ``step(phi (9,)) -> (forces (N,), contact (N,))``
         Stateful, one measurement at a time (the paper's real-time use): forces have Eq. 2
@@ -30,6 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from dresslog.model.inputs import PHI_DIM, network_inputs, reads_differences
 from dresslog.model.postprocess import apply_contact, split_output
 
 F32 = np.float32
@@ -84,6 +87,7 @@ class NumpyEstimator:
 
     def __init__(self, weights: Mapping[str, np.ndarray]) -> None:
         self.n_points, self.hidden, self.layers, self.input_dim = infer_sizes(weights)
+        self.differences = reads_differences(self.input_dim)
         expected = expected_shapes(self.n_points, self.hidden, self.layers, self.input_dim)
         for name, shape in expected.items():
             if name not in weights or tuple(weights[name].shape) != shape:
@@ -126,6 +130,8 @@ class NumpyEstimator:
         self._tmp = np.zeros(h, F32)
         self._out = np.zeros(2 * self.n_points, F32)
         self._mask = np.zeros(self.n_points, F32)
+        self._phi = np.zeros(PHI_DIM, F32)  # the last step's phi
+        self._first = True
         self._slices = []
         for layer in range(self.layers):
             start = 0 if layer == 0 else d + (layer - 1) * h
@@ -138,12 +144,24 @@ class NumpyEstimator:
         self._state[:] = 0.0
         for c in self._c:
             c[:] = 0.0
+        self._first = True
 
     def step_raw(self, phi: np.ndarray) -> np.ndarray:
         """Advance one step; the unprocessed (2N,) output in a reused buffer."""
         h, d = self.hidden, self.input_dim
         x = self._state[:d]
-        np.subtract(phi, self.mean, out=x)
+        if self.differences:  # [phi, its change since the last step], as network_inputs
+            now, change = x[:PHI_DIM], x[PHI_DIM:]
+            now[:] = phi  # float32 first, as the whole-sequence path
+            if self._first:
+                change[:] = 0.0
+            else:
+                np.subtract(now, self._phi, out=change)
+            self._phi[:] = now
+            self._first = False
+            np.subtract(x, self.mean, out=x)
+        else:
+            np.subtract(phi, self.mean, out=x)
         np.divide(x, self.std, out=x)
         g, tmp = self._gates, self._tmp
         sig, i, f, o, cand = g[: 3 * h], g[:h], g[h : 2 * h], g[2 * h : 3 * h], g[3 * h :]
@@ -178,11 +196,11 @@ class NumpyEstimator:
         single = phi.ndim == 2
         if single:
             phi = phi[None]
-        if phi.ndim != 3 or phi.shape[-1] != self.input_dim:
-            raise ValueError(f"phi must be (T, {self.input_dim}) or (B, T, {self.input_dim})")
+        if phi.ndim != 3 or phi.shape[-1] != PHI_DIM:
+            raise ValueError(f"phi must be (T, {PHI_DIM}) or (B, T, {PHI_DIM})")
         batch, steps, _ = phi.shape
         h = self.hidden
-        seq = (phi - self.mean) / self.std
+        seq = (network_inputs(phi, self.differences) - self.mean) / self.std
         for w_ih, w_hh, b in zip(self._w_ih, self._w_hh, self._b, strict=True):
             pre = seq @ w_ih + b  # (B, T, 4H): the input part of every step at once
             out = np.empty((batch, steps, h), F32)

@@ -19,6 +19,7 @@ def format_card(model: LoadedModel) -> str:
     extras = [
         name
         for name, on in (
+            ("phi and its change per step", hp.input_differences),
             ("normalised inputs", card.normalisation is not None),
             (f"force loss x{hp.force_scale:.3g}", hp.force_scale != 1.0),
             (f"{hp.window}-step crops", hp.window is not None),

@@ -4,8 +4,8 @@ Public API
 ----------
 ``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
 seed=0, window=None, val_fraction=0.1, val=None, normalise=False, balance_loss=False,
-keep_best=False, lr_schedule="constant", threads=None, progress=True, checkpoint=None,
-on_epoch=None)
+keep_best=False, lr_schedule="constant", input_differences=False, threads=None,
+progress=True, checkpoint=None, on_epoch=None)
 -> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
     maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
@@ -23,7 +23,8 @@ on_epoch=None)
     epoch with the lowest validation loss rather than the last (the paper kept the last).
     ``lr_schedule="cosine"`` anneals the learning rate from ``lr`` towards 0 over the
     epochs (set per epoch from its number alone, so a resumed run follows the same curve);
-    the paper's is constant.
+    the paper's is constant. ``input_differences``: the network reads phi's change per
+    step as 9 more inputs (``dresslog.model.inputs``; not in the paper).
     Same data, seed and threads give the same weights. ``checkpoint``: a file written
     after every epoch (torch's weights-only format) from which an interrupted run resumes.
     ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
@@ -60,6 +61,7 @@ from dresslog.model.files import (
     ModelCard,
     Normalisation,
 )
+from dresslog.model.inputs import network_inputs
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
 from dresslog.model.postprocess import network_targets
@@ -201,6 +203,7 @@ def train(
     balance_loss: bool = False,
     keep_best: bool = False,
     lr_schedule: Literal["constant", "cosine"] = "constant",
+    input_differences: bool = False,
     threads: int | None = None,
     progress: bool = True,
     checkpoint: str | Path | None = None,
@@ -208,13 +211,13 @@ def train(
 ) -> tuple[dict[str, np.ndarray], TrainHistory]:
     """Train a ForceMapLSTM; returns (float32 weights, history). See the module docstring."""
     n_points = _check_data(sequences, forces)
-    phis = [np.asarray(p, np.float32) for p in sequences]
+    phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in sequences]
     scale = balanced_force_scale(forces) if balance_loss else 1.0
     targets = [network_targets(f, scale) for f in forces]
     rng = np.random.default_rng(seed)
     if val is not None:
         _check_data(val[0], val[1])
-        val_phis = [np.asarray(p, np.float32) for p in val[0]]
+        val_phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in val[0]]
         val_targets = [network_targets(f, scale) for f in val[1]]
     else:
         n_val = min(round(val_fraction * len(phis)), len(phis) - 1)
@@ -233,13 +236,14 @@ def train(
         force_scale=scale,
         keep_best=keep_best,
         lr_schedule=lr_schedule,
+        input_differences=input_differences,
     )
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
     previous_threads = torch.get_num_threads()
     torch.set_num_threads(threads or min(2, os.cpu_count() or 1))
     try:
         torch.manual_seed(seed)
-        net = ForceMapLSTM(n_points, hidden=hidden, layers=layers)
+        net = ForceMapLSTM(n_points, hidden=hidden, layers=layers, input_dim=phis[0].shape[1])
         if normalise:
             steps = np.concatenate(phis)
             net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
