@@ -198,3 +198,18 @@ def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -
     assert sweep_lines(report, "speed") == {"": ([0.2], [0.02], [0.02])}
     plot_sweep(tmp_path / "sweep.png", report)
     assert matplotlib.image.imread(tmp_path / "sweep.png").std() > 0.05
+
+
+@pytest.mark.slow
+def test_a_model_reading_the_signals_change_still_infers_from_the_9d_signal(
+    data: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "diff"
+    args = ["--epochs", "1", "--hidden", "4", "--layers", "1", "--input-differences", "-q"]
+    code, output = invoke("train", data, "-o", out, *args)
+    assert code == 0, output
+    code, output = invoke("info", out)
+    assert "LSTM on 18-D input; phi and its change per step" in output, output
+    trial = next((data / "test").glob("*.mcap"))
+    code, output = invoke("infer", trial, "--model", out, "-o", tmp_path / "t.rrd")
+    assert code == 0 and "RMSE" in output and (tmp_path / "t.rrd").is_file(), output
