@@ -5,8 +5,10 @@ torch's `ForceMapLSTM` fed one step at a time with its state carried, on one thr
 measured in the same run. Target: numpy p99 <= 0.5 ms.
 
     python tests/benchmarks/bench_step.py [--steps 5000] [--points 400] [--hidden 50]
+        [--input-differences]
 
-`--hidden 100` is the width of both bundled models.
+`--hidden 100 --input-differences` is what both bundled models are: 100 cells that read
+phi and its change per step (the numpy step forms the change; torch is handed it).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
+from dresslog.model.inputs import network_inputs  # noqa: E402
 from dresslog.model.network import ForceMapLSTM  # noqa: E402
 from dresslog.model.numpy_lstm import NumpyEstimator  # noqa: E402
 
@@ -42,26 +45,29 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=5000)
     parser.add_argument("--points", type=int, default=400)
     parser.add_argument("--hidden", type=int, default=50)
+    parser.add_argument("--input-differences", action="store_true")
     args = parser.parse_args()
 
     torch.set_num_threads(1)
     torch.manual_seed(0)
-    net = ForceMapLSTM(args.points, hidden=args.hidden).eval()
+    width = 18 if args.input_differences else 9
+    net = ForceMapLSTM(args.points, hidden=args.hidden, input_dim=width).eval()
     est = NumpyEstimator(net.weights())
     phi = np.random.default_rng(0).normal(size=(args.steps, 9)).astype(np.float32)
+    x = network_inputs(phi, args.input_differences)
 
     state = None
 
     def torch_step(p: np.ndarray) -> None:
         nonlocal state
         with torch.inference_mode():
-            out, state = net(torch.from_numpy(p).view(1, 1, 9), state)
+            out, state = net(torch.from_numpy(p).view(1, 1, width), state)
         out.numpy()
 
-    results = {"numpy": latencies(est.step, phi), "torch": latencies(torch_step, phi)}
+    results = {"numpy": latencies(est.step, phi), "torch": latencies(torch_step, x)}
     print(
         f"one inference step, N={args.points} limb points, {args.hidden} cells, "
-        f"{args.steps} steps, 1 thread"
+        f"{width} inputs, {args.steps} steps, 1 thread"
     )
     for name, ms in results.items():
         p50, p99 = np.percentile(ms, [50, 99])
