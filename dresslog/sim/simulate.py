@@ -252,7 +252,7 @@ class _StepBatch:
         self.substeps = spec.sim.physics_hz // spec.sim.record_hz
         self.garment_every = max(1, spec.sim.record_hz // GARMENT_HZ)
         self._held: list[tuple[int, list[tuple], np.ndarray, np.ndarray]] = []
-        self.peak_limb, self.peak_ee = 0.0, 0.0
+        self.peak_limb = 0.0
         self.ee_forces: list[float] = []  # |force| at the gripper of each step handed on
 
     def add(self, index: int, raw: list[tuple], wrench: np.ndarray, verts: np.ndarray) -> None:
@@ -341,7 +341,6 @@ class _StepBatch:
             raise SimulationError(
                 f"end-effector force {fmag:.0f} N exceeds the physical bound at t={t:.2f}s"
             )
-        self.peak_ee = max(self.peak_ee, fmag)
         self.ee_forces.append(fmag)
 
 
@@ -431,9 +430,8 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
             timings["queries"] += time.thread_time() - t1
             steps.add(i, raw, wrench, verts)
         steps.flush()
-        peak_limb, peak_ee = steps.peak_limb, steps.peak_ee
-        final = steps.ee_forces[-max(1, p.record_hz // 5) :]
-        final_force = max(final, default=0.0)
+        peak_limb, peak_ee = steps.peak_limb, max(steps.ee_forces, default=0.0)
+        final_force = max(steps.ee_forces[-max(1, p.record_hz // 5) :], default=0.0)
         outcome = decide_outcome(task, limb, garment, scene.vertices(), final_force)
     finally:
         scene.close()
