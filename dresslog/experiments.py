@@ -44,6 +44,9 @@ from dresslog.spec import Task
 #: The learning curve `train_dataset` draws into the model folder.
 TRAINING_PLOT = "training.png"
 
+#: How eval and sweep word a model of the other task: they take the model as MODEL.
+_DATA_MISMATCH = {"subject": "data", "hint": "give a {task} model (e.g. samples/models/{task})"}
+
 #: Mid-range speeds (m/s) the paper used for the rotation sweep (12.5 and 17.5 cm/s).
 ROTATION_SPEED = {Task.GOWN: 0.125, Task.SHORTS: 0.175}
 
@@ -216,9 +219,9 @@ def evaluate_dataset(
     so the model's ratio can be read against what the data allow.
     """
     loaded = load_model(model)
-    check_task(loaded, load_manifest(data).task)
+    check_task(loaded, load_manifest(data).task, **_DATA_MISMATCH)
     arrays = load_dataset(data, workers=workers, progress=progress)
-    check_task(loaded, arrays.task, arrays.n_points)
+    check_task(loaded, arrays.task, arrays.n_points, **_DATA_MISMATCH)
     rows = arrays.rows(split)
     if not len(rows):
         raise DatasetError(f"the dataset has no {Split(split)} trials", path=data)
@@ -368,7 +371,7 @@ def sweep(
             progress=progress,
         )
         arrays = load_dataset(folder, workers=workers, progress=False)
-        check_task(loaded, arrays.task, arrays.n_points)
+        check_task(loaded, arrays.task, arrays.n_points, **_DATA_MISMATCH)
         scores = _scores(loaded, arrays, arrays.rows(Split.SWEEP))
         done.append(Setting(**{**asdict(setting), "scores": scores}))
     baseline = done[0].scores

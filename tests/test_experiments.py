@@ -145,7 +145,8 @@ def _fake_model(path: Path, task: str) -> Path:
 def test_eval_refuses_a_model_for_the_other_task(data: Path, tmp_path: Path) -> None:
     code, output = invoke("eval", _fake_model(tmp_path / "shorts", "shorts"), data)
     assert code == 1 and output.count("\n") == 1
-    assert "model is for shorts" in output
+    assert "model is for shorts but the data is gown" in output
+    assert "--model" not in output  # eval takes the model as its MODEL argument
 
 
 def test_eval_refuses_a_tampered_model(data: Path, tmp_path: Path) -> None:

@@ -21,8 +21,9 @@ Public API
     numpy arrays), ``.estimator() -> NumpyEstimator``. Raises ``ModelError`` (one line,
     ``.path`` set) for a missing folder or file, a foreign or unreadable card, weights whose
     hash differs from the card (tampered or replaced), and missing or mis-shaped arrays.
-``check_task(model, task, n_points=None)``: ``ModelError`` when the model was trained for
-    another task (or, given ``n_points``, for another number of limb points).
+``check_task(model, task, n_points=None, *, subject="trial", hint=...)``: ``ModelError``
+    when the model was trained for another task (or, given ``n_points``, for another
+    number of limb points), worded for the trial or data it was to run on.
 """
 
 from __future__ import annotations
@@ -258,17 +259,28 @@ def load_model(path: str | Path) -> LoadedModel:
     return LoadedModel(path=path, card=card, weights=weights)
 
 
-def check_task(model: LoadedModel, task: Task | str, n_points: int | None = None) -> None:
-    """Refuse to run a model on a trial of another task (its limb points differ)."""
+def check_task(
+    model: LoadedModel,
+    task: Task | str,
+    n_points: int | None = None,
+    *,
+    subject: str = "trial",
+    hint: str = "pass --model with a {task} model (e.g. models/{task})",
+) -> None:
+    """Refuse to run a model on a `subject` (trial, data) of another task.
+
+    `hint` says what to do instead, formatted with the subject's task: the command's own
+    way to name a model (``infer``'s --model, ``eval``'s MODEL argument).
+    """
     task = Task(task)
     if model.card.task != task:
         raise ModelError(
-            f"model is for {model.card.task} but the trial is {task}; "
-            f"pass --model with a {task} model (e.g. models/{task})",
+            f"model is for {model.card.task} but the {subject} is {task}; "
+            + hint.format(task=task),
             path=model.path,
         )
     if n_points is not None and n_points != model.card.n_points:
         raise ModelError(
-            f"model has {model.card.n_points} limb points but the trial has {n_points}",
+            f"model has {model.card.n_points} limb points but the {subject} has {n_points}",
             path=model.path,
         )
