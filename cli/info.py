@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from dresslog.cli.common import reports_errors
+from dresslog.errors import DresslogError
 
 
 @click.command("info")
@@ -23,7 +24,14 @@ def info(path: str, as_json: bool) -> None:
         manifest = load_manifest(path)
         click.echo(manifest.model_dump_json(indent=1) if as_json else manifest.describe())
     elif Path(path).is_dir():
-        from dresslog.model.files import load_model
+        from dresslog.model.files import CARD_FILE, load_model
+
+        if not (Path(path) / CARD_FILE).is_file():
+            raise DresslogError(
+                f"neither a model folder (no {CARD_FILE}) nor a dataset folder "
+                f"(no {MANIFEST_FILE})",
+                path=path,
+            )
         from dresslog.model.summary import format_card
 
         model = load_model(path)  # verifies the weights against the card
