@@ -228,8 +228,7 @@ def test_averaged_weights_are_what_is_validated_kept_and_resumed(tmp_path: Path)
     # The validation loss recorded for the last epoch is the returned (averaged) weights'.
     val = np.random.default_rng(1).permutation(10)[:2]  # train's held-out rows for seed 1
     errors = [
-        (NumpyEstimator(averaged).forward(phis[k]) - network_targets(forces[k])) ** 2
-        for k in val
+        (NumpyEstimator(averaged).forward(phis[k]) - network_targets(forces[k])) ** 2 for k in val
     ]
     mse = sum(e.sum() for e in errors) / sum(e.size for e in errors)
     assert history.final_val_loss == pytest.approx(float(mse), rel=1e-4)
