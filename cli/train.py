@@ -36,18 +36,6 @@ from dresslog.cli.common import reports_errors
     is_flag=True,
     help="The network also reads the signal's change per step (9 more inputs; not in the paper).",
 )
-@click.option(
-    "--average",
-    type=click.FloatRange(0, 1, max_open=True),
-    default=0.0,
-    help="Keep a moving average of the weights, decaying by this per batch (e.g. 0.998).",
-)
-@click.option(
-    "--input-noise",
-    type=click.FloatRange(min=0),
-    default=0.0,
-    help="Add Gaussian noise of this many input standard deviations while training.",
-)
 @click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option(

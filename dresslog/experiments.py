@@ -8,8 +8,8 @@ Public API
 ----------
 ``train_dataset(data, out, *, epochs=10, batch_size=16, hidden=50, layers=3, lr=1e-3,
 normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant",
-input_differences=False, average=0.0, input_noise=0.0, window=None, seed=0, overwrite=False,
-workers=None, progress=True, on_epoch=None) -> ModelCard``
+input_differences=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
+on_epoch=None) -> ModelCard``
     Trains on the training split (holding out ``val_fraction`` of it for the per-epoch
     validation loss), scores the test split, and saves a model folder whose card names
     the data by its manifest hash and keeps the per-epoch losses, with their plot
@@ -66,8 +66,6 @@ def train_dataset(
     keep_best: bool = False,
     lr_schedule: Literal["constant", "cosine"] = "constant",
     input_differences: bool = False,
-    average: float = 0.0,
-    input_noise: float = 0.0,
     window: int | None = None,
     seed: int = 0,
     overwrite: bool = False,
@@ -107,8 +105,6 @@ def train_dataset(
         keep_best=keep_best,
         lr_schedule=lr_schedule,
         input_differences=input_differences,
-        average=average,
-        input_noise=input_noise,
         progress=progress,
         checkpoint=checkpoint,
         on_epoch=on_epoch,

@@ -207,12 +207,10 @@ def test_a_model_reading_the_signals_change_still_infers_from_the_9d_signal(
 ) -> None:
     out = tmp_path / "diff"
     args = ["--epochs", "1", "--hidden", "4", "--layers", "1", "--input-differences", "-q"]
-    args += ["--average", "0.99", "--input-noise", "0.1"]
     code, output = invoke("train", data, "-o", out, *args)
     assert code == 0, output
     code, output = invoke("info", out)
     assert "LSTM on 18-D input; phi and its change per step" in output, output
-    assert "weights averaged (decay 0.99)" in output and "input noise 0.1 sd" in output
     trial = next((data / "test").glob("*.mcap"))
     code, output = invoke("infer", trial, "--model", out, "-o", tmp_path / "t.rrd")
     assert code == 0 and "RMSE" in output and (tmp_path / "t.rrd").is_file(), output

@@ -218,44 +218,6 @@ def test_cosine_schedule_anneals_the_learning_rate_and_resumes_on_the_same_curve
     assert make_card(Task.GOWN, cosine, history).hyperparameters.lr_schedule == "cosine"
 
 
-def test_averaged_weights_are_what_is_validated_kept_and_resumed(tmp_path: Path):
-    phis, forces = synthetic(10, seed=6, n_points=4)
-    kwargs = {"epochs": 3, "batch_size": 2, "hidden": 6, "layers": 1, "lr": 0.02, "seed": 1}
-    kwargs |= {"val_fraction": 0.2, "threads": 1, "progress": False}
-    last, _ = train(phis, forces, **kwargs)
-    averaged, history = train(phis, forces, average=0.9, **kwargs)
-    assert not np.array_equal(averaged["head.weight"], last["head.weight"])
-    # The validation loss recorded for the last epoch is the returned (averaged) weights'.
-    val = np.random.default_rng(1).permutation(10)[:2]  # train's held-out rows for seed 1
-    errors = [
-        (NumpyEstimator(averaged).forward(phis[k]) - network_targets(forces[k])) ** 2 for k in val
-    ]
-    mse = sum(e.sum() for e in errors) / sum(e.size for e in errors)
-    assert history.final_val_loss == pytest.approx(float(mse), rel=1e-4)
-    resumed, _ = interrupted_then_resumed(
-        tmp_path / "run.ckpt", 1, phis, forces, average=0.9, **kwargs
-    )
-    for name, value in averaged.items():
-        np.testing.assert_array_equal(resumed[name], value, err_msg=name)
-    assert make_card(Task.GOWN, averaged, history).hyperparameters.average == 0.9
-
-
-def test_input_noise_changes_training_deterministically_and_resumes(tmp_path: Path):
-    phis, forces = synthetic(8, seed=2, n_points=4)
-    kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
-    clean, _ = train(phis, forces, **kwargs)
-    noisy, history = train(phis, forces, input_noise=0.1, **kwargs)
-    again, _ = train(phis, forces, input_noise=0.1, **kwargs)
-    assert not np.array_equal(noisy["head.weight"], clean["head.weight"])
-    resumed, _ = interrupted_then_resumed(
-        tmp_path / "run.ckpt", 2, phis, forces, input_noise=0.1, **kwargs
-    )
-    for name, value in noisy.items():
-        np.testing.assert_array_equal(again[name], value, err_msg=name)
-        np.testing.assert_array_equal(resumed[name], value, err_msg=name)
-    assert make_card(Task.GOWN, noisy, history).hyperparameters.input_noise == 0.1
-
-
 def test_balanced_loss_makes_training_invariant_to_the_force_unit():
     """With --balance-loss, forces 100x smaller train the same network, outputs 100x smaller."""
     phis, forces = synthetic(8, seed=4, n_points=4)

@@ -82,10 +82,6 @@ class Hyperparameters(BaseModel):
     lr_schedule: Literal["constant", "cosine"] = "constant"
     #: the network reads phi's change since the last step too (`dresslog.model.inputs`)
     input_differences: bool = False
-    #: the weights are an exponential moving average over batches, this the decay (0: none)
-    average: float = Field(0.0, ge=0.0, lt=1.0)
-    #: Gaussian noise of this many input standard deviations added to training inputs
-    input_noise: float = Field(0.0, ge=0.0)
 
 
 class DataProvenance(BaseModel):

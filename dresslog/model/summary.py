@@ -24,8 +24,6 @@ def format_card(model: LoadedModel) -> str:
             (f"force loss x{hp.force_scale:.3g}", hp.force_scale != 1.0),
             (f"{hp.window}-step crops", hp.window is not None),
             ("kept best epoch", hp.keep_best),
-            (f"weights averaged (decay {hp.average:g})", hp.average > 0),
-            (f"input noise {hp.input_noise:g} sd", hp.input_noise > 0),
         )
         if on
     ]

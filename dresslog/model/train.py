@@ -4,8 +4,8 @@ Public API
 ----------
 ``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
 seed=0, window=None, val_fraction=0.1, val=None, normalise=False, balance_loss=False,
-keep_best=False, lr_schedule="constant", input_differences=False, average=0.0,
-input_noise=0.0, threads=None, progress=True, checkpoint=None, on_epoch=None)
+keep_best=False, lr_schedule="constant", input_differences=False, threads=None,
+progress=True, checkpoint=None, on_epoch=None)
 -> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
     maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
@@ -25,12 +25,7 @@ input_noise=0.0, threads=None, progress=True, checkpoint=None, on_epoch=None)
     epochs (set per epoch from its number alone, so a resumed run follows the same curve);
     the paper's is constant. ``input_differences``: the network reads phi's change per
     step as 9 more inputs (``dresslog.model.inputs``; not in the paper).
-    ``average=d``: validate, keep and return an exponential moving average of the
-    weights (each batch's update weighted 1 - d), not the weights of the last batch: the
-    average sits nearer the centre of the noisy late-training walk. ``input_noise=s``:
-    Gaussian noise of s input standard deviations added to every training input (not to
-    validation), so the network cannot lean on a signal's exact values. Neither is in
-    the paper. Same data, seed and threads give the same weights. ``checkpoint``: a file written
+    Same data, seed and threads give the same weights. ``checkpoint``: a file written
     after every epoch (torch's weights-only format) from which an interrupted run resumes.
     ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
 
@@ -56,7 +51,6 @@ from typing import Literal
 
 import numpy as np
 import torch
-from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 
 from dresslog.errors import ModelError
 from dresslog.io.files import atomic_path
@@ -160,19 +154,9 @@ def _evaluate_loss(
     return total / count
 
 
-def _averaged(net: ForceMapLSTM, decay: float) -> AveragedModel | None:
-    """torch's exponential moving average of `net`'s weights, if asked for (decay > 0)."""
-    if not decay:
-        return None
-    return AveragedModel(net, multi_avg_fn=get_ema_multi_avg_fn(decay))
-
-
-def _save_checkpoint(
-    path: Path, net, optim, history: TrainHistory, best: dict, averaged: AveragedModel | None
-) -> None:
+def _save_checkpoint(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
     state = {
         "model": net.state_dict(),
-        "average": averaged.state_dict() if averaged is not None else {},
         "best": best,
         "optim": optim.state_dict(),
         "settings": history.settings.model_dump(),
@@ -183,9 +167,7 @@ def _save_checkpoint(
         torch.save(state, tmp)
 
 
-def _resume(
-    path: Path, net, optim, history: TrainHistory, best: dict, averaged: AveragedModel | None
-) -> None:
+def _resume(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
     """Continue from a checkpoint of the same settings; refuse one from another run."""
     try:
         state = torch.load(path, weights_only=True)
@@ -200,8 +182,6 @@ def _resume(
         )
     net.load_state_dict(state["model"])
     optim.load_state_dict(state["optim"])
-    if averaged is not None:
-        averaged.load_state_dict(state["average"])
     best.update(state.get("best", {}))
     history.epochs = [EpochRecord.model_validate(e) for e in state["epochs"]]
 
@@ -224,8 +204,6 @@ def train(
     keep_best: bool = False,
     lr_schedule: Literal["constant", "cosine"] = "constant",
     input_differences: bool = False,
-    average: float = 0.0,
-    input_noise: float = 0.0,
     threads: int | None = None,
     progress: bool = True,
     checkpoint: str | Path | None = None,
@@ -259,8 +237,6 @@ def train(
         keep_best=keep_best,
         lr_schedule=lr_schedule,
         input_differences=input_differences,
-        average=average,
-        input_noise=input_noise,
     )
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
     previous_threads = torch.get_num_threads()
@@ -272,21 +248,19 @@ def train(
             steps = np.concatenate(phis)
             net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
         optim = torch.optim.RMSprop(net.parameters(), lr=lr)
-        averaged = _averaged(net, average)
         ckpt = Path(checkpoint) if checkpoint is not None else None
         best: dict[str, torch.Tensor] = {}  # the kept epoch's weights, if keep_best
         if ckpt is not None and ckpt.exists():
-            _resume(ckpt, net, optim, history, best, averaged)
+            _resume(ckpt, net, optim, history, best)
         _fit(
             net, optim, phis, targets, val_phis, val_targets, history, progress, ckpt, on_epoch,
-            best, averaged,
+            best,
         )  # fmt: skip
-        result = net if averaged is None else averaged.module
         if best:
-            result.load_state_dict(best)
+            net.load_state_dict(best)
     finally:
         torch.set_num_threads(previous_threads)
-    weights = result.weights()
+    weights = net.weights()
     weights["head.weight"][:n_points] /= scale  # outputs in newtons again
     weights["head.bias"][:n_points] /= scale
     return weights, history
@@ -326,11 +300,9 @@ def _fit(
     ckpt: Path | None,
     on_epoch: Callable[[EpochRecord], None] | None,
     best: dict[str, torch.Tensor],
-    averaged: AveragedModel | None,
 ) -> None:
     from tqdm import tqdm
 
-    shown = net if averaged is None else averaged.module  # what is validated and kept
     s = history.settings
     bar = tqdm(total=s.epochs, initial=len(history.epochs), unit="epoch", disable=not progress)
     for epoch in range(len(history.epochs), s.epochs):
@@ -340,7 +312,6 @@ def _fit(
         for group in optim.param_groups:
             group["lr"] = epoch_lr(s, epoch)
         order = rng.permutation(len(phis))
-        noise = torch.Generator().manual_seed(int(rng.integers(2**62))) if s.input_noise else None
         net.train()
         total, count = 0.0, 0
         for start in range(0, len(order), s.batch_size):
@@ -351,19 +322,15 @@ def _fit(
                 x, y, mask = _batch(bp, bt, np.arange(len(idx)), max(len(p) for p in bp))
             else:
                 x, y, mask = _batch(phis, targets, idx, max(len(phis[k]) for k in idx))
-            if noise is not None:
-                x += s.input_noise * net.input_std * torch.randn(x.shape, generator=noise)
             out, _ = net(x)
             loss = _masked_mse(out, y, mask)
             optim.zero_grad(set_to_none=True)
             loss.backward()
             optim.step()
-            if averaged is not None:
-                averaged.update_parameters(net)
             total += loss.item() * len(idx)
             count += len(idx)
-        shown.eval()
-        val_loss = _evaluate_loss(shown, val_phis, val_targets, 64) if val_phis else None
+        net.eval()
+        val_loss = _evaluate_loss(net, val_phis, val_targets, 64) if val_phis else None
         record = EpochRecord(
             epoch=epoch + 1,
             train_loss=total / count,
@@ -372,9 +339,9 @@ def _fit(
         )
         history.epochs.append(record)
         if s.keep_best and history.kept is record:
-            best.update({k: v.detach().clone() for k, v in shown.state_dict().items()})
+            best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
         if ckpt is not None:
-            _save_checkpoint(ckpt, net, optim, history, best, averaged)
+            _save_checkpoint(ckpt, net, optim, history, best)
         bar.set_postfix(loss=f"{record.train_loss:.3g}", val=f"{val_loss or float('nan'):.3g}")
         bar.update()
         if on_epoch is not None:
