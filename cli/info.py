@@ -25,6 +25,7 @@ def info(path: str, as_json: bool) -> None:
         click.echo(manifest.model_dump_json(indent=1) if as_json else manifest.describe())
     elif Path(path).is_dir():
         from dresslog.model.files import CARD_FILE, load_model
+        from dresslog.model.summary import format_card
 
         if not (Path(path) / CARD_FILE).is_file():
             raise DresslogError(
@@ -32,7 +33,6 @@ def info(path: str, as_json: bool) -> None:
                 f"(no {MANIFEST_FILE})",
                 path=path,
             )
-        from dresslog.model.summary import format_card
 
         model = load_model(path)  # verifies the weights against the card
         click.echo(model.card.model_dump_json(indent=2) if as_json else format_card(model))
