@@ -58,9 +58,3 @@ def test_info_json_is_machine_readable(make_trial) -> None:
     counts = {c["topic"]: c["count"] for c in summary["channels"]}
     assert counts["/ee/wrench"] == 30 and counts["/limb/points"] == 1
     assert summary["metadata"]["spec"]["seed"] == 11
-
-
-def test_info_on_a_plain_folder_says_it_is_neither_model_nor_dataset(tmp_path) -> None:
-    result = CliRunner().invoke(main, ["info", str(tmp_path)])
-    assert result.exit_code == 1 and result.output.count("\n") == 1
-    assert "neither a model folder (no card.json) nor a dataset folder" in result.output

@@ -178,7 +178,8 @@ def test_info_refuses_a_tampered_model_and_a_folder_that_is_neither(tmp_path: Pa
     code, output = invoke("info", path)
     assert code == 1 and output.count("\n") == 1 and "does not match the sha256" in output
     code, output = invoke("info", tmp_path)
-    assert code == 1 and "not a dresslog model folder" in output
+    assert code == 1 and output.count("\n") == 1
+    assert "neither a model folder (no card.json) nor a dataset folder" in output
 
 
 def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) -> None:
