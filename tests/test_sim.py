@@ -184,6 +184,14 @@ def test_spreading_a_nodes_force_over_its_cloth_widens_the_map_and_keeps_the_phy
     assert (fa**2).sum() < 0.9 * (fb**2).sum()  # in lower peaks
 
 
+@pytest.mark.parametrize("task", list(Task))
+def test_an_opening_round_the_axis_of_a_far_off_limb_is_not_dressed(task: Task) -> None:
+    # the garment's opening still goes round the limb's axis, 5 m short of the limb
+    result = simulate(random_spec(task, 3, duration=1.0, limb_offset=(5.0, 0.0, 0.0)))
+    assert result.peak_limb_force == 0.0
+    assert result.outcome is Outcome.MISSED
+
+
 def test_a_garment_held_back_by_the_limb_pulls_harder_than_a_free_pull() -> None:
     caught = random_spec(Task.SHORTS, 0, duration=3.0, limb_offset=(0.0, 0.0, 0.05))
     free = caught.model_copy(update={"limb_offset": AWAY})

@@ -16,7 +16,15 @@ import numpy as np
 
 from dresslog.errors import SimulationError
 from dresslog.force_map import ClothSpreader, ForceDistributor
-from dresslog.limb import Limb, build_limb, limb_points, segment_of, sum_xyz, surface_points
+from dresslog.limb import (
+    Limb,
+    build_limb,
+    limb_points,
+    limb_sdf,
+    segment_of,
+    sum_xyz,
+    surface_points,
+)
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
@@ -179,8 +187,11 @@ def decide_outcome(
 ) -> Outcome:
     """Dressed if the entry opening encircles the limb past the hand/foot; else caught or missed.
 
-    Caught means the limb is not through the opening but the garment is held
-    back against it (the gripper still feels a pull); missed means neither.
+    Encircling the limb's axis is not enough: the opening must hold the limb itself,
+    its centre nearer the limb's surface than the rim's own radius, or a garment pulled
+    along the axis's extension past a far-off limb would count. Caught means the limb
+    is not through the opening but the garment is held back against it (the gripper
+    still feels a pull); missed means neither.
     """
     if task is Task.GOWN:
         prox, dist = limb.spheres["elbow"].center, limb.spheres["wrist"].center
@@ -188,8 +199,11 @@ def decide_outcome(
         prox, dist = limb.spheres["hip"].center, limb.spheres["ankle"].center
     axis = (dist - prox) / np.linalg.norm(dist - prox)
     rim = verts[garment.entry_rim]
-    along = float((rim.mean(axis=0) - prox) @ axis) / float(np.linalg.norm(dist - prox))
-    if _winding(rim, prox, axis) > 0.5 and along < 0.95:
+    centre = rim.mean(axis=0)
+    along = float((centre - prox) @ axis) / float(np.linalg.norm(dist - prox))
+    radius = float(np.linalg.norm(rim - centre, axis=1).mean())
+    holds_limb = float(limb_sdf(limb, centre[None])[0]) < radius
+    if _winding(rim, prox, axis) > 0.5 and along < 0.95 and holds_limb:
         return Outcome.DRESSED
     return Outcome.CAUGHT if final_force > CAUGHT_FORCE else Outcome.MISSED
 
