@@ -354,10 +354,11 @@ def sweep(
     task = loaded.card.task
     if not speeds and not rotations:
         raise DatasetError("give at least one --speeds or --rotations value")
+    settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []
-    for setting in sweep_settings(task, speeds, rotations, duration):
+    for setting in settings:
         folder = out / setting.folder
         generate(
             task,

@@ -126,9 +126,13 @@ def test_sweep_writes_a_table_and_a_plot(model: Path, tmp_path: Path) -> None:
     assert speeds == {0.2}
 
 
-def test_sweep_rejects_a_malformed_rotation(model: Path) -> None:
-    code, output = invoke("sweep", model, "--rotations", "q:5")
+def test_sweep_rejects_a_malformed_rotation_before_making_its_folder(
+    model: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "sweep"
+    code, output = invoke("sweep", model, "--rotations", "q:5", "-o", out)
     assert code == 1 and "is not AXIS:DEGREES" in output
+    assert not out.exists()
 
 
 def _fake_model(path: Path, task: str) -> Path:
