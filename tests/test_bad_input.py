@@ -65,6 +65,17 @@ def json_named_mcap(tmp: Path, good: Path) -> Path:
     return path
 
 
+def rerun_recording(tmp: Path, good: Path) -> Path:
+    import rerun as rr
+
+    rec = rr.RecordingStream("dresslog-test")
+    rec.save(path := tmp / "trial.rrd")
+    rec.log("x", rr.Scalars(1.0))
+    rec.flush()
+    rec.disconnect()
+    return path
+
+
 def truncated(tmp: Path, good: Path) -> Path:
     data = good.read_bytes()
     (path := tmp / "cut.mcap").write_bytes(data[: len(data) // 2])
@@ -117,6 +128,7 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (empty, "file is empty"),
     (random_bytes, "not an MCAP file.*dresslog convert"),
     (json_named_mcap, "not an MCAP file"),
+    (rerun_recording, "is a Rerun recording, not a trial; open it with `dresslog view`"),
     (truncated, "truncated"),
     (foreign, "not a dresslog trial.*/joint_states.*dresslog convert"),
     (wrong_schema, "channel /ee/wrench: has schema geometry_msgs/msg/TwistStamped"),

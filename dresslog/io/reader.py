@@ -38,6 +38,8 @@ from dresslog.trial import (
 )
 
 MAGIC = b"\x89MCAP0\r\n"
+#: How a Rerun recording (.rrd) begins, so `infer`'s output given back as a trial is named.
+RRD_MAGIC = b"RRF"
 CONVERT_HINT = "for a ROS bag or a force/torque CSV, run `dresslog convert` first"
 
 
@@ -77,6 +79,11 @@ class TrialReader:
             head = stream.read(len(MAGIC))
             if not head:
                 raise TrialFormatError("file is empty", path=self.path)
+            if head.startswith(RRD_MAGIC):
+                raise TrialFormatError(
+                    "is a Rerun recording, not a trial; open it with `dresslog view`",
+                    path=self.path,
+                )
             if head != MAGIC:
                 raise TrialFormatError(f"not an MCAP file; {CONVERT_HINT}", path=self.path)
             stream.seek(0)
