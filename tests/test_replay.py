@@ -195,6 +195,29 @@ BAD = [
 ]
 
 
+@pytest.mark.parametrize(
+    ("output", "mcap_out", "message"),
+    [
+        ("trial.mcap", None, "would overwrite the trial being read"),
+        ("out.rrd", "trial.mcap", "would overwrite the trial being read"),
+        ("out.rrd", "out.rrd", "given as both the Rerun and the MCAP output"),
+    ],
+)
+def test_infer_never_writes_over_its_trial_or_one_output_over_the_other(
+    gown, tmp_path: Path, output: str, mcap_out: str | None, message: str
+) -> None:
+    trial, model = gown
+    (work := tmp_path / "work").mkdir()
+    copy = work / "trial.mcap"
+    copy.write_bytes(trial.read_bytes())
+    args = ["infer", str(copy), "--model", str(model), "-o", str(work / output)]
+    args += ["--mcap-out", str(work / mcap_out)] if mcap_out else []
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and message in result.output, result.output
+    assert copy.read_bytes() == trial.read_bytes()
+    assert sorted(p.name for p in work.iterdir()) == ["trial.mcap"]
+
+
 @pytest.mark.parametrize(("make", "message", "output"), BAD, ids=[b[0].__name__ for b in BAD])
 def test_bad_input_is_one_line_and_writes_nothing(
     gown, tmp_path: Path, monkeypatch, make, message: str, output: str

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dresslog.errors import ModelError
+from dresslog.errors import ModelError, TrialWriteError
 from dresslog.io.reader import TrialReader
 from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
 from dresslog.replay.mcap_sink import McapSink
@@ -104,7 +104,9 @@ def replay_file(
     timings: dict[str, float] = {}
     outputs = [Path(p) for p in (rrd, mcap) if p is not None]
     for out in outputs:
-        check_output(out)
+        check_output(out, source=Path(trial_path))
+    if len(outputs) == 2 and outputs[0].resolve() == outputs[1].resolve():
+        raise TrialWriteError("given as both the Rerun and the MCAP output", path=outputs[0])
     if rrd is not None:  # start-up cost, reported apart from the work itself
         t0 = clock()
         import rerun  # noqa: F401

@@ -38,12 +38,14 @@ ARROW_COLOR = [200, 30, 30]
 LIVE_VMAX = 0.5
 
 
-def check_output(path: Path) -> None:
-    """Fail before any work if the output cannot be written."""
+def check_output(path: Path, source: Path | None = None) -> None:
+    """Fail before any work if the output cannot be written or would replace `source`."""
     if not path.parent.is_dir():
         raise TrialWriteError("folder does not exist; create it first", path=path)
     if path.is_dir():
         raise TrialWriteError("is a folder; give a file name", path=path)
+    if source is not None and path.resolve() == source.resolve():
+        raise TrialWriteError("would overwrite the trial being read", path=path)
 
 
 @dataclass
