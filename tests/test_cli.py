@@ -1,15 +1,20 @@
-"""The `dresslog` command: help, version and `info` on a real trial."""
+"""The `dresslog` command: help, version, `record` and `info` on a real trial."""
 
 from __future__ import annotations
 
 import json
 import subprocess
 import sys
+from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from dresslog import __version__
 from dresslog.cli.main import COMMANDS, main
+from dresslog.io.reader import read_trial
+
+SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "gown.mcap"
 
 
 def test_help_lists_the_commands() -> None:
@@ -58,3 +63,20 @@ def test_info_json_is_machine_readable(make_trial) -> None:
     counts = {c["topic"]: c["count"] for c in summary["channels"]}
     assert counts["/ee/wrench"] == 30 and counts["/limb/points"] == 1
     assert summary["metadata"]["spec"]["seed"] == 11
+
+
+@pytest.mark.slow
+def test_record_makes_the_readme_trial_and_never_replaces_a_file_unasked(tmp_path: Path) -> None:
+    out = tmp_path / "trial.mcap"
+    args = ["record", "--task", "gown", "--seed", "4", "-o", str(out)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("outcome=") and "steps=700" in result.output
+    ours, sample = read_trial(out).metadata, read_trial(SAMPLE).metadata
+    assert ours.spec == sample.spec  # the README's main job records the bundled sample's trial
+    before = out.read_bytes()
+    again = CliRunner().invoke(main, args)
+    assert again.exit_code == 1
+    assert again.output.strip() == f"Error: {out}: file exists; pass --overwrite to replace it"
+    assert out.read_bytes() == before
+    assert CliRunner().invoke(main, [*args, "--overwrite"]).exit_code == 0

@@ -66,7 +66,7 @@ class TrialWriter:
         if not self.path.parent.is_dir():
             raise TrialWriteError("folder does not exist; create it first", path=self.path)
         if self.path.exists() and not self.overwrite:
-            raise TrialWriteError("file exists; pass overwrite to replace it", path=self.path)
+            raise TrialWriteError("file exists; pass --overwrite to replace it", path=self.path)
         self._stream = self._tmp.open("wb")
         self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._writer.start(profile=wk.PROFILE, library=f"{wk.LIBRARY} {__version__}")

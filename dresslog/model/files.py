@@ -183,7 +183,7 @@ def save_model(
 
     path = Path(path)
     if path.exists() and not overwrite:
-        raise ModelError("model folder exists; pass overwrite to replace it", path=path)
+        raise ModelError("model folder exists; pass --overwrite to replace it", path=path)
     if not path.parent.is_dir():
         raise ModelError(f"parent folder {path.parent} does not exist", path=path)
     arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in weights.items()}
