@@ -115,13 +115,30 @@ def test_a_wrench_csv_without_motion_is_refused(tmp_path: Path) -> None:
         convert(path, tmp_path / "t.mcap", "gown")
 
 
-def test_csv_timestamps_going_backwards_are_refused(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("fault", "message"),
+    [
+        ("backwards", "timestamps not increasing at sample 50"),
+        ("nan", "NaN or infinite value at sample 30"),
+    ],
+)
+def test_a_csv_with_times_going_backwards_or_a_nan_is_refused_in_one_line(
+    tmp_path: Path, fault: str, message: str
+) -> None:
     t = np.arange(100) / 1000.0
-    t[50] = t[10]
+    forces = wrench(t)
+    if fault == "backwards":
+        t[50] = t[10]
+    else:
+        forces[30, 2] = np.nan
     header = ["time", "fx", "fy", "fz", "tx", "ty", "tz", "x", "y", "z"]
-    path = write_csv(tmp_path / "w.csv", header, [t, *wrench(t).T, *pose(t)[:, :3].T])
-    with pytest.raises(ConversionError, match="not increasing at sample 50"):
-        convert(path, tmp_path / "t.mcap", "gown")
+    path = write_csv(tmp_path / "w.csv", header, [t, *forces.T, *pose(t)[:, :3].T])
+    out = tmp_path / "t.mcap"
+    result = CliRunner().invoke(main, ["convert", str(path), "-o", str(out), "--task", "gown"])
+    assert result.exit_code == 1
+    assert result.output.startswith(f"Error: {path}: {message}"), result.output
+    assert result.output.count("w.csv") == 1 and len(result.output.splitlines()) == 1
+    assert not out.exists()
 
 
 @pytest.mark.parametrize(

@@ -88,18 +88,20 @@ def load(
 
 def check_stream(stream: SourceStream, path: Path) -> None:
     """Enough samples, finite values, strictly increasing times: else a ConversionError."""
+    # a bag's stream is named by its topic; a CSV's by its file, which the error names already
+    where = "" if stream.name == path.name else f"{stream.name}: "
     if len(stream) < 2:
-        raise ConversionError(f"{stream.name}: {len(stream)} {stream.kind} samples", path=path)
+        raise ConversionError(f"{where}{len(stream)} {stream.kind} samples", path=path)
     if (bad := rs.first_disorder(stream.t_ns)) is not None:
         raise ConversionError(
-            f"{stream.name}: timestamps not increasing at sample {bad} of {len(stream)} "
+            f"{where}timestamps not increasing at sample {bad} of {len(stream)} "
             f"({stream.t_ns[bad - 1]} then {stream.t_ns[bad]} ns, {stream.clock} clock); "
             "the log is out of order or has repeated stamps",
             path=path,
         )
     if not np.isfinite(stream.values).all():
         row = int(np.flatnonzero(~np.isfinite(stream.values).all(axis=1))[0])
-        raise ConversionError(f"{stream.name}: NaN or infinite value at sample {row}", path=path)
+        raise ConversionError(f"{where}NaN or infinite value at sample {row}", path=path)
 
 
 def _span(stream: SourceStream) -> str:
