@@ -14,7 +14,7 @@ from dresslog.convert import ConversionWarning, convert
 from dresslog.errors import ConversionError
 from dresslog.io import well_known as wk
 from dresslog.io.reader import TrialReader
-from dresslog.io.summary import summarize
+from dresslog.io.summary import format_summary, summarize
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from tests.convert_signals import (
@@ -83,6 +83,14 @@ def test_info_describes_a_converted_trial(bags: dict[str, Path], tmp_path: Path)
     assert summary.task == "shorts" and summary.rate_hz == 100.0
     assert not summary.has_ground_truth
     assert summary.metadata.source["format"] == "ros1"
+    lines = format_summary(summary).splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("  source "))
+    assert lines[at] == f"  source    ros1 {bags['ros1'].resolve()}"
+    streams = {line.split()[0]: line for line in lines[at + 1 : at + 4]}
+    assert set(streams) == {"wrench", "twist", "pose"}
+    assert "geometry_msgs/WrenchStamped" not in streams["wrench"]  # topic, rate, how resampled
+    assert " Hz (/" in streams["wrench"] and streams["pose"].endswith("quaternions normalised")
+    assert streams["twist"].split(None, 1)[1].startswith("differentiated from pose")
 
 
 def test_tare_and_rotation_are_applied_and_recorded(bags: dict[str, Path], tmp_path: Path) -> None:

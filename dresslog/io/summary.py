@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pydantic import BaseModel
@@ -86,7 +87,38 @@ def format_summary(summary: TrialSummary) -> str:
             f"duration {spec.duration:g} s"
         )
     if md.source:
-        lines.append(f"  source    {md.source}")
+        lines += _source_lines(md.source)
     if md.software:
         lines.append("  software  " + ", ".join(f"{k} {v}" for k, v in md.software.items()))
     return "\n".join(lines)
+
+
+def _source_lines(source: dict[str, object]) -> list[str]:
+    """A converted log's provenance: its file, then each stream with how it was resampled."""
+
+    def part(key: str, kind: type) -> Any:  # what our converter writes, else empty
+        value = source.get(key)
+        return value if isinstance(value, kind) else kind()
+
+    lines = [f"  source    {source.get('format', '?')} {source.get('file', '?')}"]
+    if "motion_file" in source:
+        lines[0] += f", motion {source['motion_file']}"
+    processing, streams = part("processing", dict), part("streams", dict)
+    for kind, stream in streams.items():
+        origin = ", ".join(str(stream[k]) for k in ("topic", "file", "clock") if k in stream)
+        lines.append(
+            f"    {kind:<7} {stream.get('messages', '?')} messages at "
+            f"{stream.get('rate_hz', 0):g} Hz ({origin} clock): {processing.get(kind, 'as is')}"
+        )
+    lines += [  # what was derived rather than recorded, e.g. the twist from the pose
+        f"    {kind:<7} {how}"
+        for kind, how in processing.items()
+        if isinstance(how, str) and kind not in streams
+    ]
+    if "tare_s" in processing:
+        lines.append(f"    tared   over the first {processing['tare_s']} s")
+    if "rotation_xyzw" in processing:
+        lines.append(f"    rotated by the quaternion (x y z w) {processing['rotation_xyzw']}")
+    lines += [f"    note    {text}" for text in part("notes", list)]
+    lines += [f"    warning {text}" for text in part("warnings", list)]
+    return lines
