@@ -80,3 +80,19 @@ def test_record_makes_the_readme_trial_and_never_replaces_a_file_unasked(tmp_pat
     assert again.output.strip() == f"Error: {out}: file exists; pass --overwrite to replace it"
     assert out.read_bytes() == before
     assert CliRunner().invoke(main, [*args, "--overwrite"]).exit_code == 0
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")
+def test_record_live_without_a_display_says_so_and_writes_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(name, raising=False)
+    out = tmp_path / "live.mcap"
+    args = ["record", "--task", "gown", "--duration", "0.2", "--live", "-o", str(out)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1
+    assert (
+        result.output.startswith("Error: --live needs a display") and "view --web" in result.output
+    )
+    assert list(tmp_path.iterdir()) == []

@@ -8,6 +8,8 @@ through the same code as `dresslog infer`. Nothing here imports pybullet.
 
 from __future__ import annotations
 
+import os
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -15,6 +17,7 @@ from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
+from dresslog.errors import DresslogError
 from dresslog.replay.engine import Estimator, Replay, Sink, Step, TrialContext, check_points
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.spec import TrialMetadata, TrialSpec
@@ -94,12 +97,24 @@ def live_viewer(
 
     from dresslog.replay.blueprint import default_blueprint
 
+    if spawn and connect is None and not has_display():
+        # a viewer spawned here dies at once, and the stream to it then never lets go
+        raise DresslogError(
+            "--live needs a display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY "
+            "is set); record without --live, then open the file with `dresslog view --web`"
+        )
     rec = rr.RecordingStream(application_id)
     if connect is not None:
         rec.connect_grpc(connect, default_blueprint=default_blueprint())
     elif spawn:
         rec.spawn(default_blueprint=default_blueprint())
     return rec
+
+
+def has_display() -> bool:
+    """Whether a native viewer can open: on Linux it needs an X11 or Wayland display."""
+    names = ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET")
+    return not sys.platform.startswith("linux") or any(os.environ.get(n) for n in names)
 
 
 def live_source(
