@@ -255,7 +255,9 @@ def read_bag(
                 f"topic {topic}: message does not match {MESSAGE_TYPES[kind]}: {err}", path=path
             ) from None
         clock = "header"
-        if (stamps == 0).any():  # unset header stamps: fall back to the recording time
+        # unset header stamps (0): fall back to the recording time. A clock that starts at
+        # 0, as simulation time does, may stamp the first message 0, and only that one.
+        if (stamps[1:] == 0).any():
             stamps, clock = np.asarray(log_ns, dtype=np.int64), "log"
             notes.append(f"{topic}: header stamps unset, used the bag's log times")
         streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, clock)
