@@ -1,4 +1,4 @@
-"""Writing files so that nothing half-written appears under a final name, and hashing them."""
+"""Writing files: checked before any work, never half-written under a final name, hashed."""
 
 from __future__ import annotations
 
@@ -7,6 +7,18 @@ import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+from dresslog.errors import TrialWriteError
+
+
+def check_output(path: Path, source: Path | None = None) -> None:
+    """Fail before any work if the output cannot be written or would replace `source`."""
+    if not path.parent.is_dir():
+        raise TrialWriteError("folder does not exist; create it first", path=path)
+    if path.is_dir():
+        raise TrialWriteError("is a folder; give a file name", path=path)
+    if source is not None and path.resolve() == source.resolve():
+        raise TrialWriteError("would overwrite the trial being read", path=path)
 
 
 def temporary_path(path: Path) -> Path:

@@ -93,16 +93,16 @@ def live_viewer(
     application_id: str = "dresslog",
 ) -> rr.RecordingStream:
     """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
-    import rerun as rr
-
-    from dresslog.replay.blueprint import default_blueprint
-
     if spawn and connect is None and not has_display():
         # a viewer spawned here dies at once, and the stream to it then never lets go
         raise DresslogError(
             "--live needs a display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY "
             "is set); record without --live, then open the file with `dresslog view --web`"
         )
+    import rerun as rr
+
+    from dresslog.replay.blueprint import default_blueprint
+
     rec = rr.RecordingStream(application_id)
     if connect is not None:
         rec.connect_grpc(connect, default_blueprint=default_blueprint())

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from dresslog.errors import TrialWriteError
+from dresslog.io.files import check_output
 from dresslog.io.writer import TrialWriter
 from dresslog.trial import LimbPoints, Trial
 
@@ -35,10 +36,7 @@ class McapSink:
     def open(self, context: TrialContext) -> None:
         if context.trial is None:
             raise TrialWriteError("an MCAP copy needs a recorded trial as source", path=self.path)
-        if not self.path.parent.is_dir():
-            raise TrialWriteError("folder does not exist; create it first", path=self.path)
-        if context.source_path is not None and self.path.resolve() == context.source_path.resolve():
-            raise TrialWriteError("would overwrite the trial being read", path=self.path)
+        check_output(self.path, context.source_path)
         self._trial = context.trial
         self._limb = context.limb_points
         self._t_ns, self._forces, self._contact = [], [], []

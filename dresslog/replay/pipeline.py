@@ -13,11 +13,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from dresslog.errors import ModelError, TrialWriteError
+from dresslog.io.files import check_output
 from dresslog.io.reader import TrialReader
 from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink
-from dresslog.replay.rerun_sink import RerunSink, check_output
+from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
 
 if TYPE_CHECKING:

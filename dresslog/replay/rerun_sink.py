@@ -17,8 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dresslog.errors import TrialWriteError
-from dresslog.io.files import temporary_path
+from dresslog.io.files import check_output, temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.trial import contact_magnitudes
@@ -36,16 +35,6 @@ ARROW_HALF = 0.5
 ARROW_COLOR = [200, 30, 30]
 #: Colour scale of a live view, where the trial's range is not known in advance (N).
 LIVE_VMAX = 0.5
-
-
-def check_output(path: Path, source: Path | None = None) -> None:
-    """Fail before any work if the output cannot be written or would replace `source`."""
-    if not path.parent.is_dir():
-        raise TrialWriteError("folder does not exist; create it first", path=path)
-    if path.is_dir():
-        raise TrialWriteError("is a folder; give a file name", path=path)
-    if source is not None and path.resolve() == source.resolve():
-        raise TrialWriteError("would overwrite the trial being read", path=path)
 
 
 @dataclass
@@ -94,7 +83,7 @@ class RerunSink:
         self._buf = _Buffer()
         self._path_so_far = []
         if self.path is not None:
-            check_output(self.path)
+            check_output(self.path, context.source_path)
         else:
             assert self.recording is not None
             self.recording.send_blueprint(self.blueprint(context.has_estimate))

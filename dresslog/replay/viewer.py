@@ -16,9 +16,8 @@ from pathlib import Path
 from urllib.parse import quote
 
 from dresslog.errors import DresslogError, TrialWriteError
-from dresslog.io.files import atomic_path
+from dresslog.io.files import atomic_path, check_output
 from dresslog.replay.pipeline import InferenceReport, replay_file
-from dresslog.replay.rerun_sink import check_output
 
 RRD_SUFFIXES = (".rrd",)
 
