@@ -197,10 +197,11 @@ def decide_outcome(
         prox, dist = limb.spheres["elbow"].center, limb.spheres["wrist"].center
     else:
         prox, dist = limb.spheres["hip"].center, limb.spheres["ankle"].center
-    axis = (dist - prox) / np.linalg.norm(dist - prox)
+    length = np.linalg.norm(dist - prox)
+    axis = (dist - prox) / length
     rim = verts[garment.entry_rim]
     centre = rim.mean(axis=0)
-    along = float((centre - prox) @ axis) / float(np.linalg.norm(dist - prox))
+    along = float((centre - prox) @ axis) / float(length)
     radius = float(np.linalg.norm(rim - centre, axis=1).mean())
     holds_limb = float(limb_sdf(limb, centre[None])[0]) < radius
     if _winding(rim, prox, axis) > 0.5 and along < 0.95 and holds_limb:
