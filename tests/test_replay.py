@@ -218,6 +218,14 @@ def test_infer_never_writes_over_its_trial_or_one_output_over_the_other(
     assert sorted(p.name for p in work.iterdir()) == ["trial.mcap"]
 
 
+def test_a_model_for_the_other_task_points_to_the_bundled_one(gown, tmp_path: Path) -> None:
+    trial, model = other_task_model(tmp_path, *gown)
+    result = CliRunner().invoke(main, ["infer", str(trial), "--model", str(model)])
+    assert result.exit_code == 1
+    assert "leave out --model to use the bundled one" in result.output, result.output
+    assert f"{Path('samples', 'models', 'gown')})" in result.output
+
+
 @pytest.mark.parametrize(("make", "message", "output"), BAD, ids=[b[0].__name__ for b in BAD])
 def test_bad_input_is_one_line_and_writes_nothing(
     gown, tmp_path: Path, monkeypatch, make, message: str, output: str

@@ -265,7 +265,7 @@ def check_task(
     n_points: int | None = None,
     *,
     subject: str = "trial",
-    hint: str = "pass --model with a {task} model (e.g. models/{task})",
+    hint: str = "give a {task} model",
 ) -> None:
     """Refuse to run a model on a `subject` (trial, data) of another task.
 

@@ -59,7 +59,11 @@ def resolve_model(model: str | Path | None, task: Task, n_points: int | None) ->
                 f"pass --model with a {task.value} model folder"
             )
     loaded = load_model(model)
-    check_task(loaded, task, n_points)
+    bundled = bundled_model(task)
+    hint = "pass --model with a {task} model folder"
+    if bundled is not None:
+        hint = f"leave out --model to use the bundled one ({bundled})"
+    check_task(loaded, task, n_points, hint=hint)
     return loaded
 
 
