@@ -34,6 +34,22 @@ def column(batches: list, name: str) -> list:
     return [v for batch in batches for v in batch.column(name).to_pylist()]
 
 
+def static_paths(rrd: Path) -> set[str]:
+    return {c.entity_path.lstrip("/") for c in rc.RrdReader(rrd).store().stream() if c.is_static}
+
+
+def view_names(rrd: Path) -> set[str]:
+    """The names of the views in the recording's default blueprint."""
+    reader = rc.RrdReader(rrd)
+    names: set[str] = set()
+    for chunk in reader.store(store=reader.blueprints()[0]).stream():
+        batch = chunk.to_record_batch()
+        for field in batch.schema.names:
+            if field.endswith(":display_name"):
+                names.update(n for row in batch.column(field).to_pylist() for n in row or [])
+    return names
+
+
 @pytest.fixture
 def inferred(make_trial, tmp_path: Path) -> tuple[Path, Path, Path]:
     trial, _ = make_trial(Task.GOWN, STEPS)
@@ -56,9 +72,9 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     assert column(entities[bp.GARMENT], bp.STEP) == list(range(0, STEPS, 10))
     sim_time = column(entities[bp.EE_FORCE], bp.SIM_TIME)
     assert (sim_time[1] - sim_time[0]).total_seconds() == pytest.approx(0.01)
-    static = {c.entity_path.lstrip("/") for c in rc.RrdReader(rrd).store().stream() if c.is_static}
-    assert {bp.SPEC, bp.EE_PATH, bp.ESTIMATE, bp.GARMENT} <= static
-    assert rc.RrdReader(rrd).blueprints(), "the default blueprint is in the file"
+    assert {bp.SPEC, bp.EE_PATH, bp.ESTIMATE, bp.GARMENT} <= static_paths(rrd)
+    names = view_names(rrd)
+    assert {"Force map: ground truth (top), estimate (bottom)", "RMSE per step (N)"} <= names
 
 
 def test_logged_estimate_equals_the_engines_output(inferred) -> None:
@@ -158,4 +174,8 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     assert report.steps == 15 and report.rmse is None
     entities = temporal(rrd)
     assert len(column(entities[bp.ESTIMATE_LIMB], bp.FORCE_FIELD)[0]) == 300
-    assert bp.TRUTH_LIMB not in entities
+    # no ground-truth limb at all (not even a grey one), and a layout that says so
+    assert bp.TRUTH_LIMB not in entities and bp.TRUTH_LIMB not in static_paths(rrd)
+    names = view_names(rrd)
+    assert "Force map: estimate (the trial has no ground truth)" in names
+    assert "RMSE per step (N)" not in names

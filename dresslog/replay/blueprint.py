@@ -47,12 +47,12 @@ def estimate_offset(points: np.ndarray, margin: float = 0.1) -> np.ndarray:
     return np.array([0.0, 0.0, -(height + margin)])
 
 
-def eye(points: np.ndarray, has_estimate: bool) -> rrb.EyeControls3D:
+def eye(points: np.ndarray, both: bool) -> rrb.EyeControls3D:
     """A camera in front of the limb(s) (looking along +y, z up) that frames both of them."""
     import rerun.blueprint as rrb
 
     low, high = points.min(axis=0), points.max(axis=0)
-    if has_estimate:
+    if both:
         low = np.minimum(low, low + estimate_offset(points))
     center = (low + high) / 2
     size = float(np.max(high - low))
@@ -60,23 +60,37 @@ def eye(points: np.ndarray, has_estimate: bool) -> rrb.EyeControls3D:
     return rrb.EyeControls3D(position=position, look_target=center, eye_up=[0, 0, 1])
 
 
+def _titles(has_truth: bool, has_estimate: bool) -> tuple[str, str]:
+    """The 3D view's and the total-force plot's names: they say what is drawn."""
+    if has_truth and has_estimate:
+        return (
+            "Force map: ground truth (top), estimate (bottom)",
+            "Total limb force (N): truth vs estimate",
+        )
+    if has_estimate:
+        return (
+            "Force map: estimate (the trial has no ground truth)",
+            "Total limb force (N): estimate",
+        )
+    return "Force map: ground truth", "Total limb force (N): ground truth"
+
+
 def default_blueprint(
-    has_estimate: bool = True, limb_points: np.ndarray | None = None
+    has_estimate: bool = True, limb_points: np.ndarray | None = None, has_truth: bool = True
 ) -> rrb.Blueprint:
     """3D heat maps on the left, the signals over time on the right, the spec below."""
     import rerun.blueprint as rrb
 
-    name = "Force map: ground truth (top), estimate (bottom)" if has_estimate else "Force map"
-    camera = (
-        eye(limb_points, has_estimate) if limb_points is not None and len(limb_points) else None
-    )
+    both = has_truth and has_estimate
+    name, total = _titles(has_truth, has_estimate)
+    camera = eye(limb_points, both) if limb_points is not None and len(limb_points) else None
     plots = [
         rrb.TimeSeriesView(name="End-effector force (N)", origin=EE_FORCE),
         rrb.TimeSeriesView(name="End-effector torque (N m)", origin=EE_TORQUE),
         rrb.TimeSeriesView(name="End-effector velocity (m/s)", origin=EE_VELOCITY),
-        rrb.TimeSeriesView(name="Total limb force (N): truth vs estimate", origin=TOTAL_FORCE),
+        rrb.TimeSeriesView(name=total, origin=TOTAL_FORCE),
     ]
-    if has_estimate:
+    if both:
         plots.append(rrb.TimeSeriesView(name="RMSE per step (N)", origin=RMSE))
     return rrb.Blueprint(
         rrb.Horizontal(

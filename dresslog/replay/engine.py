@@ -46,6 +46,7 @@ class TrialContext:
     source_path: Path | None = None
     trial: Trial | None = None
     has_estimate: bool = True
+    has_truth: bool = True  # False for a converted log: nothing to draw beside the estimate
 
 
 @dataclass(frozen=True)
@@ -189,6 +190,7 @@ def trial_context(trial: Trial, path: str | Path | None = None) -> TrialContext:
         n_steps=len(trial.measurements),
         source_path=None if path is None else Path(path),
         trial=trial,
+        has_truth=trial.force_map is not None,
     )
 
 

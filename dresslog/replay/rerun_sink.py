@@ -33,6 +33,8 @@ POINT_RADIUS = 0.01
 ARROW_MAX = 0.08
 ARROW_HALF = 0.5
 ARROW_COLOR = [200, 30, 30]
+#: x, y, z in red, green, blue, as Rerun and RViz draw axes.
+XYZ_COLORS = [[220, 50, 50], [40, 160, 60], [50, 100, 230]]
 #: Colour scale of a live view, where the trial's range is not known in advance (N).
 LIVE_VMAX = 0.5
 
@@ -141,7 +143,9 @@ class RerunSink:
     def blueprint(self, has_estimate: bool = True) -> Any:
         """The default layout, its camera framed on this trial's limb."""
         limb = self.context.limb_points if self.context else None
-        return bp.default_blueprint(has_estimate, None if limb is None else limb.points)
+        has_truth = self.context.has_truth if self.context else True
+        points = None if limb is None else limb.points
+        return bp.default_blueprint(has_estimate, points, has_truth)
 
     # -- logging -----------------------------------------------------------------
     def _recording_id(self) -> str:
@@ -160,15 +164,16 @@ class RerunSink:
         if limb is not None:
             pts = np.asarray(limb.points, dtype=np.float32)
             side = pts[np.argmin(pts[:, 0])] - np.array([0.12, 0, 0], np.float32)
-            rec.log(bp.TRUTH_LIMB, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
-            label = rr.Points3D(side, labels="ground truth", radii=0.001, colors=[0, 0, 0])
-            rec.log(bp.TRUTH_LABEL, label, static=True)
+            drawn = [(bp.TRUTH_LIMB, bp.TRUTH_LABEL, "ground truth")] if ctx.has_truth else []
             if has_estimate:
-                offset = bp.estimate_offset(pts)
-                rec.log(bp.ESTIMATE, rr.Transform3D(translation=offset), static=True)
-                rec.log(bp.ESTIMATE_LIMB, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
-                label = rr.Points3D(side, labels="estimate", radii=0.001, colors=[0, 0, 0])
-                rec.log(bp.ESTIMATE_LABEL, label, static=True)
+                drawn.append((bp.ESTIMATE_LIMB, bp.ESTIMATE_LABEL, "estimate"))
+                below = bp.estimate_offset(pts) if ctx.has_truth else np.zeros(3)
+                rec.log(bp.ESTIMATE, rr.Transform3D(translation=below), static=True)
+            for points, label, text in drawn:
+                # positions only: static colours would shadow every step's heat colours
+                rec.log(points, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
+                tag = rr.Points3D(side, labels=text, radii=0.001, colors=[0, 0, 0])
+                rec.log(label, tag, static=True)
         if ctx.garment_triangles is not None and len(ctx.garment_triangles):
             rec.log(
                 bp.GARMENT,
@@ -184,7 +189,7 @@ class RerunSink:
             (bp.EE_TORQUE, ["tx", "ty", "tz"]),
             (bp.EE_VELOCITY, ["vx", "vy", "vz"]),
         ):
-            rec.log(path, rr.SeriesLines(names=names), static=True)
+            rec.log(path, rr.SeriesLines(names=names, colors=XYZ_COLORS), static=True)
         rec.log(
             bp.TOTAL_TRUTH, rr.SeriesLines(names="ground truth", colors=[90, 170, 255]), static=True
         )
@@ -201,10 +206,11 @@ class RerunSink:
         assert ctx is not None
         source = f"`{ctx.source_path.name}`" if ctx.source_path else "live simulation"
         vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
+        shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
         return (
             f"**{ctx.metadata.task.value}** trial from {source}, outcome "
             f"{ctx.metadata.outcome.value}. Colour: grey = no force, dark to bright = 0 to "
-            f"{vmax} (one scale for truth and estimate).\n\n```json\n"
+            f"{vmax}{shared}.\n\n```json\n"
             f"{ctx.metadata.model_dump_json(indent=1, exclude={'software'})}\n```"
         )
 
