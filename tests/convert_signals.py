@@ -125,8 +125,12 @@ def standard_topics(seconds: float = 3.0) -> Topics:
     }
 
 
-def write_bag(path: Path, topics: Topics, layout: str) -> Path:
-    """Write `topics` as `ros1` (.bag), `sqlite3` or `mcap` (ROS 2 folder); returns the input."""
+def write_bag(path: Path, topics: Topics, layout: str, stamped: bool = True) -> Path:
+    """Write `topics` as `ros1` (.bag), `sqlite3` or `mcap` (ROS 2 folder); returns the input.
+
+    `stamped=False` leaves every header stamp 0, as a driver that never fills them does;
+    the messages are still logged at their times.
+    """
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
@@ -145,6 +149,7 @@ def write_bag(path: Path, topics: Topics, layout: str) -> Path:
             # a recorder logs in arrival order: log times increase even when stamps do not
             log_times = np.sort(stamps).tolist()
             for t_ns, log_ns, row in zip(stamps.tolist(), log_times, values, strict=True):
-                raw = serialize(message(store, ros1, kind, t_ns, row), TYPES[kind])
+                stamp = t_ns if stamped else 0
+                raw = serialize(message(store, ros1, kind, stamp, row), TYPES[kind])
                 writer.write(connection, log_ns, raw)
     return path

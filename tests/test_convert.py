@@ -141,6 +141,22 @@ def test_a_dresslog_trial_exported_as_a_ros2_bag_converts_back_unchanged(tmp_pat
     np.testing.assert_allclose(after.phi, before.phi, atol=1e-6)
 
 
+def test_a_bag_with_unset_header_stamps_converts_on_its_log_times(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "log.bag", standard_topics(), "ros1", stamped=False)
+    out = tmp_path / "trial.mcap"
+    report = convert(bag, out, "gown")
+    with TrialReader(out) as reader:
+        got = reader.wrench
+    # the log times are the true times here, so the signal lands where it belongs
+    t = seconds_of(got.t_ns + report.source["start_ns"])
+    np.testing.assert_allclose(got.values, wrench(t, vibration=False), atol=5e-4)
+    assert {s["clock"] for s in report.source["streams"].values()} == {"log"}
+    assert (
+        "/ft_sensor/wrench: header stamps unset, used the bag's log times"
+        in (report.source["notes"])
+    )
+
+
 # -- bad input -----------------------------------------------------------------------------
 
 
