@@ -21,8 +21,15 @@ from dresslog.spec import LimbRotation, Task
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
 @click.option("--model", type=click.Path(path_type=Path), help="Model for --live [bundled].")
+@click.option(
+    "--connect",
+    metavar="URL",
+    help="Stream to the Rerun viewer at URL (rerun+http://HOST:9876/proxy); implies --live.",
+)
 @reports_errors
-def record(task, output, seed, speed, offset, rotation, duration, overwrite, live, model) -> None:
+def record(
+    task, output, seed, speed, offset, rotation, duration, overwrite, live, model, connect
+) -> None:
     """Simulate one trial (random spec from --seed, or set explicitly) and record it."""
     from dresslog.sim import random_spec, record_trial
 
@@ -32,10 +39,12 @@ def record(task, output, seed, speed, offset, rotation, duration, overwrite, liv
     if rotation:
         overrides["limb_rotation"] = LimbRotation(axis=rotation[0], degrees=rotation[1])
     spec = random_spec(task, seed, **{k: v for k, v in overrides.items() if v is not None})
-    if live:
+    if live or connect:
         from dresslog.replay.live import record_live
 
-        result, metrics = record_live(spec, output, model=model, overwrite=overwrite)
+        result, metrics = record_live(
+            spec, output, model=model, overwrite=overwrite, connect=connect
+        )
         if metrics.rmse is not None:
             click.echo(f"estimate RMSE {metrics.rmse:.4g} N (all-zero {metrics.zero_rmse:.4g} N)")
     else:

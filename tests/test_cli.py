@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -95,4 +96,49 @@ def test_record_live_without_a_display_says_so_and_writes_nothing(
     assert (
         result.output.startswith("Error: --live needs a display") and "view --web" in result.output
     )
+    assert list(tmp_path.iterdir()) == []
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.slow
+def test_record_connect_streams_to_a_viewer_elsewhere_without_a_display(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import rerun as rr
+
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(name, raising=False)
+    server = rr.RecordingStream("dresslog-test-server")  # stands in for the remote viewer
+    url = rr.serve_grpc(grpc_port=_free_port(), recording=server)
+    out = tmp_path / "live.mcap"
+    args = ["record", "--task", "gown", "--duration", "0.2", "--connect", url, "-o", str(out)]
+    result = CliRunner().invoke(main, args)
+    server.disconnect()
+    assert result.exit_code == 0, result.output
+    assert "estimate RMSE" in result.output  # the bundled model ran beside the simulation
+    assert read_trial(out).force_map.forces.shape == (20, 300)
+
+
+@pytest.mark.parametrize(
+    ("url", "message"),
+    [
+        ("rerun+http://127.0.0.1:{port}/proxy", "no Rerun viewer answers at rerun+http"),
+        ("127.0.0.1:{port}", "is not a Rerun address; give rerun+http://HOST:9876/proxy"),
+    ],
+)
+def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
+    tmp_path: Path, url: str, message: str
+) -> None:
+    out = tmp_path / "live.mcap"
+    url = url.format(port=_free_port())
+    args = ["record", "--task", "gown", "--duration", "0.2", "--connect", url, "-o", str(out)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.output
     assert list(tmp_path.iterdir()) == []

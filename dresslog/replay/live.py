@@ -9,11 +9,13 @@ through the same code as `dresslog infer`. Nothing here imports pybullet.
 from __future__ import annotations
 
 import os
+import socket
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Self
+from urllib.parse import urlsplit
 
 import numpy as np
 
@@ -93,11 +95,14 @@ def live_viewer(
     application_id: str = "dresslog",
 ) -> rr.RecordingStream:
     """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
-    if spawn and connect is None and not has_display():
+    if connect is not None:
+        check_reachable(connect)
+    elif spawn and not has_display():
         # a viewer spawned here dies at once, and the stream to it then never lets go
         raise DresslogError(
             "--live needs a display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY "
-            "is set); record without --live, then open the file with `dresslog view --web`"
+            "is set); stream to a viewer elsewhere with --connect, or record without --live "
+            "and open the file with `dresslog view --web`"
         )
     import rerun as rr
 
@@ -111,6 +116,24 @@ def live_viewer(
     return rec
 
 
+def check_reachable(url: str, timeout: float = 2.0) -> None:
+    """Fail in one line if no viewer listens at a `rerun+http://HOST:PORT/proxy` URL.
+
+    Rerun itself would block for seconds on every call and then raise from a flush.
+    """
+    parts = urlsplit(url.removeprefix("rerun+"))
+    if parts.scheme not in ("http", "https") or not parts.hostname:
+        raise DresslogError(f"{url!r} is not a Rerun address; give rerun+http://HOST:9876/proxy")
+    port = parts.port or 9876
+    try:
+        socket.create_connection((parts.hostname, port), timeout=timeout).close()
+    except OSError as err:
+        raise DresslogError(
+            f"no Rerun viewer answers at {url} ({err.strerror or err}); start one there "
+            "(`rerun` listens on port 9876) or correct the address"
+        ) from None
+
+
 def has_display() -> bool:
     """Whether a native viewer can open: on Linux it needs an X11 or Wayland display."""
     names = ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET")
@@ -122,6 +145,7 @@ def live_source(
     task: str,
     *,
     recording: rr.RecordingStream | None = None,
+    connect: str | None = None,
     vmax: float | None = None,
 ) -> SimulationSource:
     """What `dresslog record --live` passes to `simulate`: model (or bundled) -> live viewer.
@@ -135,7 +159,7 @@ def live_source(
     estimator = None
     if model is not None or bundled_model(Task(task)) is not None:
         estimator = resolve_model(model, Task(task), None).estimator()
-    rec = recording if recording is not None else live_viewer()
+    rec = recording if recording is not None else live_viewer(connect=connect)
     sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS, vmax=vmax)
     return SimulationSource(estimator, [sink])
 
@@ -147,16 +171,19 @@ def record_live(
     model: str | Path | None = None,
     overwrite: bool = False,
     recording: rr.RecordingStream | None = None,
+    connect: str | None = None,
     vmax: float | None = None,
 ) -> tuple[SimResult, TrialMetrics]:
     """`dresslog record --live`: simulate `spec` to `path` while a viewer shows the replay.
 
     The MCAP is written exactly as `record_trial` writes it; the live view gets the
-    same steps through `SimulationSource` (spawned viewer unless `recording` is given).
+    same steps through `SimulationSource`: to `recording` if given, else to the viewer
+    at the gRPC URL `connect` (say, on the researcher's desktop while the simulation
+    runs on a server), else to a viewer spawned here.
     """
     from dresslog.sim import record_trial
 
-    live = live_source(model, spec.task, recording=recording, vmax=vmax)
+    live = live_source(model, spec.task, recording=recording, connect=connect, vmax=vmax)
     with live:
         result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
     return result, live.metrics.metrics
