@@ -345,7 +345,8 @@ def _fit(
         bar.set_postfix(loss=f"{record.train_loss:.3g}", val=f"{val_loss or float('nan'):.3g}")
         bar.update()
         if on_epoch is not None:
-            on_epoch(record)
+            with tqdm.external_write_mode():  # the bar steps aside for the caller's lines
+                on_epoch(record)
     bar.close()
 
 
