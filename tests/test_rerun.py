@@ -112,6 +112,16 @@ def test_view_save_without_a_model_shows_ground_truth_alone(make_trial, tmp_path
     assert bp.TRUTH_LIMB in entities and bp.ESTIMATE_LIMB not in entities
 
 
+def test_view_of_a_converted_log_without_any_model_asks_for_one(tmp_path, monkeypatch):
+    monkeypatch.setattr("dresslog.replay.pipeline.bundled_model", lambda task: None)
+    log = _converted_log(tmp_path)
+    rrd = tmp_path / "view.rrd"
+    result = CliRunner().invoke(main, ["view", str(log), "--save", str(rrd)])
+    assert result.exit_code == 1
+    assert "no bundled gown model" in result.output and "--model" in result.output
+    assert not rrd.exists()
+
+
 def test_view_save_copies_an_rrd(inferred, tmp_path: Path) -> None:
     _, _, rrd = inferred
     out = tmp_path / "copy.rrd"
@@ -159,9 +169,9 @@ def test_record_live_streams_the_simulation_through_the_engine(tmp_path: Path) -
     assert read_trial(tmp_path / "live.mcap").force_map.forces.shape == (25, 300)
 
 
-def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> None:
+def _converted_log(tmp_path: Path) -> Path:
+    """A gown trial as `convert` makes it: 15 steps of wrench and twist, no ground truth."""
     from dresslog.io.writer import TrialWriter
-    from dresslog.replay.pipeline import replay_file
     from dresslog.spec import TrialMetadata
 
     t_ns = np.arange(15, dtype=np.int64) * 10_000_000
@@ -169,6 +179,13 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     with TrialWriter(log, TrialMetadata(task=Task.GOWN)) as writer:
         writer.write_wrench(t_ns, np.random.default_rng(0).normal(size=(15, 6)))
         writer.write_twist(t_ns, np.random.default_rng(1).normal(size=(15, 6)))
+    return log
+
+
+def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> None:
+    from dresslog.replay.pipeline import replay_file
+
+    log = _converted_log(tmp_path)
     rrd = tmp_path / "converted.rrd"
     report = replay_file(log, model=save_random_model(tmp_path), rrd=rrd)
     assert report.steps == 15 and report.rmse is None

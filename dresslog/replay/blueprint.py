@@ -72,7 +72,9 @@ def _titles(has_truth: bool, has_estimate: bool) -> tuple[str, str]:
             "Force map: estimate (the trial has no ground truth)",
             "Total limb force (N): estimate",
         )
-    return "Force map: ground truth", "Total limb force (N): ground truth"
+    if has_truth:
+        return "Force map: ground truth", "Total limb force (N): ground truth"
+    return "Force map (no ground truth, no model: nothing to show)", "Total limb force (N)"
 
 
 def default_blueprint(

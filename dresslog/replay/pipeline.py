@@ -102,8 +102,8 @@ def replay_file(
 ) -> InferenceReport:
     """Stream a trial file step by step through a model into .rrd / MCAP / extra sinks.
 
-    With `require_model=False` and no model given or bundled, the trial is replayed
-    with ground truth alone (what `dresslog view` shows without a model).
+    With `require_model=False` and no model given or bundled, a trial with ground
+    truth is replayed with it alone (what `dresslog view` shows without a model).
     """
     clock = time.perf_counter
     timings: dict[str, float] = {}
@@ -127,7 +127,9 @@ def replay_file(
     task = trial.metadata.task
     n_points = len(trial.limb_points) if trial.limb_points is not None else None
     loaded = None
-    if model is not None or require_model or bundled_model(task) is not None:
+    # a trial without ground truth (a converted log) has nothing to show but an estimate
+    need_model = require_model or trial.force_map is None
+    if model is not None or need_model or bundled_model(task) is not None:
         loaded = resolve_model(model, task, n_points)
     estimator = loaded.estimator() if loaded is not None else None
     timings["load_model"] = clock() - t0
