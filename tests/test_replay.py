@@ -198,8 +198,8 @@ BAD = [
 @pytest.mark.parametrize(
     ("output", "mcap_out", "message"),
     [
-        ("trial.mcap", None, "would overwrite the trial being read"),
-        ("out.rrd", "trial.mcap", "would overwrite the trial being read"),
+        ("trial.mcap", None, "would overwrite trial.mcap, the file being read"),
+        ("out.rrd", "trial.mcap", "would overwrite trial.mcap, the file being read"),
         ("out.rrd", "out.rrd", "given as both the Rerun and the MCAP output"),
     ],
 )

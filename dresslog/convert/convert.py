@@ -24,6 +24,7 @@ from pydantic import BaseModel
 from dresslog.convert import resample as rs
 from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError
+from dresslog.io.files import check_output
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 
@@ -109,10 +110,19 @@ def _span(stream: SourceStream) -> str:
 
 
 def common_grid(source: Source, averaged: bool) -> np.ndarray:
-    """The 100 Hz grid over the time every stream covers (averaging needs half a bin spare)."""
+    """The 100 Hz grid over the time every stream covers (averaging needs half a bin spare).
+
+    An averaged wrench's bin edges fall midway between its samples: on a sample, a
+    few microseconds of clock jitter would move it between bins and let vibration
+    above 50 Hz leak into the means.
+    """
     half = rs.PERIOD_NS // 2 if averaged else 0
     start = max(int(s.t_ns[0]) + (half if s is source.wrench else 0) for s in source.streams)
     stop = min(int(s.t_ns[-1]) - (half if s is source.wrench else 0) for s in source.streams)
+    if averaged:
+        t = source.wrench.t_ns
+        phase = int(t[0]) + half + int(np.median(np.diff(t))) // 2
+        start += (phase - start) % rs.PERIOD_NS
     grid = rs.grid(start, stop)
     if len(grid) < 2:
         spans = "; ".join(_span(s) for s in source.streams)
@@ -121,6 +131,13 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
             path=source.path,
         )
     return grid
+
+
+def _resampling(t_ns: np.ndarray) -> str:
+    """How `rs.resample` brings a stream with these times onto the grid."""
+    if rs.median_rate(t_ns) > rs.AVERAGE_ABOVE_HZ:
+        return "mean over 10 ms bins"
+    return "linear interpolation"
 
 
 def _describe(stream: SourceStream, source: Source) -> dict[str, object]:
@@ -167,8 +184,9 @@ def convert(
         task = Task(task)
     except ValueError:
         raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
+    check_output(output, source=path)
     if output.exists() and not overwrite:
-        raise ConversionError("output exists; pass --overwrite to replace it", path=output)
+        raise ConversionError("file exists; pass --overwrite to replace it", path=output)
     if rotate is not None and not np.linalg.norm(rotate) > 0:
         raise ConversionError("rotation quaternion is zero")
 
@@ -197,17 +215,16 @@ def convert(
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
-    processing: dict[str, object] = {
-        "wrench": "mean over 10 ms bins" if averaged else "linear interpolation",
-    }
+    processing: dict[str, object] = {"wrench": _resampling(source.wrench.t_ns)}
     if source.twist is not None:
-        twist = rs.interpolate(source.twist.t_ns, source.twist.values, grid)
-        processing["twist"] = "linear interpolation"
+        twist = rs.resample(source.twist.t_ns, source.twist.values, grid)
+        processing["twist"] = _resampling(source.twist.t_ns)
     else:
         assert source.pose is not None
+        # a fast pose's differences are noisy: its velocity is averaged like a wrench
         velocity = rs.twist_from_pose(source.pose.t_ns, source.pose.values)
-        twist = rs.interpolate(source.pose.t_ns, velocity, grid)
-        processing["twist"] = "differentiated from pose, then linear interpolation"
+        twist = rs.resample(source.pose.t_ns, velocity, grid)
+        processing["twist"] = f"differentiated from pose, then {_resampling(source.pose.t_ns)}"
     pose = None
     if source.pose is not None:
         pose = rs.interpolate_pose(source.pose.t_ns, source.pose.values, grid)

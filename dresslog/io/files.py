@@ -18,7 +18,7 @@ def check_output(path: Path, source: Path | None = None) -> None:
     if path.is_dir():
         raise TrialWriteError("is a folder; give a file name", path=path)
     if source is not None and path.resolve() == source.resolve():
-        raise TrialWriteError("would overwrite the trial being read", path=path)
+        raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
 
 
 def temporary_path(path: Path) -> Path:

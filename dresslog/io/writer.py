@@ -19,7 +19,7 @@ from dresslog import __version__
 from dresslog.errors import TrialWriteError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
-from dresslog.io.files import temporary_path
+from dresslog.io.files import check_output, temporary_path
 from dresslog.io.msgdefs import schema_text
 from dresslog.spec import TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
@@ -63,8 +63,12 @@ class TrialWriter:
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
-        if not self.path.parent.is_dir():
-            raise TrialWriteError("folder does not exist; create it first", path=self.path)
+        check_output(self.path)
+        if self.path.suffix == ".rrd":
+            raise TrialWriteError(
+                "a trial is an MCAP file; name it .mcap (.rrd is a Rerun recording)",
+                path=self.path,
+            )
         if self.path.exists() and not self.overwrite:
             raise TrialWriteError("file exists; pass --overwrite to replace it", path=self.path)
         self._stream = self._tmp.open("wb")
