@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
-from dresslog.convert import convert
+from dresslog.convert import ConversionWarning, convert
 from dresslog.convert import resample as rs
 from dresslog.convert.csv import role_of
 from dresslog.errors import ConversionError
@@ -82,6 +82,42 @@ def test_rostopic_exports_with_a_motion_file(tmp_path: Path) -> None:
     np.testing.assert_allclose(got_wrench, wrench(t, vibration=False), atol=5e-4)
     np.testing.assert_allclose(got_twist, twist(t), atol=2e-4)
     np.testing.assert_allclose(got_pose.values, pose(t), atol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("seconds", "nanoseconds"),
+    [("header.stamp.secs", "header.stamp.nsecs"), ("header.stamp.sec", "header.stamp.nanosec")],
+)
+def test_a_stamp_split_into_seconds_and_nanoseconds_is_joined(
+    tmp_path: Path, seconds: str, nanoseconds: str
+) -> None:
+    """bagpy (ROS 1) and ROS 2 exports: whole seconds and nanoseconds in two columns."""
+    t_ns = times(1000, 2.0)
+    header = ["Time", "header.seq", seconds, nanoseconds, "header.frame_id"]
+    header += [f"wrench.{q}.{a}" for q in ("force", "torque") for a in "xyz"]
+    header += [f"pose.position.{a}" for a in "xyz"]
+    t = seconds_of(t_ns)
+    columns = [t_ns / 1e9 + 0.0007, np.arange(len(t)), t_ns // 10**9, t_ns % 10**9]
+    columns += [np.full(len(t), "ft"), *wrench(t).T, *pose(t)[:, :3].T]
+    report = convert(
+        write_csv(tmp_path / "bagpy.csv", header, columns), tmp_path / "t.mcap", "gown"
+    )
+    got_t, got_wrench, *_ = converted(tmp_path / "t.mcap", report.source["start_ns"])
+    np.testing.assert_allclose(got_wrench, wrench(got_t, vibration=False), atol=5e-4)
+    assert f"read as s + {nanoseconds!r} in ns" in report.source["notes"][0]
+
+
+def test_a_time_unit_guessed_wrong_is_refused_with_the_option_to_give_it(tmp_path: Path) -> None:
+    t_ms = np.arange(2000) * 1.0  # 1 kHz in milliseconds, the header silent on the unit
+    t = t_ms / 1000
+    header = ["time", "fx", "fy", "fz", "tx", "ty", "tz", "x", "y", "z"]
+    path = write_csv(tmp_path / "ms.csv", header, [t_ms, *wrench(t).T, *pose(t)[:, :3].T])
+    out = tmp_path / "t.mcap"
+    with pytest.raises(ConversionError, match=r"1 s apart \(1 Hz\).*--time-unit ms"):
+        convert(path, out, "gown")
+    assert not out.exists()
+    report = convert(path, out, "gown", time_unit="ms")
+    assert report.steps == 199  # 2 s at 100 Hz, less the half bins the averaging needs
 
 
 def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:
@@ -177,3 +213,56 @@ def test_quaternion_sign_flips_do_not_disturb_interpolation() -> None:
     want = pose(seconds_of(grid))
     sign = np.sign(np.einsum("ij,ij->i", got[:, 3:], want[:, 3:]))
     np.testing.assert_allclose(got[:, 3:] * sign[:, None], want[:, 3:], atol=1e-4)
+
+
+def _with_velocity(path: Path, t: np.ndarray, header: str = "time") -> Path:
+    names = [header, "fx", "fy", "fz", "tx", "ty", "tz", "vx", "vy", "vz"]
+    return write_csv(path, names, [t, *wrench(t).T, *twist(t)[:, :3].T])
+
+
+def test_gaps_are_listed_once_each_and_many_summed_up(tmp_path: Path) -> None:
+    t = np.arange(3000) / 1000.0
+    for k in range(8):  # eight 0.2 s holes in one file that holds wrench and velocity
+        t = t[(t < 0.3 + 0.35 * k) | (t >= 0.5 + 0.35 * k)]
+    with pytest.warns(ConversionWarning) as caught:
+        report = convert(_with_velocity(tmp_path / "g.csv", t), tmp_path / "t.mcap", "gown")
+    assert len(report.warnings) == len(caught) == 6
+    assert len(set(report.warnings)) == 6 and all("g.csv" in w for w in report.warnings[:5])
+    assert report.warnings[5].startswith("3 more gaps (the longest of all 0.201 s)")
+
+
+def test_a_motion_file_covering_part_of_the_wrench_is_said(tmp_path: Path) -> None:
+    t = np.arange(2000) / 1000.0
+    forces = write_csv(tmp_path / "w.csv", ["time", "fx", "fy", "fz", "tx", "ty", "tz"],
+                       [t, *wrench(t).T])  # fmt: skip
+    part = t[(t >= 0.5) & (t < 1.5)]
+    motion = write_csv(
+        tmp_path / "m.csv", ["time", "vx", "vy", "vz"], [part, *twist(part)[:, :3].T]
+    )
+    with pytest.warns(ConversionWarning, match="the trial covers 0.99 s of the wrench's 2.00 s"):
+        convert(forces, tmp_path / "t.mcap", "gown", motion=motion)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"wrench_topic": "/ft"}, "--wrench-topic: applies to bags, not to a CSV"),
+        ({"columns": {"time": "stamp"}, "bag": True}, "--column: applies to a CSV, not to a bag"),
+    ],
+)
+def test_an_option_for_the_other_kind_of_input_is_refused(
+    tmp_path: Path, options: dict, message: str
+) -> None:
+    from tests.convert_signals import standard_topics, write_bag
+
+    source = _with_velocity(tmp_path / "v.csv", np.arange(300) / 1000.0)
+    if options.pop("bag", False):
+        source = write_bag(tmp_path / "log.bag", standard_topics(), "ros1")
+    with pytest.raises(ConversionError, match=message):
+        convert(source, tmp_path / "t.mcap", "gown", **options)
+
+
+def test_a_time_column_of_unset_stamps_points_to_another(tmp_path: Path) -> None:
+    path = _with_velocity(tmp_path / "z.csv", np.zeros(300), header="stamp")
+    with pytest.raises(ConversionError, match=r"every wrench timestamp is 0 ns \(unset\?\); pick"):
+        convert(path, tmp_path / "t.mcap", "gown")

@@ -67,7 +67,15 @@ def load(
     if not path.exists():
         raise ConversionError("no such file or folder", path=path)
     suffix = path.suffix.lower()
-    if suffix in CSV_SUFFIXES and path.is_file():
+    is_csv = suffix in CSV_SUFFIXES and path.is_file()
+    given = {"--motion": motion, "--column": columns, "--time-unit": time_unit}
+    if is_csv:
+        given = {"--wrench-topic": wrench_topic, "--twist-topic": twist_topic}
+        given["--pose-topic"] = pose_topic
+    if unused := [option for option, value in given.items() if value]:
+        what = "bags, not to a CSV" if is_csv else "a CSV, not to a bag"
+        raise ConversionError(f"{', '.join(unused)}: applies to {what}; leave it out", path=path)
+    if is_csv:
         from dresslog.convert.csv import read_csv
 
         return read_csv(path, motion=motion, columns=columns, time_unit=time_unit)
@@ -92,7 +100,17 @@ def check_stream(stream: SourceStream, path: Path) -> None:
     # a bag's stream is named by its topic; a CSV's by its file, which the error names already
     where = "" if stream.name == path.name else f"{stream.name}: "
     if len(stream) < 2:
-        raise ConversionError(f"{where}{len(stream)} {stream.kind} samples", path=path)
+        raise ConversionError(
+            f"{where}only {len(stream)} {stream.kind} sample(s); a trial needs a log of "
+            "several steps",
+            path=path,
+        )
+    if (stream.t_ns == stream.t_ns[0]).all():
+        column = "; pick another time column with --column time=HEADER" if not where else ""
+        raise ConversionError(
+            f"{where}every {stream.kind} timestamp is {stream.t_ns[0]} ns (unset?){column}",
+            path=path,
+        )
     if (bad := rs.first_disorder(stream.t_ns)) is not None:
         raise ConversionError(
             f"{where}timestamps not increasing at sample {bad} of {len(stream)} "
@@ -125,12 +143,38 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
         start += (phase - start) % rs.PERIOD_NS
     grid = rs.grid(start, stop)
     if len(grid) < 2:
+        if len({s.name for s in source.streams}) == 1:  # one file: too short, not two clocks
+            length = (source.wrench.t_ns[-1] - source.wrench.t_ns[0]) / 1e9
+            raise ConversionError(
+                f"the log covers {length:.3g} s, less than two 100 Hz steps", path=source.path
+            )
         spans = "; ".join(_span(s) for s in source.streams)
         raise ConversionError(
             f"streams do not overlap in time ({spans}); they must share one clock",
             path=source.path,
         )
     return grid
+
+
+#: Gaps listed one by one before the rest are summed up in one warning.
+MAX_GAPS_LISTED = 5
+
+
+def _gap_warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
+    """One warning per gap (a file's gap once, though wrench and motion share it), then a sum."""
+    gaps = {}
+    for stream in source.streams:
+        for at, length in rs.gaps(stream.t_ns, round(max_gap_s * 1e9)):
+            gaps[(stream.name, at)] = length
+    found = [
+        f"gap of {length / 1e9:.3f} s in {name} at {(at - grid[0]) / 1e9:.3f} s "
+        f"(output time); bridged by interpolation"
+        for (name, at), length in list(gaps.items())[:MAX_GAPS_LISTED]
+    ]
+    if (more := len(gaps) - MAX_GAPS_LISTED) > 0:
+        longest = max(gaps.values()) / 1e9
+        found.append(f"{more} more gaps (the longest of all {longest:.3f} s); is the log whole?")
+    return found
 
 
 def _resampling(t_ns: np.ndarray) -> str:
@@ -187,8 +231,10 @@ def convert(
     check_output(output, source=path)
     if output.exists() and not overwrite:
         raise ConversionError("file exists; pass --overwrite to replace it", path=output)
-    if rotate is not None and not np.linalg.norm(rotate) > 0:
-        raise ConversionError("rotation quaternion is zero")
+    if rotate is not None and not (np.isfinite(rotate).all() and np.linalg.norm(rotate) > 0):
+        raise ConversionError("rotation quaternion must be finite and not zero")
+    if not (np.isfinite(tare_s) and tare_s >= 0):
+        raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
 
     source = load(
         path,
@@ -204,13 +250,13 @@ def convert(
     averaged = rs.median_rate(source.wrench.t_ns) > rs.AVERAGE_ABOVE_HZ
     grid = common_grid(source, averaged)
 
-    found: list[str] = []
-    for stream in source.streams:
-        for at, length in rs.gaps(stream.t_ns, round(max_gap_s * 1e9)):
-            found.append(
-                f"gap of {length / 1e9:.3f} s in {stream.name} at {(at - grid[0]) / 1e9:.3f} s "
-                f"(output time); bridged by interpolation"
-            )
+    found = _gap_warnings(source, grid, max_gap_s)
+    wrench_s = (source.wrench.t_ns[-1] - source.wrench.t_ns[0]) / 1e9
+    if (kept := (grid[-1] - grid[0]) / 1e9) < 0.9 * wrench_s:
+        found.append(
+            f"the trial covers {kept:.2f} s of the wrench's {wrench_s:.2f} s: only the time "
+            "every stream covers"
+        )
     for message in found:
         warnings.warn(message, ConversionWarning, stacklevel=2)
 

@@ -124,6 +124,27 @@ def assign_columns(
     return found, ignored
 
 
+#: A stamp split in two, as bagpy (`header.stamp.secs`, `.nsecs`) and ROS 2 exports
+#: (`header.stamp.sec`, `.nanosec`) write it: the whole seconds alone would repeat.
+_WHOLE_SECONDS = ("stampsecs", "stampsec")
+_NANOSECONDS = ("stampnsecs", "stampnsec", "stampnanosec", "stampnanosecs")
+
+
+def _nanoseconds_of(names: list[str], time_index: int) -> int | None:
+    """The column holding the nanoseconds of a split stamp whose seconds are `time_index`."""
+    if _key(names[time_index]) not in _WHOLE_SECONDS:
+        return None
+    prefix = names[time_index].lower().rsplit("sec", 1)[0]
+    return next(
+        (
+            i
+            for i, name in enumerate(names)
+            if _key(name) in _NANOSECONDS and name.lower().startswith(prefix)
+        ),
+        None,
+    )
+
+
 def _missing_hint(missing: list[str], names: list[str]) -> str:
     example = f"--column {missing[0]}=HEADER"
     return (
@@ -150,6 +171,24 @@ def _time_ns(raw: np.ndarray, unit: str | None, path: Path) -> tuple[np.ndarray,
     return np.round(values.astype(np.float64) * UNITS[unit]).astype(np.int64), unit
 
 
+def _check_guessed_unit(t_ns: np.ndarray, unit: str, name: str, path: Path) -> None:
+    """A unit guessed from the numbers must give a sensor's rate (10 Hz-100 kHz), or say so.
+
+    Milliseconds read as seconds would make a 1 kHz log 1,000 times too long (and a
+    file of mostly gap); microseconds read as nanoseconds, 1,000 times too short.
+    """
+    if len(t_ns) < 2:
+        return
+    step = float(np.median(np.diff(t_ns)))
+    if step <= 0 or 1e4 <= step <= 1e8:  # 100 kHz ... 10 Hz
+        return
+    raise ConversionError(
+        f"time column {name!r} read as {unit} gives samples {step / 1e9:.3g} s apart "
+        f"({1e9 / step:.3g} Hz), no sensor's rate; give its unit with --time-unit ms|us|s|ns",
+        path=path,
+    )
+
+
 def read_table(
     path: Path, columns: Mapping[str, str] | None = None, time_unit: str | None = None
 ) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
@@ -160,6 +199,10 @@ def read_table(
     found, ignored = assign_columns(names, columns or {}, path)
     if "time" not in found:
         raise ConversionError(_missing_hint(["time"], names), path=path)
+    nanos = None if "time" in (columns or {}) else _nanoseconds_of(names, found["time"])
+    if nanos is not None:
+        found["nanoseconds"] = nanos
+        ignored = [n for n in ignored if n != names[nanos]]
     roles = sorted(found, key=found.__getitem__)
     try:
         text = np.loadtxt(
@@ -171,7 +214,13 @@ def read_table(
     if len(text) == 0:
         raise ConversionError("CSV has a header but no rows", path=path)
     data = dict(zip(roles, text.T, strict=True))
-    t_ns, unit = _time_ns(data.pop("time"), time_unit or _unit_in(names[found["time"]]), path)
+    given = time_unit or _unit_in(names[found["time"]])
+    t_ns, unit = _time_ns(data.pop("time"), "s" if nanos is not None else given, path)
+    if nanos is not None:
+        t_ns = t_ns + _time_ns(data.pop("nanoseconds"), "ns", path)[0]
+        unit = f"s + {names[nanos]!r} in ns"
+    elif given is None:
+        _check_guessed_unit(t_ns, unit, names[found["time"]], path)
     try:
         values = {role: col.astype(np.float64) for role, col in data.items()}
     except ValueError as err:
