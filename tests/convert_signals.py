@@ -125,12 +125,13 @@ def standard_topics(seconds: float = 3.0) -> Topics:
     }
 
 
-def write_bag(path: Path, topics: Topics, layout: str, stamped: bool = True) -> Path:
+def write_bag(path: Path, topics: Topics, layout: str, unstamped: Iterable[str] = ()) -> Path:
     """Write `topics` as `ros1` (.bag), `sqlite3` or `mcap` (ROS 2 folder); returns the input.
 
-    `stamped=False` leaves every header stamp 0, as a driver that never fills them does;
-    the messages are still logged at their times.
+    The `unstamped` topics' header stamps are left 0, as a driver that never fills
+    them does; their messages are still logged at their times.
     """
+    unstamped = set(unstamped)
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
@@ -149,7 +150,7 @@ def write_bag(path: Path, topics: Topics, layout: str, stamped: bool = True) -> 
             # a recorder logs in arrival order: log times increase even when stamps do not
             log_times = np.sort(stamps).tolist()
             for t_ns, log_ns, row in zip(stamps.tolist(), log_times, values, strict=True):
-                stamp = t_ns if stamped else 0
+                stamp = 0 if topic in unstamped else t_ns
                 raw = serialize(message(store, ros1, kind, stamp, row), TYPES[kind])
                 writer.write(connection, log_ns, raw)
     return path

@@ -166,7 +166,7 @@ def test_a_dresslog_trial_exported_as_a_ros2_bag_converts_back_unchanged(tmp_pat
 
 
 def test_a_bag_with_unset_header_stamps_converts_on_its_log_times(tmp_path: Path) -> None:
-    bag = write_bag(tmp_path / "log.bag", standard_topics(), "ros1", stamped=False)
+    bag = write_bag(tmp_path / "log.bag", topics := standard_topics(), "ros1", unstamped=topics)
     out = tmp_path / "trial.mcap"
     report = convert(bag, out, "gown")
     with TrialReader(out) as reader:
@@ -179,6 +179,12 @@ def test_a_bag_with_unset_header_stamps_converts_on_its_log_times(tmp_path: Path
         "/ft_sensor/wrench: header stamps unset, used the bag's log times"
         in (report.source["notes"])
     )
+
+
+def test_a_stream_falling_back_to_log_times_is_warned_about(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "log.bag", standard_topics(), "ros1", unstamped=["/arm/ee_pose"])
+    with pytest.warns(ConversionWarning, match=r"streams on different clocks \(/ft_sensor/wrench"):
+        convert(bag, tmp_path / "t.mcap", "gown")
 
 
 # -- bad input -----------------------------------------------------------------------------

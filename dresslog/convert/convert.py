@@ -251,6 +251,9 @@ def convert(
     grid = common_grid(source, averaged)
 
     found = _gap_warnings(source, grid, max_gap_s)
+    if len({s.clock for s in source.streams}) > 1:
+        clocks = ", ".join(f"{s.name} on its {s.clock} clock" for s in source.streams)
+        found.append(f"streams on different clocks ({clocks}): off by the logging delay")
     wrench_s = (source.wrench.t_ns[-1] - source.wrench.t_ns[0]) / 1e9
     if (kept := (grid[-1] - grid[0]) / 1e9) < 0.9 * wrench_s:
         found.append(
