@@ -266,3 +266,14 @@ def test_a_time_column_of_unset_stamps_points_to_another(tmp_path: Path) -> None
     path = _with_velocity(tmp_path / "z.csv", np.zeros(300), header="stamp")
     with pytest.raises(ConversionError, match=r"every wrench timestamp is 0 ns \(unset\?\); pick"):
         convert(path, tmp_path / "t.mcap", "gown")
+
+
+def test_an_empty_cell_is_named_by_column_and_line(tmp_path: Path) -> None:
+    path = _with_velocity(tmp_path / "e.csv", np.arange(300) / 1000.0)
+    lines = path.read_text().splitlines()
+    cells = lines[5].split(",")
+    cells[2] = ""  # fy of the fifth data row, as a merged export leaves a slower topic's cells
+    lines[5] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ConversionError, match=r"column 'fy', line 6: '' is not a number"):
+        convert(path, tmp_path / "t.mcap", "gown")

@@ -171,6 +171,27 @@ def _time_ns(raw: np.ndarray, unit: str | None, path: Path) -> tuple[np.ndarray,
     return np.round(values.astype(np.float64) * UNITS[unit]).astype(np.int64), unit
 
 
+def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.ndarray:
+    """A text column as floats, or an error naming the first cell that is not a number."""
+    try:
+        return column.astype(np.float64)
+    except ValueError:
+        row = next(i for i, cell in enumerate(column) if not _is_number(cell))
+        raise ConversionError(
+            f"column {name!r}, line {header_line + row + 2}: {str(column[row])!r} is not a "
+            "number (empty cells and decimal commas are not read)",
+            path=path,
+        ) from None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _check_guessed_unit(t_ns: np.ndarray, unit: str, name: str, path: Path) -> None:
     """A unit guessed from the numbers must give a sensor's rate (10 Hz-100 kHz), or say so.
 
@@ -221,10 +242,7 @@ def read_table(
         unit = f"s + {names[nanos]!r} in ns"
     elif given is None:
         _check_guessed_unit(t_ns, unit, names[found["time"]], path)
-    try:
-        values = {role: col.astype(np.float64) for role, col in data.items()}
-    except ValueError as err:
-        raise ConversionError(f"non-numeric value: {err}", path=path) from None
+    values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
     notes = [f"{path.name}: time column {names[found['time']]!r} read as {unit}"]
     if ignored:
         notes.append(f"{path.name}: ignored columns {', '.join(ignored)}")
