@@ -36,8 +36,15 @@ from pathlib import Path
 from typing import Any, Literal
 
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
-from dresslog.errors import DatasetError, ModelError
-from dresslog.model.files import DataProvenance, LoadedModel, ModelCard, check_task, load_model
+from dresslog.errors import DatasetError
+from dresslog.model.files import (
+    DataProvenance,
+    LoadedModel,
+    ModelCard,
+    check_model_folder,
+    check_task,
+    load_model,
+)
 from dresslog.plots import plot_sweep, plot_training
 from dresslog.spec import Task
 
@@ -75,10 +82,7 @@ def train_dataset(
 ) -> ModelCard:
     """Train the paper's network (by default) on `data`'s training split; save to `out`."""
     out = Path(out)
-    if out.exists() and not overwrite:  # say so now, not after hours of training
-        raise ModelError("model folder exists; pass --overwrite to replace it", path=out)
-    if not out.parent.is_dir():
-        raise ModelError(f"parent folder {out.parent} does not exist", path=out)
+    check_model_folder(out, overwrite)  # say so now, not after hours of training
     arrays = load_dataset(data, workers=workers, progress=progress)
     rows = arrays.rows(Split.TRAIN)
     if len(rows) < 2:

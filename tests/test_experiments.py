@@ -187,9 +187,21 @@ def test_info_refuses_a_tampered_model_and_a_folder_that_is_neither(tmp_path: Pa
 
 
 def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) -> None:
-    (tmp_path / "m").mkdir()
-    code, output = invoke("train", data, "-o", tmp_path / "m")
-    assert code == 1 and "model folder exists" in output
+    code, output = invoke("train", data, "-o", _fake_model(tmp_path / "m", "gown"))
+    assert code == 1 and "model folder exists; pass --overwrite" in output
+
+
+def test_train_overwrite_replaces_only_a_model_never_the_data(data: Path) -> None:
+    before = sorted(p.relative_to(data) for p in data.rglob("*"))
+    code, output = invoke("train", data, "-o", data, "--overwrite")
+    assert code == 1 and "folder is not empty and holds no model" in output
+    assert sorted(p.relative_to(data) for p in data.rglob("*")) == before
+
+
+def test_a_saved_model_is_readable_by_others_as_its_card_is(tmp_path: Path) -> None:
+    model = _fake_model(tmp_path / "m", "gown")
+    modes = {p.name: p.stat().st_mode & 0o777 for p in model.iterdir()}
+    assert modes["model.safetensors"] == modes["card.json"], modes
 
 
 def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -> None:

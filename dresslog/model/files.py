@@ -17,6 +17,8 @@ Public API
 ``save_model(path, weights, card, *, overwrite=False) -> ModelCard``
     Writes both files into a temporary sibling folder, then renames it into place, so an
     interrupted save never leaves a half model. Fills ``weights_sha256``; returns that card.
+``check_model_folder(path, overwrite)``: ``ModelError`` unless ``path`` may become a model
+    folder (new, empty, or a model to replace with ``overwrite``).
 ``load_model(path) -> LoadedModel``: ``.path``, ``.card``, ``.weights`` (dict of float32
     numpy arrays), ``.estimator() -> NumpyEstimator``. Raises ``ModelError`` (one line,
     ``.path`` set) for a missing folder or file, a foreign or unreadable card, weights whose
@@ -171,6 +173,26 @@ def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard
         raise ModelError(f"unexpected arrays in weights: {', '.join(extra)}", path=path)
 
 
+def check_model_folder(path: Path, overwrite: bool) -> None:
+    """Fail before any work unless `path` may become a model folder.
+
+    --overwrite replaces a model, never anything else: a dataset or any other folder
+    given as the output by mistake is refused, with or without it.
+    """
+    if not path.parent.is_dir():
+        raise ModelError(f"parent folder {path.parent} does not exist", path=path)
+    if path.exists() and not path.is_dir():
+        raise ModelError("is a file; give a folder for the model", path=path)
+    if not path.exists() or not any(path.iterdir()):
+        return
+    if not (path / CARD_FILE).is_file():
+        raise ModelError(
+            "folder is not empty and holds no model; give a new or empty folder", path=path
+        )
+    if not overwrite:
+        raise ModelError("model folder exists; pass --overwrite to replace it", path=path)
+
+
 def save_model(
     path: str | Path,
     weights: Mapping[str, np.ndarray],
@@ -179,20 +201,18 @@ def save_model(
     overwrite: bool = False,
 ) -> ModelCard:
     """Write a model folder atomically; returns the card with the weights hash filled in."""
-    from safetensors.numpy import save_file
+    from safetensors.numpy import save
 
     path = Path(path)
-    if path.exists() and not overwrite:
-        raise ModelError("model folder exists; pass --overwrite to replace it", path=path)
-    if not path.parent.is_dir():
-        raise ModelError(f"parent folder {path.parent} does not exist", path=path)
+    check_model_folder(path, overwrite)
     arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in weights.items()}
     _check_shapes(path, arrays, card)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
     try:
-        save_file(arrays, str(tmp / WEIGHTS_FILE), metadata={"format": FORMAT})
+        # written by Python, so the file gets the usual permissions (safetensors' own is 0600)
+        (tmp / WEIGHTS_FILE).write_bytes(save(arrays, metadata={"format": FORMAT}))
         card = card.model_copy(update={"weights_sha256": sha256_file(tmp / WEIGHTS_FILE)})
         (tmp / CARD_FILE).write_text(card.model_dump_json(indent=2) + "\n")
         if path.exists():
