@@ -26,5 +26,8 @@ def reports_errors(command: Callable[P, R]) -> Callable[P, R]:
             raise click.ClickException(str(err)) from None
         except ValidationError as err:  # a spec built from options: name the bad value
             raise click.ClickException(f"invalid {first_problem(err)}") from None
+        except OSError as err:  # the machine's side: disk full, read-only, permissions
+            where = f"{err.filename}: " if err.filename else ""
+            raise click.ClickException(f"{where}{err.strerror or err}") from None
 
     return wrapper

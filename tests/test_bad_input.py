@@ -158,3 +158,36 @@ def test_reader_raises_a_format_error_naming_the_file(tmp_path: Path, make_trial
     with pytest.raises(TrialFormatError) as info, TrialReader(path) as reader:
         reader.read()
     assert info.value.path == path
+
+
+def _unwritable_folder() -> Path | None:
+    """/sys: no file can be made there, not even by root (which passes permission bits)."""
+    folder = Path("/sys")
+    try:
+        (folder / ".dresslog-probe").touch()
+    except OSError:
+        return folder
+    (folder / ".dresslog-probe").unlink()
+    return None
+
+
+UNWRITABLE = _unwritable_folder()
+SAMPLES = Path(__file__).resolve().parents[1] / "samples"
+
+
+@pytest.mark.skipif(UNWRITABLE is None, reason="needs a folder where no file can be made")
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["record", "--task", "gown", "--duration", "0.1", "-o", "{out}/t.mcap"],
+        ["infer", str(SAMPLES / "gown.mcap"), "-o", "{out}/t.rrd"],
+        ["view", str(SAMPLES / "gown.mcap"), "--save", "{out}/t.rrd"],
+        ["generate", "--task", "gown", "--trials", "2", "--duration", "0.1", "-o", "{out}/d"],
+    ],
+    ids=["record", "infer", "view", "generate"],
+)
+def test_an_output_folder_that_cannot_be_written_is_one_line(args: list[str]) -> None:
+    result = CliRunner().invoke(main, [a.format(out=UNWRITABLE) for a in args])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"Error: {UNWRITABLE}"), result.output

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
+import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,8 +19,27 @@ def check_output(path: Path, source: Path | None = None) -> None:
         raise TrialWriteError("folder does not exist; create it first", path=path)
     if path.is_dir():
         raise TrialWriteError("is a folder; give a file name", path=path)
+    check_writable(path.parent)
     if source is not None and path.resolve() == source.resolve():
         raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
+
+
+def check_writable(folder: Path) -> None:
+    """Fail before any work if nothing can be created in `folder` (permissions, read-only).
+
+    A file is tried, not the permission bits read: root passes those everywhere, yet
+    not a read-only mount.
+    """
+    try:
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError as err:
+        raise TrialWriteError(f"cannot write here: {err.strerror}", path=folder) from None
+
+
+def discard(path: Path) -> None:
+    """Remove a temporary file if it is there; cleaning up must never raise over the real error."""
+    with contextlib.suppress(OSError):
+        path.unlink(missing_ok=True)
 
 
 def temporary_path(path: Path) -> Path:
@@ -35,7 +56,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         yield tmp
         tmp.replace(path)
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        discard(tmp)
         raise
 
 

@@ -19,7 +19,7 @@ from dresslog import __version__
 from dresslog.errors import TrialWriteError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
-from dresslog.io.files import check_output, temporary_path
+from dresslog.io.files import check_output, discard, temporary_path
 from dresslog.io.msgdefs import schema_text
 from dresslog.spec import TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
@@ -97,7 +97,7 @@ class TrialWriter:
         if self._stream is not None:
             self._stream.close()
         self._writer = self._stream = None
-        self._tmp.unlink(missing_ok=True)
+        discard(self._tmp)
 
     def __enter__(self) -> Self:
         return self.open()

@@ -44,7 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
-from dresslog.io.files import sha256_file
+from dresslog.io.files import check_writable, sha256_file
 from dresslog.model.inputs import PHI_DIM
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
@@ -181,6 +181,7 @@ def check_model_folder(path: Path, overwrite: bool) -> None:
     """
     if not path.parent.is_dir():
         raise ModelError(f"parent folder {path.parent} does not exist", path=path)
+    check_writable(path.parent)
     if path.exists() and not path.is_dir():
         raise ModelError("is a file; give a folder for the model", path=path)
     if not path.exists() or not any(path.iterdir()):

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dresslog.io.files import check_output, temporary_path
+from dresslog.errors import TrialWriteError
+from dresslog.io.files import check_output, discard, temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.trial import contact_magnitudes
@@ -127,6 +128,9 @@ class RerunSink:
             rec.flush()
             rec.disconnect()
             self._tmp.replace(self.path)
+        except RuntimeError as err:  # Rerun's own I/O errors (disk full, permissions)
+            self.abort()
+            raise TrialWriteError(f"could not write the recording: {err}", path=self.path) from None
         except BaseException:
             self.abort()
             raise
@@ -138,7 +142,7 @@ class RerunSink:
             self.recording.disconnect()
             self.recording = None
         if self._tmp is not None:
-            self._tmp.unlink(missing_ok=True)
+            discard(self._tmp)
 
     def blueprint(self, has_estimate: bool = True) -> Any:
         """The default layout, its camera framed on this trial's limb."""
