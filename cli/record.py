@@ -13,7 +13,9 @@ from dresslog.spec import LimbRotation, Task
 @click.command("record")
 @click.option("--task", type=click.Choice([t.value for t in Task]), required=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True)
-@click.option("--seed", type=int, default=0, show_default=True, help="Draws the random spec.")
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Draws the spec."
+)
 @click.option("--speed", type=float, help="End-effector speed, m/s.")
 @click.option("--offset", type=float, nargs=3, help="Limb offset X Y Z, m.")
 @click.option("--rotation", type=(click.Choice(["x", "y", "z"]), float), help="AXIS DEG.")

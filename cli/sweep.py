@@ -8,7 +8,7 @@ from dresslog.cli.common import reports_errors
 
 
 def _items(values: tuple[str, ...]) -> list[str]:
-    return [v for value in values for v in value.split(",") if v]
+    return [v.strip() for value in values for v in value.split(",") if v.strip()]
 
 
 @click.command("sweep")
@@ -42,7 +42,7 @@ def sweep(
         speed_values = [float(s) for s in _items(speeds)]
     except ValueError:
         raise DatasetError(f"--speeds takes numbers in m/s, not {','.join(speeds)}") from None
-    out = out or f"{Path(model).as_posix().rstrip('/')}-sweep"  # not inside: saving replaces it
+    out = out or f"{Path(model).resolve()}-sweep"  # beside the model, not in it: saving replaces it
     report = run_sweep(
         model, out, speeds=speed_values, rotations=_items(rotations), n=sequences,
         progress=not quiet, **options,

@@ -36,8 +36,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
+from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError
 from dresslog.model.files import (
+    CARD_FILE,
     DataProvenance,
     LoadedModel,
     ModelCard,
@@ -189,6 +191,8 @@ def _finite(value: Any) -> Any:
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
         return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
     return value
 
 
@@ -360,6 +364,9 @@ def sweep(
         raise DatasetError("give at least one --speeds or --rotations value")
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     out = Path(out)
+    for name, what in ((MANIFEST_FILE, "a dataset"), (CARD_FILE, "a model")):
+        if (out / name).is_file():
+            raise DatasetError(f"is {what} folder; give the sweep a folder of its own", path=out)
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []
     for setting in settings:

@@ -122,8 +122,22 @@ def test_sweep_writes_a_table_and_a_plot(model: Path, tmp_path: Path) -> None:
     rows = (out / "sweep.csv").read_text().splitlines()
     assert len(rows) == 4 and rows[1].startswith("in-range,baseline")
     assert (out / "sweep.png").read_bytes()[:4] == b"\x89PNG"
+
+    def strict(constant: str) -> None:
+        raise AssertionError(f"{constant} is not JSON")
+
+    saved = json.loads((out / "sweep.json").read_text(), parse_constant=strict)
+    assert saved["settings"][0]["value"] is None  # the in-range setting has no swept value
     speeds = {e.spec.speed for e in load_manifest(out / "speed_0.2").trials}
     assert speeds == {0.2}
+
+
+def test_sweep_never_writes_into_a_dataset_or_a_model_folder(model: Path, data: Path) -> None:
+    for folder in (data, model):
+        before = sorted(folder.rglob("*"))
+        code, output = invoke("sweep", model, "--speeds", "0.2", "-n", "1", "-o", folder)
+        assert code == 1 and "give the sweep a folder of its own" in output
+        assert sorted(folder.rglob("*")) == before
 
 
 def test_sweep_rejects_a_malformed_rotation_before_making_its_folder(

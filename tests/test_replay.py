@@ -218,6 +218,22 @@ def test_infer_never_writes_over_its_trial_or_one_output_over_the_other(
     assert sorted(p.name for p in work.iterdir()) == ["trial.mcap"]
 
 
+def test_infer_names_a_rerun_recording_given_as_the_trial_or_as_an_mcap_output(
+    gown, tmp_path: Path
+) -> None:
+    trial, model = gown
+    rrd = tmp_path / "made.rrd"
+    assert (
+        CliRunner().invoke(main, ["infer", str(trial), "-m", str(model), "-o", str(rrd)]).exit_code
+        == 0
+    )
+    again = CliRunner().invoke(main, ["infer", str(rrd), "-m", str(model)])
+    assert again.exit_code == 1 and "is a Rerun recording, not a trial" in again.output
+    wrong = tmp_path / "estimate.mcap"
+    named = CliRunner().invoke(main, ["infer", str(trial), "-m", str(model), "-o", str(wrong)])
+    assert named.exit_code == 1 and "name it .rrd" in named.output and not wrong.exists()
+
+
 def test_a_model_for_the_other_task_points_to_the_bundled_one(gown, tmp_path: Path) -> None:
     trial, model = other_task_model(tmp_path, *gown)
     result = CliRunner().invoke(main, ["infer", str(trial), "--model", str(model)])

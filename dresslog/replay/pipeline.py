@@ -107,21 +107,27 @@ def replay_file(
     """
     clock = time.perf_counter
     timings: dict[str, float] = {}
+    t0 = clock()
+    with TrialReader(trial_path) as reader:  # what is wrong with the input is said first
+        trial = reader.read()
+    context = trial_context(trial, trial_path)
+    timings["read"] = clock() - t0
     outputs = [Path(p) for p in (rrd, mcap) if p is not None]
     for out in outputs:
         check_output(out, source=Path(trial_path))
     if len(outputs) == 2 and outputs[0].resolve() == outputs[1].resolve():
         raise TrialWriteError("given as both the Rerun and the MCAP output", path=outputs[0])
+    if rrd is not None and Path(rrd).suffix == ".mcap":
+        raise TrialWriteError(
+            "is where the Rerun recording would go; name it .rrd (an MCAP copy of the trial "
+            "with the estimate is --mcap-out)",
+            path=Path(rrd),
+        )
     if rrd is not None:  # start-up cost, reported apart from the work itself
         t0 = clock()
         import rerun  # noqa: F401
 
         timings["import_rerun"] = clock() - t0
-    t0 = clock()
-    with TrialReader(trial_path) as reader:
-        trial = reader.read()
-    context = trial_context(trial, trial_path)
-    timings["read"] = clock() - t0
 
     t0 = clock()
     task = trial.metadata.task
