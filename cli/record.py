@@ -34,6 +34,7 @@ def record(
 ) -> None:
     """Simulate one trial (random spec from --seed, or set explicitly) and record it."""
     from dresslog.sim import random_spec, record_trial
+    from dresslog.sim.record import ProgressBar
 
     overrides: dict[str, object] = {"speed": speed, "duration": duration}
     if offset:
@@ -50,5 +51,6 @@ def record(
         if metrics.rmse is not None:
             click.echo(f"estimate RMSE {metrics.rmse:.4g} N (all-zero {metrics.zero_rmse:.4g} N)")
     else:
-        result = record_trial(spec, output, overwrite=overwrite)
+        with ProgressBar() as bar:
+            result = record_trial(spec, output, overwrite=overwrite, sinks=[bar])
     click.echo(result.summary())

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -70,6 +71,34 @@ class WriterSink:
         self.writer.write_twist(t, np.asarray(self._twist))
         self.writer.write_pose(t, np.asarray(self._pose))
         self.writer.write_force_map(t, np.asarray(self._fmap, dtype=np.float32))
+
+
+class ProgressBar:
+    """A `simulate()` sink drawing the recorded steps on a progress bar (on a terminal only).
+
+    Use as a context manager, which closes the bar. A 7 s trial takes seconds, but a
+    long one (`--duration 600`) a minute or more, with nothing else to show for it.
+    """
+
+    def __init__(self) -> None:
+        self._bar: Any = None
+
+    def start(self, info: SimStart) -> None:
+        from tqdm import tqdm
+
+        total = round(info.spec.duration * info.spec.sim.record_hz)
+        # disable=None: no bar when stderr is not a terminal (a log file, a test)
+        self._bar = tqdm(total=total, unit="step", desc=info.spec.task.value, disable=None)
+
+    def step(self, step: SimStep) -> None:
+        self._bar.update()
+
+    def __enter__(self) -> ProgressBar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.close()
 
 
 class FanOut:
