@@ -130,6 +130,15 @@ def test_view_save_copies_an_rrd(inferred, tmp_path: Path) -> None:
     assert out.read_bytes() == rrd.read_bytes()
 
 
+def test_view_refuses_a_file_that_is_not_a_rerun_recording(tmp_path: Path) -> None:
+    junk = tmp_path / "junk.rrd"
+    junk.write_bytes(b"junk\n")
+    out = tmp_path / "copy.rrd"
+    result = CliRunner().invoke(main, ["view", str(junk), "--save", str(out)])
+    assert result.exit_code == 1 and "not a Rerun recording" in result.output
+    assert not out.exists()
+
+
 def _software_vulkan() -> bool:
     return any(Path("/usr/share/vulkan/icd.d").glob("lvp_icd*.json"))
 

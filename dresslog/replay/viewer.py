@@ -17,6 +17,7 @@ from urllib.parse import quote
 
 from dresslog.errors import DresslogError, TrialWriteError
 from dresslog.io.files import atomic_path, check_output
+from dresslog.io.reader import RRD_MAGIC
 from dresslog.replay.pipeline import InferenceReport, replay_file
 
 RRD_SUFFIXES = (".rrd",)
@@ -27,8 +28,7 @@ def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = No
     path, out = Path(path), Path(out)
     check_output(out)
     if path.suffix in RRD_SUFFIXES:
-        if not path.is_file():
-            raise DresslogError("no such file", path=path)
+        check_rrd(path)
         try:
             with atomic_path(out) as tmp:
                 shutil.copyfile(path, tmp)
@@ -39,6 +39,15 @@ def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = No
         path, model=model, require_model=model is not None, rrd=out
     )
     return report.summary()
+
+
+def check_rrd(path: Path) -> None:
+    """A Rerun recording by its first bytes, or a one-line error (before a viewer chokes on it)."""
+    if not path.is_file():
+        raise DresslogError("no such file", path=path)
+    with path.open("rb") as stream:
+        if not stream.read(len(RRD_MAGIC)) == RRD_MAGIC:
+            raise DresslogError("not a Rerun recording (.rrd)", path=path)
 
 
 def web_address(web_port: int, grpc_port: int) -> str:
@@ -72,8 +81,8 @@ def view_file(
         if path.suffix not in RRD_SUFFIXES:
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model))
-        elif not path.is_file():
-            raise DresslogError("no such file", path=path)
+        else:
+            check_rrd(path)
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
             echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")
