@@ -22,7 +22,9 @@ def info(path: str, as_json: bool) -> None:
         from dresslog.dataset import load_manifest
 
         manifest = load_manifest(path)
-        click.echo(manifest.model_dump_json(indent=1) if as_json else manifest.describe())
+        click.echo(
+            manifest.model_dump_json(indent=1) if as_json else f"{path}: {manifest.describe()}"
+        )
     elif Path(path).is_dir():
         from dresslog.model.files import CARD_FILE, load_model
         from dresslog.model.summary import format_card

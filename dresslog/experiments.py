@@ -2,7 +2,8 @@
 
 This is the glue between `dresslog.dataset` (folders, manifests, cached arrays) and
 `dresslog.model` (network, training, metrics), so that the CLI commands and a Python
-user make the same one call.
+user make the same one call. Simulation and decoding run in spawned worker processes:
+call these from under ``if __name__ == "__main__":`` in a script.
 
 Public API
 ----------

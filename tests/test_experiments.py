@@ -184,7 +184,7 @@ def test_info_summarises_a_model_folder_and_a_dataset_folder(model: Path, data: 
     code, output = invoke("info", model, "--json")
     assert code == 0 and ModelCard.model_validate_json(output) == load_model(model).card
     code, output = invoke("info", data)
-    assert code == 0 and output.startswith("gown trials 3/3 train, 1/1 test; outcomes")
+    assert code == 0 and output.startswith(f"{data}: gown trials 3/3 train, 1/1 test; outcomes")
     code, output = invoke("info", data, "--json")
     assert code == 0 and json.loads(output)["task"] == "gown"
 
