@@ -277,3 +277,14 @@ def test_an_empty_cell_is_named_by_column_and_line(tmp_path: Path) -> None:
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(ConversionError, match=r"column 'fy', line 6: '' is not a number"):
         convert(path, tmp_path / "t.mcap", "gown")
+
+
+@pytest.mark.parametrize(
+    ("header", "unit"),
+    [("Time (s)", "s"), ("time_ms", "ms"), ("Time [\u00b5s]", "us"), ("t (\u03bcs)", "us"),
+     ("%time", "ns"), ("stamp[ns]", "ns"), ("time", None)],
+)  # fmt: skip
+def test_a_time_unit_written_in_the_header_is_read(header: str, unit: str | None) -> None:
+    from dresslog.convert.csv import _unit_in
+
+    assert _unit_in(header) == unit

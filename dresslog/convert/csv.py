@@ -47,7 +47,8 @@ _TIME = re.compile(
 )
 _UNIT_NAMES = {
     "s": "s", "sec": "s", "secs": "s", "seconds": "s", "ms": "ms", "msec": "ms",
-    "us": "us", "usec": "us", "ns": "ns", "nsec": "ns", "nanoseconds": "ns",
+    "us": "us", "usec": "us", "\u00b5s": "us", "\u03bcs": "us", "ns": "ns", "nsec": "ns",
+    "nanoseconds": "ns",
 }  # fmt: skip
 
 
