@@ -267,6 +267,17 @@ def test_inputs_that_are_not_logs_are_refused(tmp_path: Path) -> None:
             convert(path, tmp_path / "out.mcap", "gown")
 
 
+def test_a_truncated_bag_is_refused_with_the_tool_that_may_repair_it(
+    bags: dict[str, Path], tmp_path: Path
+) -> None:
+    whole = bags["ros1"].read_bytes()
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(whole[: len(whole) // 2])
+    with pytest.raises(ConversionError, match=r"cannot read bag: .*`rosbag reindex` may repair"):
+        convert(cut, tmp_path / "out.mcap", "gown")
+    assert not (tmp_path / "out.mcap").exists()
+
+
 # -- command line --------------------------------------------------------------------------
 
 

@@ -242,7 +242,11 @@ def read_bag(
                     times.append(t_ns)
                     payloads.append(raw)
     except errors as err:
-        raise ConversionError(f"cannot read bag: {err}", path=path) from None
+        tool = "rosbag reindex" if path.suffix == ".bag" else "ros2 bag reindex"
+        raise ConversionError(
+            f"cannot read bag: {err}; if its recording was cut short, `{tool}` may repair it",
+            path=path,
+        ) from None
     streams: dict[str, SourceStream] = {}
     for kind, topic in chosen.items():
         log_ns, payloads = buckets[topic]
