@@ -36,9 +36,11 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from pydantic import ValidationError
+
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
 from dresslog.dataset.manifest import MANIFEST_FILE
-from dresslog.errors import DatasetError
+from dresslog.errors import DatasetError, first_problem
 from dresslog.model.files import (
     CARD_FILE,
     DataProvenance,
@@ -49,7 +51,7 @@ from dresslog.model.files import (
     load_model,
 )
 from dresslog.plots import plot_sweep, plot_training
-from dresslog.spec import Task
+from dresslog.spec import Task, TrialSpec
 
 #: The learning curve `train_dataset` draws into the model folder.
 TRAINING_PLOT = "training.png"
@@ -323,12 +325,14 @@ def parse_rotation(text: str) -> tuple[str, float]:
 def sweep_settings(
     task: Task, speeds: Sequence[float], rotations: Sequence[str], duration: float | None = None
 ) -> list[Setting]:
-    """The in-range baseline, then one setting per speed and per rotation."""
+    """The in-range baseline, then one setting per speed and per rotation.
+
+    Every setting's fields are checked as a spec here, so a bad value stops the sweep
+    before its first trial, not after the settings before it.
+    """
     extra = {"duration": duration} if duration else {}
     settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
     for speed in speeds:
-        if speed <= 0:
-            raise DatasetError(f"speed must be positive, not {speed}")
         settings.append(Setting(f"speed:{speed:g}", "speed", speed, "", {"speed": speed, **extra}))
     for text in rotations:
         axis, degrees = parse_rotation(text)
@@ -338,6 +342,11 @@ def sweep_settings(
             **extra,
         }
         settings.append(Setting(f"rot:{axis}:{degrees:g}", "rotation", degrees, axis, fields))
+    for setting in settings:
+        try:
+            TrialSpec.model_validate({"task": task, **setting.overrides})
+        except ValidationError as err:
+            raise DatasetError(f"{setting.name}: invalid {first_problem(err)}") from None
     return settings
 
 

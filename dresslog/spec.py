@@ -52,7 +52,8 @@ class LimbRotation(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     axis: Literal["x", "y", "z"] = "z"
-    degrees: float = 0.0
+    # a joint's range, not a full turn: 999 degrees is a typo, not a pose
+    degrees: Annotated[float, Field(ge=-90, le=90)] = 0.0
 
 
 class SimParams(BaseModel):
@@ -102,7 +103,9 @@ class TrialSpec(BaseModel):
 
     task: Task
     seed: int = 0
-    speed: Annotated[float, Field(gt=0, description="end-effector speed, m/s")] = 0.125
+    speed: Annotated[
+        float, Field(gt=0, le=1, description="end-effector speed, m/s (dressing: cm/s)")
+    ] = 0.125
     limb_offset: Vec3 = Field((0.0, 0.0, 0.0), description="limb offset from nominal, m")
     limb_rotation: LimbRotation = LimbRotation()
     duration: Annotated[float, Field(gt=0, description="recorded motion, s")] = 7.0

@@ -140,12 +140,20 @@ def test_sweep_never_writes_into_a_dataset_or_a_model_folder(model: Path, data: 
         assert sorted(folder.rglob("*")) == before
 
 
-def test_sweep_rejects_a_malformed_rotation_before_making_its_folder(
-    model: Path, tmp_path: Path
+@pytest.mark.parametrize(
+    ("option", "value", "message"),
+    [
+        ("--rotations", "q:5", "is not AXIS:DEGREES"),
+        ("--rotations", "z:10,z:999", "rot:z:999: invalid limb_rotation.degrees"),
+        ("--speeds", "0.2,-1", "speed:-1: invalid speed"),
+    ],
+)
+def test_sweep_rejects_a_bad_setting_before_making_its_folder(
+    model: Path, tmp_path: Path, option: str, value: str, message: str
 ) -> None:
     out = tmp_path / "sweep"
-    code, output = invoke("sweep", model, "--rotations", "q:5", "-o", out)
-    assert code == 1 and "is not AXIS:DEGREES" in output
+    code, output = invoke("sweep", model, option, value, "-o", out)
+    assert code == 1 and message in output, output
     assert not out.exists()
 
 
