@@ -282,3 +282,26 @@ def test_metadata_record_validates_against_the_json_schema(make_trial) -> None:
     with path.open("rb") as stream:
         (record,) = [m for m in make_reader(stream).iter_metadata() if m.name == "dresslog"]
     jsonschema.validate(json.loads(record.metadata["trial"]), metadata_json_schema())
+
+
+def test_dresslog_msgs_is_a_ros2_interface_package_of_exactly_its_msg_files() -> None:
+    """colcon builds schemas/dresslog_msgs only if its package.xml and CMakeLists agree
+    with the .msg files and declare every package those files use."""
+    import re
+    import xml.etree.ElementTree as ET
+
+    folder = Path(__file__).resolve().parents[1] / "schemas" / "dresslog_msgs"
+    package = ET.parse(folder / "package.xml").getroot()
+    assert package.get("format") == "3" and package.findtext("name") == folder.name
+    assert package.findtext("member_of_group") == "rosidl_interface_packages"
+    depends = {d.text for d in package.findall("depend")}
+    msgs = sorted(p.name for p in (folder / "msg").glob("*.msg"))
+    cmake = (folder / "CMakeLists.txt").read_text()
+    assert sorted(re.findall(r'"msg/(\w+\.msg)"', cmake)) == msgs
+    used = {
+        m.group(1)
+        for name in msgs
+        for m in re.finditer(r"^(\w+)/\w+", (folder / "msg" / name).read_text(), re.M)
+    }
+    assert used - {folder.name} <= depends, used
+    assert f"DEPENDENCIES {' '.join(sorted(depends))}" in cmake
