@@ -19,6 +19,7 @@ import numpy as np
 
 from dresslog.errors import TrialWriteError
 from dresslog.io.files import check_output, discard, temporary_path
+from dresslog.io.summary import describe_spec
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.trial import contact_magnitudes
@@ -34,10 +35,16 @@ POINT_RADIUS = 0.01
 ARROW_MAX = 0.08
 ARROW_HALF = 0.5
 ARROW_COLOR = [200, 30, 30]
+#: The garment as a thin wireframe: a filled mesh in front of the ground-truth limb
+#: would tint its heat map and skew the comparison with the estimate.
+GARMENT_LINE_RADIUS = 0.0008
+GARMENT_COLOR = [80, 120, 180, 110]
 #: x, y, z in red, green, blue, as Rerun and RViz draw axes.
 XYZ_COLORS = [[220, 50, 50], [40, 160, 60], [50, 100, 230]]
-#: Colour scale of a live view, where the trial's range is not known in advance (N).
-LIVE_VMAX = 0.5
+#: Colour scale where no ground truth fixes one (N): a live view, whose range is not
+#: known in advance, and a converted log, whose estimate alone would stretch any weak
+#: force to the top of the scale.
+FIXED_VMAX = 0.5
 
 
 @dataclass
@@ -74,15 +81,17 @@ class RerunSink:
         self.path = None if path is None else Path(path)
         self.recording = recording
         self.flush_every = flush_every if recording is not None else None
-        self.vmax = vmax if vmax is not None or recording is None else LIVE_VMAX
+        self.vmax = vmax if vmax is not None or recording is None else FIXED_VMAX
         self.context: TrialContext | None = None
         self._buf = _Buffer()
         self._tmp: Path | None = None
         self._path_so_far: list[np.ndarray] = []
+        self._edges: np.ndarray | None = None
 
     # -- sink protocol -----------------------------------------------------------
     def open(self, context: TrialContext) -> None:
         self.context = context
+        self._edges = _edges(context.garment_triangles)
         self._buf = _Buffer()
         self._path_so_far = []
         if self.path is not None:
@@ -122,7 +131,8 @@ class RerunSink:
         try:
             rec.save(self._tmp, default_blueprint=self.blueprint(has_estimate))
             if self.vmax is None:  # calibrated on the truth, so a poor estimate cannot rescale it
-                self.vmax = color_scale(*(_stack(self._buf.truth) or _stack(self._buf.estimate)))
+                truth = _stack(self._buf.truth)
+                self.vmax = color_scale(*truth) if truth else FIXED_VMAX
             self._send_static(has_estimate)
             self.flush()
             rec.flush()
@@ -159,7 +169,7 @@ class RerunSink:
         return f"{name}-{uuid.uuid4().hex[:8]}"
 
     def _send_static(self, has_estimate: bool) -> None:
-        """Limb points, garment triangles, labels, series styles and the spec, once."""
+        """Limb points, labels, the garment's and the series' styles and the spec, once."""
         import rerun as rr
 
         rec, ctx = self.recording, self.context
@@ -178,15 +188,9 @@ class RerunSink:
                 rec.log(points, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
                 tag = rr.Points3D(side, labels=text, radii=0.001, colors=[0, 0, 0])
                 rec.log(label, tag, static=True)
-        if ctx.garment_triangles is not None and len(ctx.garment_triangles):
-            rec.log(
-                bp.GARMENT,
-                rr.Mesh3D.from_fields(
-                    triangle_indices=np.asarray(ctx.garment_triangles, np.uint32),
-                    albedo_factor=[90, 140, 200, 110],
-                ),
-                static=True,
-            )
+        if self._edges is not None:
+            style = rr.LineStrips3D.from_fields(radii=GARMENT_LINE_RADIUS, colors=GARMENT_COLOR)
+            rec.log(bp.GARMENT, style, static=True)
         rec.log(bp.EE, rr.TransformAxes3D(0.08), static=True)
         for path, names in (
             (bp.EE_FORCE, ["fx", "fy", "fz"]),
@@ -206,16 +210,21 @@ class RerunSink:
         )
 
     def _spec_text(self) -> str:
+        """What the trial is, in a line or two above its full metadata."""
         ctx = self.context
         assert ctx is not None
+        md = ctx.metadata
         source = f"`{ctx.source_path.name}`" if ctx.source_path else "live simulation"
         vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
         shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
+        what = f"**{md.task.value}** trial from {source}, outcome {md.outcome.value}"
+        if md.spec is not None:
+            what += f": {describe_spec(md.spec)}"
+        if ctx.trial is not None and ctx.trial.limb_points is None:
+            what += ". Drawn on the task's nominal limb: the log does not say where the limb was"
         return (
-            f"**{ctx.metadata.task.value}** trial from {source}, outcome "
-            f"{ctx.metadata.outcome.value}. Colour: grey = no force, dark to bright = 0 to "
-            f"{vmax}{shared}.\n\n```json\n"
-            f"{ctx.metadata.model_dump_json(indent=1, exclude={'software'})}\n```"
+            f"{what}. Colour: grey = no force, dark to bright = 0 to {vmax}{shared}.\n\n"
+            f"```json\n{md.model_dump_json(indent=1, exclude={'software'})}\n```"
         )
 
     def flush(self) -> None:
@@ -269,10 +278,10 @@ class RerunSink:
         self._send_pose(b, send)
         self._send_contacts(b, send)
         mask, garment = _present(b.garment)
-        if garment is not None:
-            g, v, _ = garment.shape
-            verts = rr.Mesh3D.columns(vertex_positions=garment.reshape(-1, 3)).partition([v] * g)
-            send(bp.GARMENT, mask, verts)
+        if garment is not None and self._edges is not None:
+            g, e = len(garment), len(self._edges)
+            segments = garment[:, self._edges].reshape(-1, 2, 3)  # (g * e, 2, 3)
+            send(bp.GARMENT, mask, rr.LineStrips3D.columns(strips=segments).partition([e] * g))
 
     def _send_pose(self, b: _Buffer, send: Any) -> None:
         import rerun as rr
@@ -334,6 +343,15 @@ def _rows(flat: np.ndarray, t: int, n: int) -> Any:
 
     offsets = np.arange(0, t * n + 1, n, dtype=np.int32)
     return pa.ListArray.from_arrays(pa.array(offsets), pa.array(flat))
+
+
+def _edges(triangles: np.ndarray | None) -> np.ndarray | None:
+    """Each edge of a triangle mesh once, (E, 2) vertex indices; None without a mesh."""
+    if triangles is None or not len(triangles):
+        return None
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    pairs = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    return np.unique(np.sort(pairs, axis=1), axis=0)
 
 
 def _stack(items: list[np.ndarray | None]) -> list[np.ndarray]:
