@@ -38,6 +38,14 @@ def static_paths(rrd: Path) -> set[str]:
     return {c.entity_path.lstrip("/") for c in rc.RrdReader(rrd).store().stream() if c.is_static}
 
 
+def spec_text(rrd: Path) -> str:
+    """The trial panel's markdown."""
+    for chunk in rc.RrdReader(rrd).store().stream():
+        if chunk.is_static and chunk.entity_path.lstrip("/") == bp.SPEC:
+            return chunk.to_record_batch().column("TextDocument:text").to_pylist()[0][0]
+    raise AssertionError("no trial panel")
+
+
 def view_names(rrd: Path) -> set[str]:
     """The names of the views in the recording's default blueprint."""
     reader = rc.RrdReader(rrd)
@@ -73,6 +81,7 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     sim_time = column(entities[bp.EE_FORCE], bp.SIM_TIME)
     assert (sim_time[1] - sim_time[0]).total_seconds() == pytest.approx(0.01)
     assert {bp.SPEC, bp.EE_PATH, bp.ESTIMATE, bp.GARMENT} <= static_paths(rrd)
+    assert f"outcome {read_trial(inferred[0]).metadata.outcome.value}: seed " in spec_text(rrd)
     names = view_names(rrd)
     assert {"Force map: ground truth (top), estimate (bottom)", "RMSE per step (N)"} <= names
 
@@ -205,3 +214,6 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     names = view_names(rrd)
     assert "Force map: estimate (the trial has no ground truth)" in names
     assert "RMSE per step (N)" not in names
+    # a fixed colour scale, not one stretched to a weak estimate; the limb said to be nominal
+    text = spec_text(rrd)
+    assert "the task's nominal limb" in text and "0 to 0.5 N." in text
