@@ -288,3 +288,12 @@ def test_a_time_unit_written_in_the_header_is_read(header: str, unit: str | None
     from dresslog.convert.csv import _unit_in
 
     assert _unit_in(header) == unit
+
+
+def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:
+    """ATI's logger writes the sensor's serial number and calibration above the columns."""
+    path = _with_velocity(tmp_path / "ati.csv", np.arange(500) / 1000.0)
+    preamble = "Serial Number:,FT12345\nCalibration:,FT12345 US-60-25\nCounts per Force:,1000000\n"
+    path.write_text(preamble + path.read_text())
+    report = convert(path, tmp_path / "t.mcap", "gown")
+    assert report.steps == 49 and "time column 'time' read as s" in report.source["notes"][0]

@@ -85,19 +85,31 @@ def role_of(name: str) -> str | None:
 
 
 def _header(path: Path) -> tuple[int, list[str], str | None]:
-    """Line number, column names and delimiter of the header (comment lines skipped)."""
+    """Line number, column names and delimiter of the header (comment lines skipped).
+
+    The header is the last line of text before the first row of mostly numbers, so
+    a preamble some loggers write above it (an ATI sensor's serial number and
+    calibration) is passed over.
+    """
+    header: tuple[int, list[str], str | None] | None = None
     try:
         with path.open(newline="", encoding="utf-8-sig") as stream:
             for number, line in enumerate(stream):
-                if line.strip() and not line.lstrip().startswith("#"):
-                    delimiter = next((d for d in ",;\t" if d in line), None)
-                    names = (
-                        next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
-                    )
-                    return number, [n.strip() for n in names], delimiter
+                if not line.strip() or line.lstrip().startswith("#"):
+                    continue
+                delimiter = next((d for d in ",;\t" if d in line), None)
+                cells = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
+                cells = [c.strip() for c in cells]
+                filled = [c for c in cells if c]
+                numbers = sum(_is_number(c) for c in filled)
+                if header is not None and 2 * numbers > len(filled):  # mostly numbers: data
+                    return header
+                header = number, cells, delimiter
     except (OSError, UnicodeDecodeError) as err:
         raise ConversionError(f"cannot read CSV: {err}", path=path) from None
-    raise ConversionError("CSV file is empty", path=path)
+    if header is None:
+        raise ConversionError("CSV file is empty", path=path)
+    return header
 
 
 def assign_columns(
