@@ -23,7 +23,7 @@ COMMANDS = {
 }
 
 HELP = {
-    "info": "Summarise a trial file: task, duration, channels, spec.",
+    "info": "Summarise a trial file, a model folder or a dataset folder.",
     "record": "Simulate one dressing trial in pybullet and record it to MCAP.",
     "convert": "Convert a ROS bag or force/torque CSV into a dresslog trial.",
     "infer": "Stream a trial through the force-map LSTM; write a Rerun recording.",

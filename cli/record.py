@@ -30,7 +30,17 @@ from dresslog.spec import LimbRotation, Task
 )
 @reports_errors
 def record(
-    task, output, seed, speed, offset, rotation, duration, overwrite, live, model, connect
+    task: str,
+    output: Path,
+    seed: int,
+    speed: float | None,
+    offset: tuple[float, float, float] | None,
+    rotation: tuple[str, float] | None,
+    duration: float | None,
+    overwrite: bool,
+    live: bool,
+    model: Path | None,
+    connect: str | None,
 ) -> None:
     """Simulate one trial (random spec from --seed, or set explicitly) and record it."""
     from dresslog.sim import random_spec, record_trial

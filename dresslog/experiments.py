@@ -11,9 +11,10 @@ Public API
 normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant",
 input_differences=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
 on_epoch=None) -> ModelCard``
-    Trains on the training split (holding out ``val_fraction`` of it for the per-epoch
-    validation loss), scores the test split, and saves a model folder whose card names
-    the data by its manifest hash and keeps the per-epoch losses, with their plot
+    Trains on the training split (holding out a tenth of it, `dresslog.model.train`'s
+    ``val_fraction``, for the per-epoch validation loss), scores the test split, and
+    saves a model folder whose card names the data by its manifest hash and keeps the
+    per-epoch losses, with their plot
     (``training.png``). Resumes from ``.<out>.checkpoint.pt`` beside `out`.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
 -> EvalReport``
@@ -41,6 +42,7 @@ from pydantic import ValidationError
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, first_problem
+from dresslog.io.files import atomic_path
 from dresslog.model.files import (
     CARD_FILE,
     DataProvenance,
@@ -412,6 +414,10 @@ def _write_sweep(out: Path, report: SweepReport) -> None:
             f"{s.name},{s.kind},{s.axis},{value},{s.scores.n},{s.scores.rmse:.6g},"
             f"{s.scores.zero_rmse:.6g},{report.ratio(s):.4g}"
         )
-    (out / "sweep.csv").write_text("\n".join(rows) + "\n")
-    (out / "sweep.json").write_text(json.dumps(_finite(asdict(report)), indent=2) + "\n")
+    for name, text in (
+        ("sweep.csv", "\n".join(rows) + "\n"),
+        ("sweep.json", json.dumps(_finite(asdict(report)), indent=2) + "\n"),
+    ):
+        with atomic_path(out / name) as tmp:
+            tmp.write_text(text)
     plot_sweep(out / "sweep.png", report)

@@ -10,7 +10,8 @@ Public API
     ``n_points``, ``hidden``, ``layers``, ``input_dim``, ``normalisation``
     (``Normalisation(mean, std)`` or None for identity), ``hyperparameters``
     (``Hyperparameters``), ``data`` (``DataProvenance``: manifest sha256, sequence counts),
-    ``metrics`` (name -> float, e.g. "rmse", "zero_rmse", "ratio"), ``history`` (one
+    ``metrics`` (name -> float: "train_loss", "val_loss", "test_rmse", "test_ratio", ...),
+    ``history`` (one
     ``EpochRecord(epoch, train_loss, val_loss, seconds)`` per epoch trained; empty in
     cards written before dresslog kept it), ``weights_sha256``, ``dresslog_version``,
     ``created``.

@@ -49,7 +49,11 @@ class ForceMapLSTM(nn.Module):
         self.reset_parameters()
 
     def reset_parameters(self) -> None:
-        """Glorot-uniform weights, zero biases, forget-gate bias 1 (Keras's LSTM defaults)."""
+        """Glorot-uniform weights (the paper's words), zero biases, forget-gate bias 1.
+
+        Keras's own LSTM default is orthogonal for the recurrent weights; the paper
+        names Glorot's uniform distribution, so every weight gets it here.
+        """
         for name, param in self.named_parameters():
             if "weight" in name:
                 nn.init.xavier_uniform_(param)

@@ -6,7 +6,8 @@ Public API
     Eq. 2: the estimated force is 0 where the contact estimate < 0 or the unprocessed
     force estimate < 0, else the unprocessed estimate. Any shape; float32 out.
 ``contact_targets(forces) -> chi``: Eq. 1, +0.1 where the true force > 0, -0.1 elsewhere.
-``network_targets(forces) -> (T, 2N)``: the training target ``[force map, contact map]``.
+``network_targets(forces, force_scale=1.0) -> (T, 2N)``: the training target
+    ``[force map, contact map]``, forces multiplied by ``force_scale``.
 ``split_output(out (..., 2N)) -> (forces_u (..., N), contact (..., N))``: views, no copy.
 ``sequence_rmse(true (T, N), est (T, N)) -> float``
     RMSE over every step and limb point of one sequence (Sec. V-B).

@@ -31,7 +31,7 @@ progress=True, checkpoint=None, on_epoch=None)
 
 ``make_card(task, weights, history, *, data=None, metrics=None) -> ModelCard``
     The card for freshly trained weights: sizes and normalisation read from the weights,
-    hyperparameters and final losses from the history; ``save_model`` adds the hash.
+    hyperparameters and the kept epoch's losses from the history; ``save_model`` adds the hash.
 
 ``TrainHistory``: ``settings``, ``epochs`` (list of ``EpochRecord(epoch, train_loss,
     val_loss, seconds)``, the card's ``history``), ``n_train``, ``n_val``,

@@ -1,7 +1,7 @@
 """The replay engine: a source of steps, an estimator, sinks (Rerun, MCAP, metrics).
 
-One code path for `dresslog infer`, the live view of a running simulation and
-evaluation. Rerun is imported only when a Rerun sink writes.
+One code path for `dresslog infer`, `view` and the live view of a running
+simulation. Rerun is imported only when a Rerun sink writes.
 """
 
 from dresslog.replay.engine import (

@@ -1,9 +1,11 @@
 """The replay engine: a source of steps, an estimator, sinks; one loop for every caller.
 
-`infer` on a file, the live view of a running simulation and evaluation over a
-test set all push the same `Step`s through the same `Replay`, so what a sink
-sees does not depend on where the data came from. The estimator is run one
-9-D step at a time, as a robot would run it, and Eq. 2 is applied here.
+`infer` on a file, `view` and the live view of a running simulation all push the
+same `Step`s through the same `Replay`, so what a sink sees does not depend on
+where the data came from. The estimator is run one 9-D step at a time, as a robot
+would run it, and Eq. 2 is applied here. (Evaluation over a whole test split runs
+the same numpy network over many sequences at once, `dresslog.model.evaluate`; a
+test holds the two equal.)
 """
 
 from __future__ import annotations

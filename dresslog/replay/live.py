@@ -3,7 +3,8 @@
 `simulate(spec, sink)` pushes `SimStart`/`SimStep` to a sink as it computes
 them; `SimulationSource` is such a sink, turning each step into the engine's
 `Step`, so `dresslog record --live` shows the estimate beside ground truth
-through the same code as `dresslog infer`. Nothing here imports pybullet.
+through the same code as `dresslog infer`. Only `record_live` imports the simulator
+(and pybullet with it), when it is called.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
-"""File-level entry points: `infer_file` (dresslog infer) and `render_rrd` (dresslog view).
+"""The file-level entry point `replay_file` (behind `dresslog infer` and `view`).
 
-Both read a trial, pick a model, and hand the steps to the one replay engine;
-they also time their stages, which `dresslog infer` and the benchmark report.
+It reads a trial, picks a model (given, or the bundled one for the trial's task),
+and hands the steps to the one replay engine; it also times its stages, which
+`dresslog infer --timings` and the benchmark report.
 """
 
 from __future__ import annotations
