@@ -37,7 +37,7 @@ from dresslog.cli.common import reports_errors
     help="The network also reads the signal's change per step (9 more inputs; not in the paper).",
 )
 @click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True)
 @click.option(
     "--overwrite",
     is_flag=True,

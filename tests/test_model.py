@@ -172,6 +172,24 @@ def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: P
         train(phis, forces, checkpoint=ckpt, **{**kwargs, "epochs": 4})
 
 
+def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Path):
+    phis, forces = synthetic(8, seed=2, n_points=4)
+    kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
+
+    def stop(record: EpochRecord) -> None:
+        raise KeyboardInterrupt
+
+    ckpt = tmp_path / "run.ckpt"
+    with pytest.raises(KeyboardInterrupt):
+        train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
+    # the checkpoint's weights carry its input statistics: resuming would silently keep them
+    with pytest.raises(ModelError, match="other settings"):
+        train(phis, forces, checkpoint=ckpt, normalise=True, **kwargs)
+    more, more_forces = synthetic(9, seed=2, n_points=4)  # the dataset grew since
+    with pytest.raises(ModelError, match="other data"):
+        train(more, more_forces, checkpoint=ckpt, **kwargs)
+
+
 def test_keep_best_returns_the_epoch_of_lowest_validation_loss_across_a_resume(tmp_path: Path):
     phis, forces = synthetic(12, seed=5, n_points=4)
     kwargs = {"batch_size": 2, "hidden": 6, "layers": 1, "lr": 0.02, "seed": 3, "threads": 1}

@@ -41,6 +41,7 @@ progress=True, checkpoint=None, on_epoch=None)
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import time
@@ -154,27 +155,50 @@ def _evaluate_loss(
     return total / count
 
 
-def _save_checkpoint(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
+def _run_key(net, history: TrainHistory, normalise: bool, data: str) -> dict:
+    """What a checkpoint must share with the run that resumes it: settings, shape, data."""
+    return {
+        "settings": history.settings.model_dump(),
+        "arch": [net.n_points, net.hidden, net.layers],
+        "normalise": normalise,
+        "data": data,
+    }
+
+
+def _fingerprint(*arrays: Sequence[np.ndarray]) -> str:
+    """A hash of every sequence's values, in order: another dataset gives another one."""
+    digest = hashlib.blake2b(digest_size=16)
+    for group in arrays:
+        for a in group:
+            digest.update(np.ascontiguousarray(a).tobytes())
+    return digest.hexdigest()
+
+
+def _save_checkpoint(path: Path, net, optim, history: TrainHistory, best: dict, key: dict) -> None:
     state = {
         "model": net.state_dict(),
         "best": best,
         "optim": optim.state_dict(),
-        "settings": history.settings.model_dump(),
-        "arch": [net.n_points, net.hidden, net.layers],
+        "key": key,
         "epochs": [e.model_dump() for e in history.epochs],
     }
     with atomic_path(path) as tmp:
         torch.save(state, tmp)
 
 
-def _resume(path: Path, net, optim, history: TrainHistory, best: dict) -> None:
-    """Continue from a checkpoint of the same settings; refuse one from another run."""
+def _resume(path: Path, net, optim, history: TrainHistory, best: dict, key: dict) -> None:
+    """Continue from a checkpoint of the same settings and data; refuse one from another run."""
     try:
         state = torch.load(path, weights_only=True)
     except Exception as err:  # any unreadable file is a user-facing error here
         raise ModelError(f"unreadable checkpoint: {err}", path=path) from None
-    same_arch = state.get("arch") == [net.n_points, net.hidden, net.layers]
-    if state.get("settings") != history.settings.model_dump() or not same_arch:
+    if state.get("key", {}).get("data") not in (None, key["data"]):
+        raise ModelError(
+            "checkpoint is from a run on other data (the dataset changed since): pass "
+            "--overwrite to start afresh",
+            path=path,
+        )
+    if state.get("key") != key:
         raise ModelError(
             "checkpoint is from a run with other settings: repeat that run's options to "
             "resume it, or pass --overwrite to start afresh",
@@ -250,11 +274,13 @@ def train(
         optim = torch.optim.RMSprop(net.parameters(), lr=lr)
         ckpt = Path(checkpoint) if checkpoint is not None else None
         best: dict[str, torch.Tensor] = {}  # the kept epoch's weights, if keep_best
+        data = _fingerprint(phis, targets, val_phis, val_targets)
+        key = _run_key(net, history, normalise, data)
         if ckpt is not None and ckpt.exists():
-            _resume(ckpt, net, optim, history, best)
+            _resume(ckpt, net, optim, history, best, key)
         _fit(
             net, optim, phis, targets, val_phis, val_targets, history, progress, ckpt, on_epoch,
-            best,
+            best, key,
         )  # fmt: skip
         if best:
             net.load_state_dict(best)
@@ -300,6 +326,7 @@ def _fit(
     ckpt: Path | None,
     on_epoch: Callable[[EpochRecord], None] | None,
     best: dict[str, torch.Tensor],
+    key: dict,
 ) -> None:
     from tqdm import tqdm
 
@@ -341,7 +368,7 @@ def _fit(
         if s.keep_best and history.kept is record:
             best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
         if ckpt is not None:
-            _save_checkpoint(ckpt, net, optim, history, best)
+            _save_checkpoint(ckpt, net, optim, history, best, key)
         bar.set_postfix(loss=f"{record.train_loss:.3g}", val=f"{val_loss or float('nan'):.3g}")
         bar.update()
         if on_epoch is not None:
