@@ -36,7 +36,7 @@ class _Result:
 
 def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
     """A recorder without pybullet (for failure paths): fails on one seed, or on every one."""
-    if spec.seed == FAILING_SEED or spec.speed == 9.0:
+    if spec.seed == FAILING_SEED or spec.speed == 0.99:
         raise SimulationError(f"garment exploded (seed {spec.seed})")
     write_synthetic_trial(Path(path), spec.task, steps=20)
     return _Result()
@@ -129,7 +129,7 @@ def test_failed_trials_are_listed_with_reasons_and_replaced_by_fresh_seeds(tmp_p
 def test_a_slot_failing_every_seed_stops_generation_with_one_line(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match=r"1 slot\(s\) failed 2 seeds.*garment exploded"):
         generate(
-            "gown", 1, tmp_path, workers=1, overrides={"speed": 9.0}, max_attempts=2, recorder=FAKE
+            "gown", 1, tmp_path, workers=1, overrides={"speed": 0.99}, max_attempts=2, recorder=FAKE
         )
     assert len(load_manifest(tmp_path).failures) == 2
 
@@ -175,6 +175,17 @@ def test_a_planted_or_damaged_cache_is_rebuilt_never_unpickled(copy: Path) -> No
     assert arrays.phi.shape == (4, 50, 9)
     path.write_bytes(path.read_bytes()[:1000])  # truncated
     assert load_dataset(copy, workers=1, progress=False).forces.shape == (4, 50, 300)
+
+
+@pytest.mark.slow
+def test_a_trial_rewritten_in_place_after_caching_is_caught(copy: Path) -> None:
+    load_dataset(copy, workers=1, progress=False)  # now cached
+    trial = copy / "train/000002.mcap"
+    data = bytearray(trial.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # same size: only its checksum can tell
+    trial.write_bytes(bytes(data))
+    with pytest.raises(DatasetError, match=r"train/000002\.mcap does not match its checksum"):
+        load_dataset(copy, workers=1, progress=False)
 
 
 def test_a_folder_without_a_manifest_is_one_clear_error(tmp_path: Path) -> None:

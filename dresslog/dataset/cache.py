@@ -5,7 +5,9 @@ float32, zero-padded to the longest trial, with lengths, outcomes, splits and fi
 The first call decodes the MCAP files (in parallel, each checked against its sha256)
 and writes ``root/.cache/arrays-<manifest hash>.npz``; later calls only read that
 file, so no epoch ever waits on MCAP decoding. The cache is keyed by the manifest's
-content hash (a regenerated trial makes a new cache) and is read with
+content hash (a regenerated trial makes a new cache) and holds each trial file's
+modification time, so a trial rewritten in place is decoded and checked against its
+sha256 again (a copied folder, its times new, is decoded once more). It is read with
 ``allow_pickle=False``: a planted cache file cannot run code.
 """
 
@@ -27,8 +29,8 @@ from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
 
 CACHE_DIR = ".cache"
-CACHE_VERSION = 1
-_FIELDS = ("phi", "forces", "lengths", "outcomes", "split", "files", "info")
+CACHE_VERSION = 2
+_FIELDS = ("phi", "forces", "lengths", "outcomes", "split", "files", "mtimes", "info")
 
 
 @dataclass(frozen=True)
@@ -102,6 +104,7 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
     from tqdm import tqdm
 
     entries = manifest.trials
+    mtimes = _mtimes(root, manifest)  # before decoding: a file changed meanwhile is stale
     jobs = [(str(root / str(e.file)), str(e.file), str(e.sha256)) for e in entries]
     bar = tqdm(total=len(jobs), unit="trial", desc="decoding", disable=not progress)
     if workers > 1 and len(jobs) > 1:
@@ -136,6 +139,7 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
         "outcomes": np.array([e.outcome.value for e in entries]),
         "split": np.array([e.split.value for e in entries]),
         "files": np.array([str(e.file) for e in entries]),
+        "mtimes": mtimes,
         "info": info,
     }
 
@@ -164,7 +168,14 @@ def _read(path: Path, manifest: Manifest) -> dict[str, np.ndarray] | None:
         manifest.content_hash(),
     ]:
         return None
+    if not np.array_equal(arrays["mtimes"], _mtimes(path.parents[1], manifest)):
+        return None  # a trial was rewritten in place since: decode (and check) it again
     return arrays
+
+
+def _mtimes(root: Path, manifest: Manifest) -> np.ndarray:
+    """Each trial file's modification time (ns), in manifest order."""
+    return np.array([(root / str(e.file)).stat().st_mtime_ns for e in manifest.trials], np.int64)
 
 
 def load_dataset(
@@ -194,5 +205,5 @@ def load_dataset(
     return DatasetArrays(
         task=manifest.task,
         manifest_sha256=manifest.content_hash(),
-        **{k: arrays[k] for k in _FIELDS if k != "info"},
+        **{k: arrays[k] for k in _FIELDS if k not in ("info", "mtimes")},
     )
