@@ -54,5 +54,8 @@ class DatasetError(DresslogError):
 def first_problem(err: ValidationError, whole: str = "value") -> str:
     """The first problem pydantic found, as `field.path: message`, for a one-line error."""
     first = err.errors()[0]
+    message = first["msg"].removeprefix("Value error, ")  # our own validators' words
+    if not first["loc"] and first["type"] == "value_error":
+        return message
     where = ".".join(str(part) for part in first["loc"]) or whole
-    return f"{where}: {first['msg']}"
+    return f"{where}: {message}"

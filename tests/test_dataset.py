@@ -188,6 +188,26 @@ def test_a_trial_rewritten_in_place_after_caching_is_caught(copy: Path) -> None:
         load_dataset(copy, workers=1, progress=False)
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        ({"split": "test"}, "trial train/000001.mcap is listed as test/000001"),
+        ({"slot": 0, "file": "train/000000.mcap"}, "train/000000 is listed twice"),
+        ({"slot": 7, "file": "train/000007.mcap"}, "train/000007 is beyond the 3 asked for"),
+    ],
+)
+def test_a_hand_edited_manifest_that_moves_a_trial_is_refused(
+    copy: Path, edit: dict, message: str
+) -> None:
+    raw = json.loads((copy / "manifest.json").read_text())
+    entry = next(e for e in raw["trials"] if e["file"] == "train/000001.mcap")
+    entry.update(edit)
+    (copy / "manifest.json").write_text(json.dumps(raw))
+    with pytest.raises(DatasetError, match=message):
+        load_dataset(copy, workers=1, progress=False)
+
+
 def test_a_folder_without_a_manifest_is_one_clear_error(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match=r"no manifest\.json; not a dataset folder"):
         load_dataset(tmp_path)

@@ -30,6 +30,7 @@ from dresslog.dataset.manifest import (
     Split,
     Status,
     load_manifest,
+    slot_file,
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogError, SimulationError
@@ -64,7 +65,7 @@ class Job:
 
     @property
     def file(self) -> str:
-        return f"{self.split.value}/{self.slot:06d}.mcap"
+        return slot_file(self.split, self.slot)
 
 
 def run_job(job: Job) -> Entry:

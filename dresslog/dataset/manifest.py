@@ -21,7 +21,7 @@ from enum import IntEnum, StrEnum
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from dresslog import __version__
 from dresslog.errors import DatasetError, first_problem
@@ -60,6 +60,11 @@ def trial_seed(base_seed: int, split: Split | str, slot: int, attempt: int = 0) 
         raise ValueError("seeds, slots and attempts are non-negative")
     pair = (slot + attempt) * (slot + attempt + 1) // 2 + attempt
     return (base_seed << 48) | (pair << 2) | _Role[Split(split).name].value
+
+
+def slot_file(split: Split | str, slot: int) -> str:
+    """Where a slot's trial lives, relative to the dataset folder."""
+    return f"{Split(split).value}/{slot:06d}.mcap"
 
 
 class Status(StrEnum):
@@ -105,6 +110,27 @@ class Manifest(BaseModel):
     failures: list[Entry] = Field(default_factory=list)
     dresslog_version: str = __version__
     updated: str = ""
+
+    @model_validator(mode="after")
+    def _trials_where_their_split_puts_them(self) -> Manifest:
+        """Each trial once, in its split's folder under its slot's name, within the request.
+
+        A hand-edited split or a duplicated slot would quietly move a training trial
+        into the test set; the file names are what the splits are made of.
+        """
+        seen: set[tuple[str, int]] = set()
+        for entry in self.trials:
+            where = f"{entry.split.value}/{entry.slot:06d}"
+            if entry.status != Status.OK:
+                raise ValueError(f"{where} is listed as a trial but its status is {entry.status}")
+            if entry.file != slot_file(entry.split, entry.slot):
+                raise ValueError(f"trial {entry.file} is listed as {where}")
+            if (entry.split.value, entry.slot) in seen:
+                raise ValueError(f"{where} is listed twice")
+            if entry.slot >= self.wanted(entry.split):
+                raise ValueError(f"{where} is beyond the {self.wanted(entry.split)} asked for")
+            seen.add((entry.split.value, entry.slot))
+        return self
 
     # -- queries ---------------------------------------------------------------
     def split(self, split: Split | str) -> list[Entry]:
