@@ -157,9 +157,15 @@ class Manifest(BaseModel):
         for entry in self.trials:
             outcomes[entry.outcome.value] = outcomes.get(entry.outcome.value, 0) + 1
         seen = ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items())) or "none"
-        return (
-            f"{self.task} trials {counts}; outcomes {seen}; "
-            f"{len(self.failures)} failed seed(s) replaced; "
+        filled = {(e.split, e.slot) for e in self.trials}
+        open_slots = sum((f.split, f.slot) not in filled for f in self.failures)
+        failed = f"{len(self.failures)} failed seed(s) replaced"
+        if open_slots:
+            failed = (
+                f"{len(self.failures)} failed seed(s), {open_slots} of them on slots still "
+                "empty (run generate again)"
+            )
+        return f"{self.task} trials {counts}; outcomes {seen}; {failed}; " + (
             f"content sha256 {self.content_hash()[:12]}"
         )
 
