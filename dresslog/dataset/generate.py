@@ -102,12 +102,16 @@ def run_job(job: Job) -> Entry:
 
 
 class Executor(Protocol):
-    """Runs jobs somewhere; `done()` blocks until at least one finished job is back."""
+    """Runs jobs somewhere; `done()` blocks until at least one finished job is back.
+
+    `shutdown()` stops the work and returns the jobs that finished meanwhile (after an
+    interrupt, workers may complete what they had started), so none goes unrecorded.
+    """
 
     def submit(self, job: Job) -> None: ...
     def done(self) -> list[Entry]: ...
     def pending(self) -> int: ...
-    def shutdown(self) -> None: ...
+    def shutdown(self) -> list[Entry]: ...
 
 
 class ProcessExecutor:
@@ -129,8 +133,11 @@ class ProcessExecutor:
     def pending(self) -> int:
         return len(self._futures)
 
-    def shutdown(self) -> None:
+    def shutdown(self) -> list[Entry]:
         self._pool.shutdown(wait=True, cancel_futures=True)
+        finished = [f for f in self._futures if f.done() and not f.cancelled()]
+        self._futures = set()
+        return [f.result() for f in finished if f.exception() is None]
 
 
 def make_executor(name: ExecutorName | str, workers: int) -> Executor:
@@ -381,8 +388,11 @@ def _run(
                 saved = time.monotonic()
     finally:
         bar.close()
-        manifest.save(root)
-        executor.shutdown()
+        try:  # trials finished while stopping (after an interrupt) are kept, not redone
+            for entry in executor.shutdown():
+                (manifest.trials if entry.status == Status.OK else manifest.failures).append(entry)
+        finally:
+            manifest.save(root)
     if given_up:
         last = given_up[-1]
         raise DatasetError(

@@ -8,6 +8,7 @@ job is one task of one CPU; the dataset folder must be on storage every node see
 
 from __future__ import annotations
 
+import contextlib
 import os
 from typing import Any
 
@@ -54,9 +55,18 @@ class RayExecutor:
     def pending(self) -> int:
         return len(self._refs)
 
-    def shutdown(self) -> None:
-        for ref in self._refs:
-            self._ray.cancel(ref, force=True)
+    def shutdown(self) -> list[Entry]:
+        """Collect the tasks already finished, cancel the rest."""
+        ready: list[Any] = []
+        if self._refs:
+            ready, rest = self._ray.wait(self._refs, num_returns=len(self._refs), timeout=0)
+            for ref in rest:
+                self._ray.cancel(ref, force=True)
+        finished = []
+        for ref in ready:
+            with contextlib.suppress(Exception):  # a task that raised left no trial
+                finished.append(self._ray.get(ref))
         self._refs = []
         if self._started:
             self._ray.shutdown()
+        return finished
