@@ -3,7 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +25,7 @@ from dresslog.dataset import (
     trial_seed,
 )
 from dresslog.dataset import cache as cache_module
+from dresslog.dataset.manifest import check_files
 from dresslog.errors import DatasetError, SimulationError
 from dresslog.io.reader import TrialReader
 from dresslog.spec import TrialSpec
@@ -40,6 +46,12 @@ def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Res
         raise SimulationError(f"garment exploded (seed {spec.seed})")
     write_synthetic_trial(Path(path), spec.task, steps=20)
     return _Result()
+
+
+def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
+    """The fake recorder at a pace a Ctrl-C can land in the middle of."""
+    time.sleep(0.4)
+    return fake_record(spec, path, overwrite=overwrite)
 
 
 @pytest.fixture(scope="module")
@@ -206,6 +218,29 @@ def test_a_hand_edited_manifest_that_moves_a_trial_is_refused(
     (copy / "manifest.json").write_text(json.dumps(raw))
     with pytest.raises(DatasetError, match=message):
         load_dataset(copy, workers=1, progress=False)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT are POSIX")
+def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path) -> None:
+    """A terminal's Ctrl-C reaches the whole process group: main process and workers."""
+    script = (
+        "from dresslog.dataset import generate\n"
+        "if __name__ == '__main__':\n"
+        f"    generate('gown', 12, {str(tmp_path)!r}, workers=2, progress=False,\n"
+        "             recorder='tests.test_dataset:slow_record')\n"
+    )
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.Popen([sys.executable, "-c", script], cwd=root, start_new_session=True)
+    deadline = time.monotonic() + 60
+    while len(list(tmp_path.glob("*/*.mcap"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.killpg(run.pid, signal.SIGINT)
+    assert run.wait(timeout=60) != 0
+    manifest = load_manifest(tmp_path)
+    on_disk = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.glob("*/*.mcap"))
+    assert sorted(str(e.file) for e in manifest.trials) == on_disk
+    assert 2 <= len(on_disk) < 12 and not list(tmp_path.glob("*/.*.partial"))
+    check_files(tmp_path, manifest, checksums=True)
 
 
 def test_a_folder_without_a_manifest_is_one_clear_error(tmp_path: Path) -> None:
