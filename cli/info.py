@@ -16,15 +16,18 @@ from dresslog.errors import DresslogError
 @reports_errors
 def info(path: str, as_json: bool) -> None:
     """Summarise a trial file, a model folder (its card) or a dataset folder (its manifest)."""
-    from dresslog.dataset.manifest import MANIFEST_FILE
+    from dresslog.dataset.manifest import MANIFEST_FILE, damaged_files, load_manifest
 
     if (Path(path) / MANIFEST_FILE).is_file():
-        from dresslog.dataset import load_manifest
-
         manifest = load_manifest(path)
-        click.echo(
-            manifest.model_dump_json(indent=1) if as_json else f"{path}: {manifest.describe()}"
-        )
+        if as_json:
+            click.echo(manifest.model_dump_json(indent=1))
+            return
+        click.echo(f"{path}: {manifest.describe()}")
+        if damaged := damaged_files(path, manifest):
+            names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
+            more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""
+            click.echo(f"  damaged: {names}{more}; run `dresslog generate` on it again")
     elif Path(path).is_dir():
         from dresslog.model.files import CARD_FILE, load_model
         from dresslog.model.summary import format_card

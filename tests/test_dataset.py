@@ -263,6 +263,8 @@ def test_missing_or_corrupt_trials_are_named(copy: Path) -> None:
     with pytest.raises(DatasetError, match=r"train/000002\.mcap does not match its checksum"):
         load_dataset(copy, workers=1, progress=False)
     trial.unlink()
+    shown = CliRunner().invoke(main, ["info", str(copy)])
+    assert shown.exit_code == 0 and "damaged: train/000002.mcap (missing)" in shown.output
     with pytest.raises(DatasetError, match=r"train/000002\.mcap listed in the manifest is missing"):
         load_dataset(copy, workers=1, progress=False)
 

@@ -224,20 +224,33 @@ def load_manifest(root: str | Path) -> Manifest:
         raise DatasetError(f"{MANIFEST_FILE}: {problem}", path=root) from None
 
 
-def check_files(root: str | Path, manifest: Manifest, *, checksums: bool = False) -> None:
-    """Every listed trial exists with its recorded size (and, if asked, its sha256)."""
+def damaged_files(
+    root: str | Path, manifest: Manifest, *, checksums: bool = False
+) -> list[tuple[str, str]]:
+    """(file, "missing" or "changed") for each listed trial not as the manifest records it.
+
+    Without `checksums` a trial is only checked to exist with its recorded size.
+    """
     root = Path(root)
+    damaged = []
     for entry in manifest.trials:
         path = root / str(entry.file)
         if not path.is_file():
-            raise DatasetError(
-                f"trial {entry.file} listed in the manifest is missing; "
-                "run `dresslog generate` on the folder again to re-create it",
-                path=root,
-            )
-        if path.stat().st_size != entry.size or (checksums and sha256_file(path) != entry.sha256):
-            raise DatasetError(
-                f"trial {entry.file} does not match its checksum in the manifest (corrupt or "
-                "modified); run `dresslog generate` on the folder again to re-create it",
-                path=root,
-            )
+            damaged.append((str(entry.file), "missing"))
+        elif path.stat().st_size != entry.size or (checksums and sha256_file(path) != entry.sha256):
+            damaged.append((str(entry.file), "changed"))
+    return damaged
+
+
+def check_files(root: str | Path, manifest: Manifest, *, checksums: bool = False) -> None:
+    """Every listed trial exists with its recorded size (and, if asked, its sha256)."""
+    for file, how in damaged_files(root, manifest, checksums=checksums)[:1]:
+        problem = (
+            "listed in the manifest is missing"
+            if how == "missing"
+            else "does not match its checksum in the manifest (corrupt or modified)"
+        )
+        raise DatasetError(
+            f"trial {file} {problem}; run `dresslog generate` on the folder again to re-create it",
+            path=root,
+        )
