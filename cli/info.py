@@ -24,7 +24,7 @@ def info(path: str, as_json: bool) -> None:
             click.echo(manifest.model_dump_json(indent=1))
             return
         click.echo(f"{path}: {manifest.describe()}")
-        if damaged := damaged_files(path, manifest):
+        if damaged := list(damaged_files(path, manifest)):
             names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
             more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""
             click.echo(f"  damaged: {names}{more}; run `dresslog generate` on it again")

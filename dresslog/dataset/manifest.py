@@ -16,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from collections.abc import Iterator
 from datetime import UTC, datetime
 from enum import IntEnum, StrEnum
 from pathlib import Path
@@ -120,10 +121,11 @@ class Manifest(BaseModel):
         """
         seen: set[tuple[str, int]] = set()
         for entry in self.trials:
-            where = f"{entry.split.value}/{entry.slot:06d}"
+            expected = slot_file(entry.split, entry.slot)
+            where = expected.removesuffix(".mcap")
             if entry.status != Status.OK:
                 raise ValueError(f"{where} is listed as a trial but its status is {entry.status}")
-            if entry.file != slot_file(entry.split, entry.slot):
+            if entry.file != expected:
                 raise ValueError(f"trial {entry.file} is listed as {where}")
             if (entry.split.value, entry.slot) in seen:
                 raise ValueError(f"{where} is listed twice")
@@ -165,9 +167,8 @@ class Manifest(BaseModel):
                 f"{len(self.failures)} failed seed(s), {open_slots} of them on slots still "
                 "empty (run generate again)"
             )
-        return f"{self.task} trials {counts}; outcomes {seen}; {failed}; " + (
-            f"content sha256 {self.content_hash()[:12]}"
-        )
+        hashed = self.content_hash()[:12]
+        return f"{self.task} trials {counts}; outcomes {seen}; {failed}; content sha256 {hashed}"
 
     def content_hash(self) -> str:
         """sha256 of what the data is (task, and per trial its split, slot, file and hash).
@@ -226,31 +227,33 @@ def load_manifest(root: str | Path) -> Manifest:
 
 def damaged_files(
     root: str | Path, manifest: Manifest, *, checksums: bool = False
-) -> list[tuple[str, str]]:
+) -> Iterator[tuple[str, str]]:
     """(file, "missing" or "changed") for each listed trial not as the manifest records it.
 
-    Without `checksums` a trial is only checked to exist with its recorded size.
+    Without `checksums` a trial is only checked to exist with its recorded size. Lazy,
+    so a caller that stops at the first hashes no further.
     """
     root = Path(root)
-    damaged = []
     for entry in manifest.trials:
         path = root / str(entry.file)
         if not path.is_file():
-            damaged.append((str(entry.file), "missing"))
+            yield str(entry.file), "missing"
         elif path.stat().st_size != entry.size or (checksums and sha256_file(path) != entry.sha256):
-            damaged.append((str(entry.file), "changed"))
-    return damaged
+            yield str(entry.file), "changed"
 
 
 def check_files(root: str | Path, manifest: Manifest, *, checksums: bool = False) -> None:
     """Every listed trial exists with its recorded size (and, if asked, its sha256)."""
-    for file, how in damaged_files(root, manifest, checksums=checksums)[:1]:
-        problem = (
-            "listed in the manifest is missing"
-            if how == "missing"
-            else "does not match its checksum in the manifest (corrupt or modified)"
-        )
-        raise DatasetError(
-            f"trial {file} {problem}; run `dresslog generate` on the folder again to re-create it",
-            path=root,
-        )
+    first = next(damaged_files(root, manifest, checksums=checksums), None)
+    if first is None:
+        return
+    file, how = first
+    problem = (
+        "listed in the manifest is missing"
+        if how == "missing"
+        else "does not match its checksum in the manifest (corrupt or modified)"
+    )
+    raise DatasetError(
+        f"trial {file} {problem}; run `dresslog generate` on the folder again to re-create it",
+        path=root,
+    )
