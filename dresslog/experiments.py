@@ -14,8 +14,8 @@ on_epoch=None) -> ModelCard``
     Trains on the training split (holding out a tenth of it, `dresslog.model.train`'s
     ``val_fraction``, for the per-epoch validation loss), scores the test split, and
     saves a model folder whose card names the data by its manifest hash and keeps the
-    per-epoch losses, with their plot
-    (``training.png``). Resumes from ``.<out>.checkpoint.pt`` beside `out`.
+    per-epoch losses, with their plot (``training.png``). Resumes from
+    ``.<out>.checkpoint.pt`` beside `out`.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
 -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome,

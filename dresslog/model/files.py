@@ -11,10 +11,9 @@ Public API
     (``Normalisation(mean, std)`` or None for identity), ``hyperparameters``
     (``Hyperparameters``), ``data`` (``DataProvenance``: manifest sha256, sequence counts),
     ``metrics`` (name -> float: "train_loss", "val_loss", "test_rmse", "test_ratio", ...),
-    ``history`` (one
-    ``EpochRecord(epoch, train_loss, val_loss, seconds)`` per epoch trained; empty in
-    cards written before dresslog kept it), ``weights_sha256``, ``dresslog_version``,
-    ``created``.
+    ``history`` (one ``EpochRecord(epoch, train_loss, val_loss, seconds)`` per epoch
+    trained; empty in cards written before dresslog kept it), ``weights_sha256``,
+    ``dresslog_version``, ``created``.
 ``save_model(path, weights, card, *, overwrite=False) -> ModelCard``
     Writes both files into a temporary sibling folder, then renames it into place, so an
     interrupted save never leaves a half model. Fills ``weights_sha256``; returns that card.

@@ -46,7 +46,7 @@ def check_rrd(path: Path) -> None:
     if not path.is_file():
         raise DresslogError("no such file", path=path)
     with path.open("rb") as stream:
-        if not stream.read(len(RRD_MAGIC)) == RRD_MAGIC:
+        if stream.read(len(RRD_MAGIC)) != RRD_MAGIC:
             raise DresslogError("not a Rerun recording (.rrd)", path=path)
 
 
