@@ -118,12 +118,6 @@ def replay_file(
         check_output(out, source=Path(trial_path))
     if len(outputs) == 2 and outputs[0].resolve() == outputs[1].resolve():
         raise TrialWriteError("given as both the Rerun and the MCAP output", path=outputs[0])
-    if rrd is not None and Path(rrd).suffix == ".mcap":
-        raise TrialWriteError(
-            "is where the Rerun recording would go; name it .rrd (an MCAP copy of the trial "
-            "with the estimate is --mcap-out)",
-            path=Path(rrd),
-        )
     if rrd is not None:  # start-up cost, reported apart from the work itself
         t0 = clock()
         import rerun  # noqa: F401
