@@ -17,6 +17,7 @@ from dresslog.io import well_known as wk
 from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader
 from dresslog.spec import Task, TrialMetadata
+from tests.conftest import SAMPLES
 
 
 def _raw_mcap(path: Path, channels: dict[str, tuple[str, list[bytes]]], metadata: bool) -> None:
@@ -172,7 +173,6 @@ def _unwritable_folder() -> Path | None:
 
 
 UNWRITABLE = _unwritable_folder()
-SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 
 
 @pytest.mark.skipif(UNWRITABLE is None, reason="needs a folder where no file can be made")
