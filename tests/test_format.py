@@ -190,12 +190,20 @@ def test_mcap_ros2_decodes_identical_values(make_trial) -> None:
 
 def test_rosbags_anyreader_decodes_identical_values(make_trial) -> None:
     from rosbags.highlevel import AnyReader
+    from rosbags.interfaces import QosDurability, QosReliability
 
     path, sent = make_trial(Task.SHORTS)
     with AnyReader([path]) as reader:
         assert {c.topic: c.msgtype for c in reader.connections} == {
             t: wk.SCHEMAS[t] for t in reader.topics
         }
+        # rosbag2's QoS, which the ros2 profile requires: reliable; the limb points latched.
+        qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+        assert all(
+            len(q) == 1 and q[0].reliability == QosReliability.RELIABLE for q in qos.values()
+        )
+        assert qos[wk.LIMB_POINTS][0].durability == QosDurability.TRANSIENT_LOCAL
+        assert qos[wk.TWIST][0].durability == QosDurability.VOLATILE
         twist, points = [], None
         for conn, t_ns, raw in reader.messages():
             msg = reader.deserialize(raw, conn.msgtype)

@@ -41,5 +41,30 @@ FRAMES: dict[str, str] = {
     GARMENT: "world",
 }
 
+#: rosbag2's `offered_qos_profiles` for a stream: reliable, volatile, keep the last 10. The
+#: MCAP ros2 profile requires it on every channel; `ros2 bag play` publishes with it. Policies
+#: are rmw's enum integers (every ROS 2 release reads them); durations 0 mean "the default".
+_QOS = """\
+- history: 1
+  depth: {depth}
+  reliability: 1
+  durability: {durability}
+  deadline:
+    sec: 0
+    nsec: 0
+  lifespan:
+    sec: 0
+    nsec: 0
+  liveliness: 1
+  liveliness_lease_duration:
+    sec: 0
+    nsec: 0
+  avoid_ros_namespace_conventions: false
+"""
+STREAM_QOS = _QOS.format(depth=10, durability=2)
+#: Written once: latched (transient local, keep the last 1), so a late subscriber still gets it.
+LATCHED_QOS = _QOS.format(depth=1, durability=1)
+QOS: dict[str, str] = dict.fromkeys(SCHEMAS, STREAM_QOS) | {LIMB_POINTS: LATCHED_QOS}
+
 #: Channels without which a file is not a trial the model can run on.
 REQUIRED = (WRENCH, TWIST)

@@ -124,7 +124,10 @@ class TrialWriter:
                     name, wk.SCHEMA_ENCODING, schema_text(name).encode()
                 )
             self._channels[topic] = self._writer.register_channel(
-                topic, wk.MESSAGE_ENCODING, self._schemas[name]
+                topic,
+                wk.MESSAGE_ENCODING,
+                self._schemas[name],
+                metadata={"offered_qos_profiles": wk.QOS[topic]},
             )
             self._sequence[topic] = 0
         return self._channels[topic]
