@@ -149,17 +149,6 @@ def build_limb(
 # Signed distance, used to drop points hidden inside neighbouring primitives.
 
 
-def _frustum_sdf(p: np.ndarray, a: np.ndarray, ra: float, b: np.ndarray, rb: float) -> np.ndarray:
-    """Approximate signed distance to a round cone (linear radius along the axis)."""
-    ab = b - a
-    length = float(np.linalg.norm(ab))
-    u = ab / length
-    t = np.clip((p - a) @ u / length, 0.0, 1.0)
-    closest = a + t[:, None] * ab
-    r = ra + t * (rb - ra)
-    return np.linalg.norm(p - closest, axis=1) - r
-
-
 def sum_xyz(v: np.ndarray) -> np.ndarray:
     """`v.sum(axis=-1)` of (..., 3) bit for bit, (x + y) + z, minus numpy's slow short reduce.
 
@@ -173,9 +162,9 @@ class LimbGeometry:
     """A limb's parts as arrays: rows are the spheres, then the frustums, in limb order.
 
     A sphere is a frustum that stays at t = 0: its start is its centre, its radius
-    constant. `part_distances` applies `_frustum_sdf`'s operations to all parts at
-    once (the stacked matmul makes the same BLAS call per frustum), so each value
-    is bit-identical to evaluating the parts one by one.
+    constant. `part_distances` gives the approximate signed distance (linear radius
+    along the axis) to all parts at once (the stacked matmul makes the same BLAS call
+    per frustum), so each value is bit-identical to evaluating the parts one by one.
     """
 
     start: np.ndarray  # (K, 3) sphere centre or frustum start a
@@ -265,14 +254,9 @@ def surface_points(
 
 
 def _part_sdf(limb: Limb, p: np.ndarray, skip: set[str]) -> np.ndarray:
-    d = np.full(len(p), np.inf)
-    for s in limb.spheres.values():
-        if s.name not in skip:
-            d = np.minimum(d, np.linalg.norm(p - s.center, axis=1) - s.radius)
-    for f in limb.frustums:
-        if f.name not in skip:
-            d = np.minimum(d, _frustum_sdf(p, *limb.frustum_ends(f)))
-    return d
+    rows = [*limb.spheres, *(f.name for f in limb.frustums)]
+    keep = [name not in skip for name in rows]
+    return limb.geometry.part_distances(p)[keep].min(axis=0)
 
 
 # ---------------------------------------------------------------------------

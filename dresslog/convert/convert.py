@@ -48,10 +48,6 @@ class ConversionReport(BaseModel):
     source: dict[str, object]
     warnings: list[str]
 
-    @property
-    def messages_per_s(self) -> float:
-        return self.messages_in / self.elapsed_s if self.elapsed_s > 0 else 0.0
-
 
 def load(
     path: Path,

@@ -270,8 +270,3 @@ def from_payloads(payloads: Sequence[bytes], dtype: np.dtype) -> np.ndarray:
     if all(len(p) == size for p in payloads):
         return np.frombuffer(b"".join(payloads), dtype=dtype)
     return np.frombuffer(b"".join(p.ljust(size, b"\0") for p in payloads), dtype=dtype)
-
-
-def string_length(payload: bytes, offset: int) -> int:
-    """Byte length (without NUL) of the CDR string whose length field is at `offset`."""
-    return int.from_bytes(payload[offset : offset + 4], "little") - 1

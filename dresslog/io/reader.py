@@ -67,7 +67,6 @@ class TrialReader:
         self.path = Path(path)
         self._raw: dict[str, _Raw] | None = None
         self._metadata: TrialMetadata | None = None
-        self.profile = ""
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:

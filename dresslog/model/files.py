@@ -44,7 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
-from dresslog.io.files import check_writable, sha256_file
+from dresslog.io.files import check_writable, sha256_file, temporary_path
 from dresslog.model.inputs import PHI_DIM
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
@@ -208,7 +208,7 @@ def save_model(
     check_model_folder(path, overwrite)
     arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in weights.items()}
     _check_shapes(path, arrays, card)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    tmp = temporary_path(path)
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
     try:

@@ -27,7 +27,9 @@ import numpy as np
 import torch
 from torch import nn
 
-INPUT_DIM = 9
+from dresslog.model.inputs import PHI_DIM
+from dresslog.model.numpy_lstm import infer_sizes
+
 LSTMState = tuple[torch.Tensor, torch.Tensor]
 
 
@@ -35,7 +37,7 @@ class ForceMapLSTM(nn.Module):
     """phi_{1:T} (9-D per step) -> [unprocessed force map, contact map] per step."""
 
     def __init__(
-        self, n_points: int, hidden: int = 50, layers: int = 3, input_dim: int = INPUT_DIM
+        self, n_points: int, hidden: int = 50, layers: int = 3, input_dim: int = PHI_DIM
     ) -> None:
         super().__init__()
         self.n_points = n_points
@@ -85,9 +87,7 @@ class ForceMapLSTM(nn.Module):
     @classmethod
     def from_weights(cls, weights: Mapping[str, np.ndarray]) -> ForceMapLSTM:
         """Rebuild a network from `weights()` output; sizes are read from the shapes."""
-        hidden, input_dim = weights["lstm.weight_ih_l0"].shape
-        layers = sum(1 for k in weights if k.startswith("lstm.weight_ih_l"))
-        n_points = weights["head.weight"].shape[0] // 2
-        net = cls(n_points, hidden=hidden // 4, layers=layers, input_dim=input_dim)
+        n_points, hidden, layers, input_dim = infer_sizes(weights)
+        net = cls(n_points, hidden=hidden, layers=layers, input_dim=input_dim)
         net.load_state_dict({k: torch.from_numpy(np.array(v)) for k, v in weights.items()})
         return net

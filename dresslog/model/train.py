@@ -81,10 +81,6 @@ class TrainHistory:
     epochs: list[EpochRecord] = field(default_factory=list)
 
     @property
-    def final_train_loss(self) -> float:
-        return self.epochs[-1].train_loss if self.epochs else float("nan")
-
-    @property
     def final_val_loss(self) -> float | None:
         return self.epochs[-1].val_loss if self.epochs else None
 

@@ -17,7 +17,6 @@ STEP = "step"
 SIM_TIME = "sim_time"
 
 WORLD = "world"
-TRUTH = "world/truth"
 ESTIMATE = "world/estimate"
 TRUTH_LIMB = "world/truth/limb"
 ESTIMATE_LIMB = "world/estimate/limb"

@@ -39,12 +39,11 @@ class Estimator(Protocol):
 
 @dataclass(frozen=True)
 class TrialContext:
-    """What sinks need before the first step; `n_steps` is None for a live source."""
+    """What sinks need before the first step."""
 
     metadata: TrialMetadata
     limb_points: LimbPoints | None
     garment_triangles: np.ndarray | None = None
-    n_steps: int | None = None
     source_path: Path | None = None
     trial: Trial | None = None
     has_estimate: bool = True
@@ -189,7 +188,6 @@ def trial_context(trial: Trial, path: str | Path | None = None) -> TrialContext:
         metadata=trial.metadata,
         limb_points=limb,
         garment_triangles=None if trial.garment is None else trial.garment.triangles,
-        n_steps=len(trial.measurements),
         source_path=None if path is None else Path(path),
         trial=trial,
         has_truth=trial.force_map is not None,

@@ -89,16 +89,11 @@ class SimulationSource:
             self.abort()
 
 
-def live_viewer(
-    *,
-    spawn: bool = True,
-    connect: str | None = None,
-    application_id: str = "dresslog",
-) -> rr.RecordingStream:
+def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
     """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
     if connect is not None:
         check_reachable(connect)
-    elif spawn and not has_display():
+    elif not has_display():
         # a viewer spawned here dies at once, and the stream to it then never lets go
         raise DresslogError(
             "--live needs a display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY "
@@ -108,11 +103,12 @@ def live_viewer(
     import rerun as rr
 
     from dresslog.replay.blueprint import default_blueprint
+    from dresslog.replay.rerun_sink import APPLICATION_ID
 
-    rec = rr.RecordingStream(application_id)
+    rec = rr.RecordingStream(APPLICATION_ID)
     if connect is not None:
         rec.connect_grpc(connect, default_blueprint=default_blueprint())
-    elif spawn:
+    else:
         rec.spawn(default_blueprint=default_blueprint())
     return rec
 

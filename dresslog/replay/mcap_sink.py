@@ -24,9 +24,8 @@ if TYPE_CHECKING:
 class McapSink:
     """Buffer the estimates; on close write the trial and the estimate channel in bulk."""
 
-    def __init__(self, path: str | Path, *, overwrite: bool = True) -> None:
+    def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self.overwrite = overwrite
         self._trial: Trial | None = None
         self._limb: LimbPoints | None = None
         self._t_ns: list[int] = []
@@ -51,7 +50,7 @@ class McapSink:
     def close(self) -> None:
         trial = self._trial
         assert trial is not None
-        with TrialWriter(self.path, trial.metadata, overwrite=self.overwrite) as writer:
+        with TrialWriter(self.path, trial.metadata, overwrite=True) as writer:
             copy_trial(writer, trial, self._limb)
             if self._t_ns:
                 writer.write_force_map(

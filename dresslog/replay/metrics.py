@@ -27,7 +27,6 @@ class TrialMetrics:
     """What a replay measured: step count, RMSE (None without truth), zero-estimate RMSE."""
 
     steps: int = 0
-    scored_steps: int = 0
     rmse: float | None = None
     zero_rmse: float | None = None
     per_step: list[float] = field(default_factory=list)
@@ -58,7 +57,6 @@ class MetricsSink:
         t64 = truth.astype(np.float64)
         self._truth_sq += float(t64 @ t64)
         self._count += n
-        self.metrics.scored_steps += 1
         self.metrics.per_step.append(result.rmse)
 
     def close(self) -> None:

@@ -104,8 +104,8 @@ class RerunSink:
                 )
         else:
             assert self.recording is not None
-            self.recording.send_blueprint(self.blueprint(context.has_estimate))
-            self._send_static(context.has_estimate)
+            self.recording.send_blueprint(self.blueprint())
+            self._send_static()
 
     def write(self, result: StepResult) -> None:
         b, s = self._buf, result.step
@@ -129,17 +129,15 @@ class RerunSink:
             return
         import rerun as rr
 
-        assert self.context is not None
-        has_estimate = self.context.has_estimate
         self._tmp = temporary_path(self.path)
         rec = rr.RecordingStream(APPLICATION_ID, recording_id=self._recording_id())
         self.recording = rec
         try:
-            rec.save(self._tmp, default_blueprint=self.blueprint(has_estimate))
+            rec.save(self._tmp, default_blueprint=self.blueprint())
             if self.vmax is None:  # calibrated on the truth, so a poor estimate cannot rescale it
                 truth = _stack(self._buf.truth)
                 self.vmax = color_scale(*truth) if truth else FIXED_VMAX
-            self._send_static(has_estimate)
+            self._send_static()
             self.flush()
             rec.flush()
             rec.disconnect()
@@ -160,12 +158,12 @@ class RerunSink:
         if self._tmp is not None:
             discard(self._tmp)
 
-    def blueprint(self, has_estimate: bool = True) -> Any:
+    def blueprint(self) -> Any:
         """The default layout, its camera framed on this trial's limb."""
-        limb = self.context.limb_points if self.context else None
-        has_truth = self.context.has_truth if self.context else True
-        points = None if limb is None else limb.points
-        return bp.default_blueprint(has_estimate, points, has_truth)
+        ctx = self.context
+        assert ctx is not None
+        points = None if ctx.limb_points is None else ctx.limb_points.points
+        return bp.default_blueprint(ctx.has_estimate, points, ctx.has_truth)
 
     # -- logging -----------------------------------------------------------------
     def _recording_id(self) -> str:
@@ -174,7 +172,7 @@ class RerunSink:
         name = ctx.source_path.stem if ctx and ctx.source_path else "live"
         return f"{name}-{uuid.uuid4().hex[:8]}"
 
-    def _send_static(self, has_estimate: bool) -> None:
+    def _send_static(self) -> None:
         """Limb points, labels, the garment's and the series' styles and the spec, once."""
         import rerun as rr
 
@@ -185,7 +183,7 @@ class RerunSink:
             pts = np.asarray(limb.points, dtype=np.float32)
             side = pts[np.argmin(pts[:, 0])] - np.array([0.12, 0, 0], np.float32)
             drawn = [(bp.TRUTH_LIMB, bp.TRUTH_LABEL, "ground truth")] if ctx.has_truth else []
-            if has_estimate:
+            if ctx.has_estimate:
                 drawn.append((bp.ESTIMATE_LIMB, bp.ESTIMATE_LABEL, "estimate"))
                 below = bp.estimate_offset(pts) if ctx.has_truth else np.zeros(3)
                 rec.log(bp.ESTIMATE, rr.Transform3D(translation=below), static=True)

@@ -10,7 +10,6 @@ to fold and catch on a fist or heel, coarse enough for real time in pybullet.
 
 from __future__ import annotations
 
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,16 +26,12 @@ class Garment:
     vertices: np.ndarray  # (V, 3) float64, garment frame
     triangles: np.ndarray  # (F, 3) uint32
     gripped: np.ndarray  # vertex indices anchored to the end effector
-    #: leading opening (armhole / waist) and the limb's exit (cuff / leg opening)
+    #: the leading opening (armhole / waist) the limb must pass through
     entry_rim: np.ndarray
-    exit_rim: np.ndarray
-    #: where the limb axis should pass through the entry opening, garment frame
-    target_axis_yz: tuple[float, float]
 
-    def write_obj(self, directory: str | Path | None = None) -> Path:
+    def write_obj(self, directory: Path) -> Path:
         """Write the mesh as a Wavefront .obj (what pybullet's loadSoftBody reads)."""
-        d = Path(directory) if directory else Path(tempfile.mkdtemp(prefix="dresslog-"))
-        path = d / f"{self.name}.obj"
+        path = directory / f"{self.name}.obj"
         lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in self.vertices]
         lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in self.triangles]
         path.write_text("\n".join(lines) + "\n")
@@ -108,8 +103,6 @@ def gown(
         triangles=np.array(tris, dtype=np.uint32),
         gripped=np.array(gripped),
         entry_rim=rings[0],
-        exit_rim=rings[-1],
-        target_axis_yz=(0.0, -radius),
     )
 
 
@@ -186,8 +179,6 @@ def shorts(
         triangles=np.array(tris, dtype=np.uint32),
         gripped=np.array(sorted(gripped)),
         entry_rim=waist_rings[0],
-        exit_rim=legs[1][-1],
-        target_axis_yz=(0.0, zc),
     )
 
 

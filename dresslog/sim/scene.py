@@ -44,7 +44,6 @@ class Scene:
     cloth: int
     ee: int
     constraint: int
-    limb_bodies: list[int]
     n_vertices: int
 
     # -- construction -------------------------------------------------------
@@ -65,12 +64,9 @@ class Scene:
         pb.resetSimulation(pb.RESET_USE_DEFORMABLE_WORLD, physicsClientId=c)
         pb.setTimeStep(1.0 / params.physics_hz, physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
-        bodies = []
         for s in limb.spheres.values():
             shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=s.radius, physicsClientId=c)
-            bodies.append(
-                pb.createMultiBody(0, shape, basePosition=s.center.tolist(), physicsClientId=c)
-            )
+            pb.createMultiBody(0, shape, basePosition=s.center.tolist(), physicsClientId=c)
         ang = 2 * np.pi * np.arange(_FRUSTUM_SIDES) / _FRUSTUM_SIDES
         for f in limb.frustums:
             a, ra, b, rb = limb.frustum_ends(f)
@@ -81,14 +77,12 @@ class Scene:
             shape = pb.createCollisionShape(
                 pb.GEOM_MESH, vertices=np.concatenate([lo, hi]).tolist(), physicsClientId=c
             )
-            bodies.append(
-                pb.createMultiBody(
-                    0,
-                    shape,
-                    basePosition=((a + b) / 2).tolist(),
-                    baseOrientation=_quat_z_to((b - a) / length),
-                    physicsClientId=c,
-                )
+            pb.createMultiBody(
+                0,
+                shape,
+                basePosition=((a + b) / 2).tolist(),
+                baseOrientation=_quat_z_to((b - a) / length),
+                physicsClientId=c,
             )
         with tempfile.TemporaryDirectory(prefix="dresslog-") as tmp:
             obj = garment.write_obj(Path(tmp))
@@ -120,7 +114,7 @@ class Scene:
         pb.changeConstraint(con, ee_start.tolist(), maxForce=2000, physicsClientId=c)
         for i in garment.gripped:
             pb.createSoftBodyAnchor(cloth, int(i), ee, -1, physicsClientId=c)
-        return cls(c, cloth, ee, con, bodies, len(garment.vertices))
+        return cls(c, cloth, ee, con, len(garment.vertices))
 
     # -- per step -------------------------------------------------------------
     def move_ee(self, position: np.ndarray) -> None:

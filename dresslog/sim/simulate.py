@@ -28,7 +28,7 @@ from dresslog.limb import (
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
-from dresslog.spec import LimbRotation, Outcome, Task, TrialSpec
+from dresslog.spec import Outcome, Task, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
 
 #: Limb offset ranges (m) of the paper, per axis, and speed ranges (m/s). The paper's
@@ -101,7 +101,6 @@ class SimResult:
     wall_seconds: float
     peak_limb_force: float  # peak over steps of the total contact force on the limb, N
     peak_ee_force: float
-    physics_seconds: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -458,13 +457,11 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
         wall_seconds=wall,
         peak_limb_force=peak_limb,
         peak_ee_force=peak_ee,
-        physics_seconds=timings["physics"],
         timings=timings,
     )
 
 
 __all__ = [
-    "LimbRotation",
     "SimResult",
     "SimStart",
     "SimStep",

@@ -75,11 +75,6 @@ def constant_speed(points: np.ndarray, speed: float, times: np.ndarray) -> np.nd
     return np.stack([np.interp(arc, s, dense[:, k]) for k in range(3)], axis=1)
 
 
-def path_length(points: np.ndarray) -> float:
-    dense = hermite(points)
-    return float(np.linalg.norm(np.diff(dense, axis=0), axis=1).sum())
-
-
 def _gap(
     path: np.ndarray, limb: Limb, held: np.ndarray, lift: np.ndarray | None = None
 ) -> np.ndarray:
