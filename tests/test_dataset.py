@@ -288,3 +288,18 @@ def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkey
     result = CliRunner().invoke(main, [*args, "--executor", "ray", "--duration", "0.2", "-q"])
     assert result.exit_code == 1
     assert "pip install 'dresslog[ray]'" in result.output
+    assert not (tmp_path / "d").exists()  # refused before anything was written
+
+
+@pytest.mark.parametrize("holds", ["card.json", "notes.txt", "train/000000.mcap"])
+def test_a_folder_holding_something_else_is_refused_and_left_as_it_was(
+    tmp_path: Path, holds: str
+) -> None:
+    (tmp_path / holds).parent.mkdir(parents=True, exist_ok=True)
+    (tmp_path / holds).write_text("mine")
+    before = sorted(tmp_path.rglob("*"))
+    args = ["generate", "--task", "gown", "--trials", "1", "-o", str(tmp_path)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and "holds no dataset (manifest.json)" in result.output
+    assert sorted(tmp_path.rglob("*")) == before
+    generate("gown", 1, tmp_path / "new", workers=1, recorder=FAKE)  # an empty folder is fine

@@ -141,13 +141,43 @@ class ProcessExecutor:
 
 
 def make_executor(name: ExecutorName | str, workers: int) -> Executor:
-    if name == "process":
-        return ProcessExecutor(workers)
+    check_executor(name)
     if name == "ray":
         from dresslog.dataset.ray_executor import RayExecutor
 
         return RayExecutor(workers)
-    raise DatasetError(f"unknown executor {name!r}; use 'process' or 'ray'")
+    return ProcessExecutor(workers)
+
+
+def check_executor(name: ExecutorName | str) -> None:
+    """Fail before anything is written when `name` cannot run here (Ray not installed)."""
+    if name == "ray":
+        from dresslog.dataset.ray_executor import import_ray
+
+        import_ray()
+    elif name != "process":
+        raise DatasetError(f"unknown executor {name!r}; use 'process' or 'ray'")
+
+
+def _check_folder(root: Path) -> None:
+    """Refuse a folder that holds something other than a dataset (a model, say).
+
+    Only a dataset's manifest makes a folder resumable; a first run killed before its
+    manifest was written leaves at most the lock and empty split folders.
+    """
+    if not root.exists():
+        return
+    if not root.is_dir():
+        raise DatasetError("exists and is not a folder", path=root)
+    if (root / MANIFEST_FILE).exists():
+        return
+    ours = {LOCK_FILE, *(split.value for split in Split)}
+    if any(p.name not in ours or (p.is_dir() and any(p.iterdir())) for p in root.iterdir()):
+        raise DatasetError(
+            f"folder is not empty and holds no dataset ({MANIFEST_FILE}); "
+            "give a new or empty folder",
+            path=root,
+        )
 
 
 def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
@@ -311,13 +341,15 @@ def generate(
     max_attempts: int = MAX_ATTEMPTS,
     progress: bool = True,
     recorder: str = RECORDER,
+    label: str | None = None,
 ) -> Manifest:
     """Fill `out` with `trials` simulated trials of `task`; resume whatever is missing.
 
     ``splits`` replaces the train/test division by explicit counts (the sweeps use
     ``{"sweep": 128}``); ``overrides`` fixes spec fields for every trial (``duration``,
     ``speed``, ``limb_rotation``); ``recorder`` ("module:function", called as
-    ``f(spec, path, overwrite=True)``) swaps the simulator, for tests. Raises
+    ``f(spec, path, overwrite=True)``) swaps the simulator, for tests; ``label`` names
+    the progress bar (the task by default). Raises
     `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
     written up to then lists every failure.
     """
@@ -331,8 +363,8 @@ def generate(
         counts = _split_counts(trials, test_fraction)
     workers = workers or os.cpu_count() or 1
     overrides = dict(overrides or {})
-    if root.exists() and not root.is_dir():
-        raise DatasetError("exists and is not a folder", path=root)
+    _check_folder(root)
+    check_executor(executor)
     root.mkdir(parents=True, exist_ok=True)
     with _lock(root):
         manifest = _open_manifest(root, task, seed, counts, overrides)
@@ -343,7 +375,8 @@ def generate(
         jobs = _plan(root, manifest, recorder, workers)
         manifest.save(root)
         if jobs:
-            _run(root, manifest, jobs, executor, workers, max_attempts, progress)
+            label = (label or manifest.task.value) if progress else None
+            _run(root, manifest, jobs, executor, workers, max_attempts, label)
     return manifest
 
 
@@ -354,13 +387,14 @@ def _run(
     executor_name: str,
     workers: int,
     max_attempts: int,
-    progress: bool,
+    label: str | None,
 ) -> None:
+    """Run the jobs, retrying failed slots with fresh seeds; a progress bar named `label`."""
     from tqdm import tqdm
 
     executor = make_executor(executor_name, min(workers, len(jobs)))
     given_up: list[Entry] = []
-    bar = tqdm(total=len(jobs), unit="trial", desc=manifest.task.value, disable=not progress)
+    bar = tqdm(total=len(jobs), unit="trial", desc=label, disable=label is None)
     saved = time.monotonic()
     try:
         for job in jobs:
