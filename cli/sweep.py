@@ -15,7 +15,7 @@ def _items(values: tuple[str, ...]) -> list[str]:
 @click.argument("model", type=click.Path())
 @click.option("--speeds", multiple=True, help="End-effector speeds, m/s (comma-separated).")
 @click.option("--rotations", multiple=True, help="Limb rotations AXIS:DEGREES, e.g. y:-15,z:10.")
-@click.option("--out", "-o", type=click.Path(file_okay=False), help="[MODEL-sweep]")
+@click.option("--out", "-o", type=click.Path(file_okay=False), help="[./MODEL-sweep]")
 @click.option("--sequences", "-n", type=click.IntRange(min=1), default=128, show_default=True)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--duration", type=click.FloatRange(min=0, min_open=True), help="Seconds/trial.")
@@ -32,20 +32,14 @@ def sweep(
     quiet: bool,
     **options: object,
 ) -> None:
-    """RMSE per speed and limb rotation on fresh sequences; writes sweep.csv and sweep.png."""
-    from pathlib import Path
-
-    from dresslog.errors import DatasetError
+    """RMSE per speed and limb rotation on fresh sequences: sweep.csv, sweep.json, sweep.png."""
+    from dresslog.experiments import default_sweep_folder
     from dresslog.experiments import sweep as run_sweep
 
-    try:
-        speed_values = [float(s) for s in _items(speeds)]
-    except ValueError:
-        raise DatasetError(f"--speeds takes numbers in m/s, not {','.join(speeds)}") from None
-    out = out or f"{Path(model).resolve()}-sweep"  # beside the model, not in it: saving replaces it
+    out = out or str(default_sweep_folder(model))
     report = run_sweep(
-        model, out, speeds=speed_values, rotations=_items(rotations), n=sequences,
+        model, out, speeds=_items(speeds), rotations=_items(rotations), n=sequences,
         progress=not quiet, **options,
     )  # fmt: skip
     click.echo(report.table())
-    click.echo(f"wrote {out}/sweep.csv and {out}/sweep.png")
+    click.echo(f"wrote {out}: sweep.csv, sweep.json and sweep.png")

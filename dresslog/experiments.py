@@ -324,8 +324,19 @@ def parse_rotation(text: str) -> tuple[str, float]:
         raise DatasetError(f"rotation {text!r} is not AXIS:DEGREES, e.g. y:-15") from None
 
 
+def parse_speed(text: str | float) -> float:
+    """'0.2' -> 0.2 (m/s)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise DatasetError(f"speed {text!r} is not a number in m/s, e.g. 0.2") from None
+
+
 def sweep_settings(
-    task: Task, speeds: Sequence[float], rotations: Sequence[str], duration: float | None = None
+    task: Task,
+    speeds: Sequence[float | str],
+    rotations: Sequence[str],
+    duration: float | None = None,
 ) -> list[Setting]:
     """The in-range baseline, then one setting per speed and per rotation.
 
@@ -334,7 +345,7 @@ def sweep_settings(
     """
     extra = {"duration": duration} if duration else {}
     settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
-    for speed in speeds:
+    for speed in map(parse_speed, speeds):
         settings.append(Setting(f"speed:{speed:g}", "speed", speed, "", {"speed": speed, **extra}))
     for text in rotations:
         axis, degrees = parse_rotation(text)
@@ -352,11 +363,16 @@ def sweep_settings(
     return settings
 
 
+def default_sweep_folder(model: str | Path) -> Path:
+    """`MODEL-sweep` in the current folder: never beside a bundled model, in the package."""
+    return Path(f"{Path(model).resolve().name}-sweep")
+
+
 def sweep(
     model: str | Path,
     out: str | Path,
     *,
-    speeds: Sequence[float] = (),
+    speeds: Sequence[float | str] = (),
     rotations: Sequence[str] = (),
     n: int = 128,
     seed: int = 0,
@@ -393,6 +409,7 @@ def sweep(
             workers=workers,
             executor=executor,
             progress=progress,
+            label=f"{task.value} {setting.name}",
         )
         arrays = load_dataset(folder, workers=workers, progress=False)
         check_task(loaded, arrays.task, arrays.n_points, **_DATA_MISMATCH)

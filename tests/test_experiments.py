@@ -111,13 +111,18 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
 
 
 @pytest.mark.slow
-def test_sweep_writes_a_table_and_a_plot(model: Path, tmp_path: Path) -> None:
-    out = tmp_path / "sweep"
+def test_sweep_writes_a_table_and_a_plot(
+    model: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)  # without -o: MODEL-sweep here, not beside the model
+    out = tmp_path / f"{model.name}-sweep"
     code, output = invoke(
         "sweep", model, "--speeds", "0.2", "--rotations", "z:10", "-n", "2",
-        "--duration", "0.3", "--workers", "2", "-o", out, "-q",
+        "--duration", "0.3", "--workers", "2", "-q",
     )  # fmt: skip
     assert code == 0, output
+    assert f"wrote {model.name}-sweep: sweep.csv, sweep.json and sweep.png" in output
+    assert not model.with_name(f"{model.name}-sweep").exists()
     assert "in-range" in output and "speed:0.2" in output and "rot:z:10" in output
     rows = (out / "sweep.csv").read_text().splitlines()
     assert len(rows) == 4 and rows[1].startswith("in-range,baseline")
@@ -197,12 +202,16 @@ def test_info_summarises_a_model_folder_and_a_dataset_folder(model: Path, data: 
     assert code == 0 and json.loads(output)["task"] == "gown"
 
 
-def test_info_refuses_a_tampered_model_and_a_folder_that_is_neither(tmp_path: Path) -> None:
+def test_info_describes_a_tampered_model_and_fails_and_refuses_a_folder_that_is_neither(
+    tmp_path: Path,
+) -> None:
     path = _fake_model(tmp_path / "gown", "gown")
     weights = path / "model.safetensors"
     weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
-    code, output = invoke("info", path)
-    assert code == 1 and output.count("\n") == 1 and "does not match the sha256" in output
+    result = CliRunner().invoke(main, ["info", str(path)])
+    assert result.exit_code == 1 and "gown, 300 limb points" in result.stdout
+    assert "NOT what model.safetensors holds: the model will not load" in result.stdout
+    assert result.stderr.count("\n") == 1 and "does not match the sha256" in result.stderr
     code, output = invoke("info", tmp_path)
     assert code == 1 and output.count("\n") == 1
     assert "neither a model folder (no card.json) nor a dataset folder" in output

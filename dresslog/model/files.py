@@ -228,7 +228,9 @@ def save_model(
     return card
 
 
-def _read_card(path: Path) -> ModelCard:
+def read_card(path: str | Path) -> ModelCard:
+    """The folder's card, checked to be ours and valid; the weights are not looked at."""
+    path = Path(path)
     card_path = path / CARD_FILE
     if not card_path.is_file():
         raise ModelError(f"no {CARD_FILE}; not a dresslog model folder", path=path)
@@ -254,7 +256,7 @@ def load_model(path: str | Path) -> LoadedModel:
         raise ModelError("no such model folder", path=path)
     if not path.is_dir():
         raise ModelError("a model is a folder with model.safetensors and card.json", path=path)
-    card = _read_card(path)
+    card = read_card(path)
     weights_path = path / WEIGHTS_FILE
     if not weights_path.is_file():
         raise ModelError(f"no {WEIGHTS_FILE}", path=path)

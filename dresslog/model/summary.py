@@ -2,20 +2,23 @@
 
 Public API
 ----------
-``format_card(model: LoadedModel) -> str``
+``format_card(path, card, verified) -> str``
     Task and sizes, input normalisation, how it was trained (hyperparameters, data, the
-    epochs run and the one kept), its recorded test metrics and the weights hash, as
-    `dresslog info` prints it (``--json`` prints the card itself).
+    epochs run and the one kept), its recorded test metrics and the weights hash, and
+    whether the weights matched it, as `dresslog info` prints it (``--json`` prints the
+    card itself).
 """
 
 from __future__ import annotations
 
-from dresslog.model.files import LoadedModel
+from pathlib import Path
+
+from dresslog.model.files import WEIGHTS_FILE, ModelCard
 
 
-def format_card(model: LoadedModel) -> str:
+def format_card(path: Path, card: ModelCard, verified: bool) -> str:
     """The human-readable form printed by `dresslog info` for a model folder."""
-    card, hp, data = model.card, model.card.hyperparameters, model.card.data
+    hp, data = card.hyperparameters, card.data
     extras = [
         name
         for name, on in (
@@ -28,7 +31,7 @@ def format_card(model: LoadedModel) -> str:
         if on
     ]
     lines = [
-        f"{model.path}  (dresslog model, format {card.format_version})",
+        f"{path}  (dresslog model, format {card.format_version})",
         f"  task      {card.task.value}, {card.n_points} limb points",
         f"  network   {card.layers}x{card.hidden} LSTM on {card.input_dim}-D input"
         + (f"; {', '.join(extras)}" if extras else ""),
@@ -53,6 +56,7 @@ def format_card(model: LoadedModel) -> str:
         if metrics:
             shown = ", ".join(f"{k} {v:.4g}" for k, v in metrics.items())
             lines.append(f"  {label:<8}  {shown}")
-    lines.append(f"  weights   sha256 {card.weights_sha256[:16]}, verified")
+    checked = "verified" if verified else f"NOT what {WEIGHTS_FILE} holds: the model will not load"
+    lines.append(f"  weights   sha256 {card.weights_sha256[:16]}, {checked}")
     lines.append(f"  software  dresslog {card.dresslog_version}, created {card.created}")
     return "\n".join(lines)

@@ -1,0 +1,68 @@
+"""`dresslog info`: what a path holds, a trial, a model folder or a dataset folder.
+
+Public API
+----------
+``describe(path, *, as_json=False) -> Description``
+    The text `dresslog info` prints, and the problem that makes it exit non-zero: a
+    model whose weights do not match its card is still described (the card says what it
+    claims to be), with the mismatch as the problem.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+from dresslog.errors import DresslogError, ModelError
+
+
+class Description(NamedTuple):
+    text: str
+    problem: DresslogError | None = None
+
+
+def describe(path: str | Path, *, as_json: bool = False) -> Description:
+    """Summarise `path` by what it is: a dataset (manifest), a model (card) or a trial file."""
+    from dresslog.dataset.manifest import MANIFEST_FILE
+    from dresslog.model.files import CARD_FILE
+
+    path = Path(path)
+    if (path / MANIFEST_FILE).is_file():
+        return Description(_dataset(path, as_json))
+    if (path / CARD_FILE).is_file():
+        return _model(path, as_json)
+    if path.is_dir():
+        raise DresslogError(
+            f"neither a model folder (no {CARD_FILE}) nor a dataset folder (no {MANIFEST_FILE})",
+            path=path,
+        )
+    from dresslog.io.summary import format_summary, summarize
+
+    summary = summarize(path)
+    return Description(summary.model_dump_json(indent=2) if as_json else format_summary(summary))
+
+
+def _dataset(path: Path, as_json: bool) -> str:
+    from dresslog.dataset.manifest import damaged_files, load_manifest
+
+    manifest = load_manifest(path)
+    if as_json:
+        return manifest.model_dump_json(indent=1)
+    lines = [f"{path}: {manifest.describe()}"]
+    if damaged := list(damaged_files(path, manifest)):
+        names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
+        more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""
+        lines.append(f"  damaged: {names}{more}; run `dresslog generate` on it again")
+    return "\n".join(lines)
+
+
+def _model(path: Path, as_json: bool) -> Description:
+    from dresslog.model.files import load_model, read_card
+    from dresslog.model.summary import format_card
+
+    try:
+        card, problem = load_model(path).card, None
+    except ModelError as err:
+        card, problem = read_card(path), err  # a card that is itself bad raises here
+    text = card.model_dump_json(indent=2) if as_json else format_card(path, card, problem is None)
+    return Description(text, problem)
