@@ -14,9 +14,9 @@ from dresslog.cli.common import reports_errors
 @click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder for an MCAP.")
 @click.option("--web", is_flag=True, help="Serve the web viewer on localhost; print its address.")
 @click.option("--save", type=click.Path(path_type=Path), help="Only write this .rrd; no viewer.")
-@click.option("--port", default=9090, show_default=True, help="Web viewer port (with --web).")
+@click.option("--port", type=int, help="Web viewer port (with --web) [9090].")
 @reports_errors
-def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int) -> None:
+def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int | None) -> None:
     """Open a trial (MCAP) or a Rerun recording (.rrd) in the Rerun viewer.
 
     An MCAP is inferred first when a model for its task is available (--model or
@@ -24,7 +24,11 @@ def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int
     """
     from dresslog.replay.viewer import save_rrd, view_file
 
+    if port is not None and not web:
+        raise click.UsageError("--port is the web viewer's; use it with --web")
     if save is not None:
+        if web:
+            raise click.UsageError("--save writes a file and opens no viewer; drop --web")
         click.echo(save_rrd(path, save, model=model))
         return
-    view_file(path, model=model, web=web, web_port=port, echo=click.echo)
+    view_file(path, model=model, web=web, web_port=port or 9090, echo=click.echo)

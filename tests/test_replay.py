@@ -200,7 +200,9 @@ BAD = [
     [
         ("trial.mcap", None, "would overwrite trial.mcap, the file being read"),
         ("out.rrd", "trial.mcap", "would overwrite trial.mcap, the file being read"),
-        ("out.rrd", "out.rrd", "given as both the Rerun and the MCAP output"),
+        ("out.rrd", "out.rrd", "a trial is an MCAP file; name it .mcap"),
+        ("out.rrd", "estimate.rrd", "a trial is an MCAP file; name it .mcap"),
+        ("out.txt", None, "a Rerun recording is named .rrd"),
     ],
 )
 def test_infer_never_writes_over_its_trial_or_one_output_over_the_other(
@@ -231,7 +233,7 @@ def test_infer_names_a_rerun_recording_given_as_the_trial_or_as_an_mcap_output(
     assert again.exit_code == 1 and "is a Rerun recording, not a trial" in again.output
     wrong = tmp_path / "estimate.mcap"
     named = CliRunner().invoke(main, ["infer", str(trial), "-m", str(model), "-o", str(wrong)])
-    assert named.exit_code == 1 and "name it .rrd" in named.output and not wrong.exists()
+    assert named.exit_code == 1 and "is named .rrd" in named.output and not wrong.exists()
 
 
 def test_a_model_for_the_other_task_points_to_the_bundled_one(gown, tmp_path: Path) -> None:

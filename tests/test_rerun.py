@@ -148,6 +148,44 @@ def test_view_refuses_a_file_that_is_not_a_rerun_recording(tmp_path: Path) -> No
     assert not out.exists()
 
 
+def test_view_knows_a_recording_by_its_bytes_and_refuses_a_model_for_it(
+    inferred, tmp_path: Path
+) -> None:
+    _, model, rrd = inferred
+    renamed = tmp_path / "recording.bin"
+    renamed.write_bytes(rrd.read_bytes())
+    out = tmp_path / "copy.rrd"
+    result = CliRunner().invoke(main, ["view", str(renamed), "--save", str(out)])
+    assert result.exit_code == 0, result.output
+    assert out.read_bytes() == rrd.read_bytes()
+    again = CliRunner().invoke(main, ["view", str(rrd), "-m", str(model), "--save", str(out)])
+    assert again.exit_code == 1 and "holds its estimate already" in again.output
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")
+def test_view_without_a_display_says_so_before_any_work(
+    inferred, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(name, raising=False)
+    trial, model, _ = inferred
+    result = CliRunner().invoke(main, ["view", str(trial), "-m", str(model)])
+    assert result.exit_code == 1 and "RMSE" not in result.output  # nothing inferred first
+    assert result.output.startswith(f"Error: {trial}: the Rerun viewer needs a display")
+    assert "--web" in result.output and "--save" in result.output
+
+
+@pytest.mark.parametrize(
+    "options", [["--port", "9000"], ["--web", "--save", "x.rrd"]], ids=["port", "web-save"]
+)
+def test_view_options_that_cannot_go_together_are_a_usage_error(
+    inferred, options: list[str]
+) -> None:
+    _, _, rrd = inferred
+    result = CliRunner().invoke(main, ["view", str(rrd), *options])
+    assert result.exit_code == 2 and "Usage:" in result.output
+
+
 def _software_vulkan() -> bool:
     return any(Path("/usr/share/vulkan/icd.d").glob("lvp_icd*.json"))
 

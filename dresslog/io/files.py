@@ -12,9 +12,18 @@ from pathlib import Path
 
 from dresslog.errors import TrialWriteError
 
+#: What a wrongly named output is told, by the suffix it needs.
+_NAMES = {
+    ".mcap": "a trial is an MCAP file; name it .mcap (.rrd is a Rerun recording)",
+    ".rrd": "a Rerun recording is named .rrd (.mcap is a trial)",
+}
 
-def check_output(path: Path, source: Path | None = None) -> None:
-    """Fail before any work if the output cannot be written or would replace `source`."""
+
+def check_output(path: Path, source: Path | None = None, *, suffix: str | None = None) -> None:
+    """Fail before any work if the output cannot be written or would replace `source`.
+
+    `suffix` (".mcap" or ".rrd") is the name the output must have: tools open a file by it.
+    """
     if not path.parent.is_dir():
         raise TrialWriteError("folder does not exist; create it first", path=path)
     if path.is_dir():
@@ -22,6 +31,8 @@ def check_output(path: Path, source: Path | None = None) -> None:
     check_writable(path.parent)
     if source is not None and path.resolve() == source.resolve():
         raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
+    if suffix is not None and path.suffix != suffix:
+        raise TrialWriteError(_NAMES[suffix], path=path)
 
 
 def check_writable(folder: Path) -> None:

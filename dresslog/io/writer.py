@@ -63,12 +63,7 @@ class TrialWriter:
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
-        check_output(self.path)
-        if self.path.suffix == ".rrd":
-            raise TrialWriteError(
-                "a trial is an MCAP file; name it .mcap (.rrd is a Rerun recording)",
-                path=self.path,
-            )
+        check_output(self.path, suffix=".mcap")
         if self.path.exists() and not self.overwrite:
             raise TrialWriteError("file exists; pass --overwrite to replace it", path=self.path)
         self._stream = self._tmp.open("wb")

@@ -35,7 +35,7 @@ class McapSink:
     def open(self, context: TrialContext) -> None:
         if context.trial is None:
             raise TrialWriteError("an MCAP copy needs a recorded trial as source", path=self.path)
-        check_output(self.path, context.source_path)
+        check_output(self.path, context.source_path, suffix=".mcap")
         self._trial = context.trial
         self._limb = context.limb_points
         self._t_ns, self._forces, self._contact = [], [], []

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dresslog.errors import ModelError, TrialWriteError
+from dresslog.errors import ModelError
 from dresslog.io.files import check_output
 from dresslog.io.reader import TrialReader
 from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
@@ -113,11 +113,11 @@ def replay_file(
         trial = reader.read()
     context = trial_context(trial, trial_path)
     timings["read"] = clock() - t0
-    outputs = [Path(p) for p in (rrd, mcap) if p is not None]
-    for out in outputs:
-        check_output(out, source=Path(trial_path))
-    if len(outputs) == 2 and outputs[0].resolve() == outputs[1].resolve():
-        raise TrialWriteError("given as both the Rerun and the MCAP output", path=outputs[0])
+    named = {".rrd": rrd, ".mcap": mcap}
+    outputs = [Path(p) for p in named.values() if p is not None]
+    for suffix, out in named.items():
+        if out is not None:
+            check_output(Path(out), source=Path(trial_path), suffix=suffix)
     if rrd is not None:  # start-up cost, reported apart from the work itself
         t0 = clock()
         import rerun  # noqa: F401

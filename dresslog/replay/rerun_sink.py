@@ -95,13 +95,7 @@ class RerunSink:
         self._buf = _Buffer()
         self._path_so_far = []
         if self.path is not None:
-            check_output(self.path, context.source_path)
-            if self.path.suffix == ".mcap":  # as TrialWriter refuses a trial named .rrd
-                raise TrialWriteError(
-                    "is where the Rerun recording would go; name it .rrd (an MCAP copy of "
-                    "the trial with the estimate is --mcap-out)",
-                    path=self.path,
-                )
+            check_output(self.path, context.source_path, suffix=".rrd")
         else:
             assert self.recording is not None
             self.recording.send_blueprint(self.blueprint())

@@ -18,17 +18,15 @@ from urllib.parse import quote
 from dresslog.errors import DresslogError, TrialWriteError
 from dresslog.io.files import atomic_path, check_output
 from dresslog.io.reader import RRD_MAGIC
+from dresslog.replay.live import has_display
 from dresslog.replay.pipeline import InferenceReport, replay_file
-
-RRD_SUFFIXES = (".rrd",)
 
 
 def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = None) -> str:
     """Write what `view` would show to `out`; returns a one-line description."""
     path, out = Path(path), Path(out)
-    check_output(out)
-    if path.suffix in RRD_SUFFIXES:
-        check_rrd(path)
+    check_output(out, suffix=".rrd")
+    if is_rrd(path, model):
         try:
             with atomic_path(out) as tmp:
                 shutil.copyfile(path, tmp)
@@ -39,6 +37,31 @@ def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = No
         path, model=model, require_model=model is not None, rrd=out
     )
     return report.summary()
+
+
+def is_rrd(path: Path, model: str | Path | None = None) -> bool:
+    """Whether `path` is a Rerun recording (by name, or by its first bytes under another name).
+
+    A recording already holds its estimate, so a `model` for it is refused, not ignored.
+    """
+    rrd = path.suffix == ".rrd" or _starts_with(path, RRD_MAGIC)
+    if rrd:
+        check_rrd(path)
+        if model is not None:
+            raise DresslogError(
+                "is a Rerun recording, which holds its estimate already; "
+                "--model applies to an MCAP trial",
+                path=path,
+            )
+    return rrd
+
+
+def _starts_with(path: Path, magic: bytes) -> bool:
+    try:
+        with path.open("rb") as stream:
+            return stream.read(len(magic)) == magic
+    except OSError:
+        return False  # the reader names what is wrong with it
 
 
 def check_rrd(path: Path) -> None:
@@ -76,13 +99,17 @@ def view_file(
 ) -> None:
     """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed (or Ctrl-C)."""
     path = Path(path)
+    if not web and not has_display():  # checked before inferring, not after
+        raise DresslogError(
+            "the Rerun viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY is set); "
+            "serve it to a browser with --web, or write the recording with --save OUT.rrd",
+            path=path,
+        )
     with tempfile.TemporaryDirectory(prefix="dresslog-view-") as tmp:
         rrd = path
-        if path.suffix not in RRD_SUFFIXES:
+        if not is_rrd(path, model):
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model))
-        else:
-            check_rrd(path)
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
             echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")
