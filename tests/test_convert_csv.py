@@ -297,3 +297,10 @@ def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:
     path.write_text(preamble + path.read_text())
     report = convert(path, tmp_path / "t.mcap", "gown")
     assert report.steps == 49 and "time column 'time' read as s" in report.source["notes"][0]
+
+
+def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> None:
+    """2 s at 1 kHz read as milliseconds: 2 ms, where "do not overlap" would mislead."""
+    with pytest.raises(ConversionError, match=r"log covers 0.002 s, .* give --time-unit"):
+        convert(ati_style(tmp_path), tmp_path / "t.mcap", "gown", time_unit="ms")
+    assert not (tmp_path / "t.mcap").exists()

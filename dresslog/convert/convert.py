@@ -139,10 +139,14 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
         start += (phase - start) % rs.PERIOD_NS
     grid = rs.grid(start, stop)
     if len(grid) < 2:
-        if len({s.name for s in source.streams}) == 1:  # one file: too short, not two clocks
-            length = (source.wrench.t_ns[-1] - source.wrench.t_ns[0]) / 1e9
+        first = max(int(s.t_ns[0]) for s in source.streams)
+        overlap = (min(int(s.t_ns[-1]) for s in source.streams) - first) / 1e9
+        if overlap >= 0:  # too short (or times read in too large a unit), not two clocks
+            what = "log covers" if len({s.name for s in source.streams}) == 1 else "streams share"
             raise ConversionError(
-                f"the log covers {length:.3g} s, less than two 100 Hz steps", path=source.path
+                f"the {what} {overlap:.3g} s, less than two 100 Hz steps; "
+                "if the times are in another unit, give --time-unit",
+                path=source.path,
             )
         spans = "; ".join(_span(s) for s in source.streams)
         raise ConversionError(
@@ -224,7 +228,7 @@ def convert(
         task = Task(task)
     except ValueError:
         raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
-    check_output(output, source=path)
+    check_output(output, source=path, suffix=".mcap")
     if output.exists() and not overwrite:
         raise ConversionError("file exists; pass --overwrite to replace it", path=output)
     if rotate is not None and not (np.isfinite(rotate).all() and np.linalg.norm(rotate) > 0):
