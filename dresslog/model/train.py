@@ -365,7 +365,8 @@ def _fit(
             best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
         if ckpt is not None:
             _save_checkpoint(ckpt, net, optim, history, best, key)
-        bar.set_postfix(loss=f"{record.train_loss:.3g}", val=f"{val_loss or float('nan'):.3g}")
+        shown = {"loss": f"{record.train_loss:.3g}"}
+        bar.set_postfix(shown if val_loss is None else {**shown, "val": f"{val_loss:.3g}"})
         bar.update()
         if on_epoch is not None:
             with tqdm.external_write_mode():  # the bar steps aside for the caller's lines
