@@ -142,3 +142,21 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], result.output
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (["--offset", "5", "5", "5"], "invalid limb_offset: each component must be within +-0.5 m"),
+        (["--speed", "5"], "invalid speed"),
+        (["--rotation", "z", "999"], "invalid degrees: Input should be less than or equal to 90"),
+    ],
+    ids=["offset-in-cm", "speed", "rotation"],
+)
+def test_record_refuses_a_setting_out_of_range_before_simulating(
+    tmp_path: Path, option: list[str], message: str
+) -> None:
+    out = tmp_path / "t.mcap"
+    result = CliRunner().invoke(main, ["record", "--task", "gown", *option, "-o", str(out)])
+    assert result.exit_code == 1 and message in result.output, result.output
+    assert not out.exists()
