@@ -123,7 +123,7 @@ class Trial:
 
     @property
     def measurements(self) -> Measurements:
-        """phi_t on the wrench timestamps; twist is matched by timestamp."""
+        """phi_t on the timestamps wrench and twist share (a step either lacks is dropped)."""
         return measurements(self.wrench, self.twist)
 
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dresslog.dataset.manifest import Manifest, Split, check_files, load_manifest
+from dresslog.dataset.manifest import Manifest, Split, check_files, damaged_error, load_manifest
 from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
@@ -83,11 +83,7 @@ def _decode(args: tuple[str, str, str]) -> tuple[np.ndarray, np.ndarray]:
     path, name, sha256 = args
     root = Path(path).parents[1]
     if sha256_file(path) != sha256:
-        raise DatasetError(
-            f"trial {name} does not match its checksum in the manifest (corrupt or modified); "
-            "run `dresslog generate` on the folder again to re-create it",
-            path=root,
-        )
+        raise damaged_error(root, name, "changed")
     try:
         with TrialReader(path) as reader:
             phi = reader.measurements

@@ -29,6 +29,7 @@ from dresslog.dataset.manifest import (
     Manifest,
     Split,
     Status,
+    damage,
     load_manifest,
     slot_file,
     trial_seed,
@@ -227,19 +228,12 @@ def _open_manifest(
     return manifest
 
 
-def _valid(root: Path, entry: Entry) -> bool:
-    path = root / str(entry.file)
-    return (
-        path.is_file() and path.stat().st_size == entry.size and sha256_file(path) == entry.sha256
-    )
-
-
 def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[Job]:
     """Keep the listed trials whose files check out; the next attempt at every other slot."""
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max(1, workers)) as pool:  # hashing releases the GIL
-        valid = list(pool.map(lambda e: _valid(root, e), manifest.trials))
+        valid = list(pool.map(lambda e: not damage(root, e, checksum=True), manifest.trials))
     manifest.trials = [e for e, ok in zip(manifest.trials, valid, strict=True) if ok]
     done = {(e.split, e.slot) for e in manifest.trials}
     tried: dict[tuple[Split, int], int] = {}

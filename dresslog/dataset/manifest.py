@@ -1,6 +1,7 @@
 """The dataset manifest: which trials a folder holds, how they were made, which split each is in.
 
-A dataset folder is ``manifest.json`` plus ``train/*.mcap`` and ``test/*.mcap``. The
+A dataset folder is ``manifest.json`` plus ``train/*.mcap`` and ``test/*.mcap`` (a sweep
+setting's: ``sweep/*.mcap``). The
 manifest lists every completed trial (file, spec, outcome, steps, size, sha256) and every
 failed attempt with its reason, so a folder can be checked, resumed and cited (its
 `content_hash` goes into the model card). It is rewritten atomically; a crash never
@@ -225,35 +226,49 @@ def load_manifest(root: str | Path) -> Manifest:
         raise DatasetError(f"{MANIFEST_FILE}: {problem}", path=root) from None
 
 
+#: What each kind of damage `damage` finds is called in an error.
+_DAMAGE = {
+    "missing": "listed in the manifest is missing",
+    "resized": "is not the size the manifest records (truncated or modified)",
+    "changed": "does not match its checksum in the manifest (corrupt or modified)",
+}
+
+
+def damage(root: Path, entry: Entry, *, checksum: bool = False) -> str | None:
+    """ "missing", "resized" or (with `checksum`) "changed"; None for a trial as recorded."""
+    path = root / str(entry.file)
+    if not path.is_file():
+        return "missing"
+    if path.stat().st_size != entry.size:
+        return "resized"
+    if checksum and sha256_file(path) != entry.sha256:
+        return "changed"
+    return None
+
+
+def damaged_error(root: str | Path, file: str, how: str) -> DatasetError:
+    """The one line for a damaged trial, naming the folder, the trial and the cure."""
+    return DatasetError(
+        f"trial {file} {_DAMAGE[how]}; run `dresslog generate` on the folder again to re-create it",
+        path=root,
+    )
+
+
 def damaged_files(
     root: str | Path, manifest: Manifest, *, checksums: bool = False
 ) -> Iterator[tuple[str, str]]:
-    """(file, "missing" or "changed") for each listed trial not as the manifest records it.
+    """(file, how) for each listed trial not as the manifest records it (see `damage`).
 
-    Without `checksums` a trial is only checked to exist with its recorded size. Lazy,
-    so a caller that stops at the first hashes no further.
+    Lazy, so a caller that stops at the first hashes no further.
     """
     root = Path(root)
     for entry in manifest.trials:
-        path = root / str(entry.file)
-        if not path.is_file():
-            yield str(entry.file), "missing"
-        elif path.stat().st_size != entry.size or (checksums and sha256_file(path) != entry.sha256):
-            yield str(entry.file), "changed"
+        if how := damage(root, entry, checksum=checksums):
+            yield str(entry.file), how
 
 
 def check_files(root: str | Path, manifest: Manifest, *, checksums: bool = False) -> None:
     """Every listed trial exists with its recorded size (and, if asked, its sha256)."""
     first = next(damaged_files(root, manifest, checksums=checksums), None)
-    if first is None:
-        return
-    file, how = first
-    problem = (
-        "listed in the manifest is missing"
-        if how == "missing"
-        else "does not match its checksum in the manifest (corrupt or modified)"
-    )
-    raise DatasetError(
-        f"trial {file} {problem}; run `dresslog generate` on the folder again to re-create it",
-        path=root,
-    )
+    if first is not None:
+        raise damaged_error(root, *first)

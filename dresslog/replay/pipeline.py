@@ -54,9 +54,9 @@ def resolve_model(model: str | Path | None, task: Task, n_points: int | None) ->
     if model is None:
         model = bundled_model(task)
         if model is None:
-            looked = bundled_model_candidates(task)[-2]
+            looked = ", ".join(str(p) for p in bundled_model_candidates(task))
             raise ModelError(
-                f"no bundled {task.value} model (looked for {looked}); "
+                f"no bundled {task.value} model (looked in {looked}); "
                 f"pass --model with a {task.value} model folder"
             )
     loaded = load_model(model)

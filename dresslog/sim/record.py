@@ -18,11 +18,12 @@ from dresslog.spec import TrialMetadata, TrialSpec
 
 
 class WriterSink:
-    """Streams contacts and garment states to the writer; batches the fixed-size channels.
+    """Hands contacts and garment states to the writer in batches, the rest at the end.
 
-    Contacts and garment states are handed to the writer in step order, a few
-    hundred steps at a time (and at `flush`): writing them in one go, rather
-    than between physics steps, is much cheaper, and the file is the same.
+    Contacts and garment states go to the writer in step order, `BATCH` steps at a
+    time (and at `flush`); wrench, twist, pose and force map are held and written
+    whole in `flush`: writing in bulk, rather than between physics steps, is much
+    cheaper, and the file is the same.
     """
 
     #: Steps whose contacts and garment states are held before they are written.
