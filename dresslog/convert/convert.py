@@ -228,9 +228,7 @@ def convert(
         task = Task(task)
     except ValueError:
         raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
-    check_output(output, source=path, suffix=".mcap")
-    if output.exists() and not overwrite:
-        raise ConversionError("file exists; pass --overwrite to replace it", path=output)
+    check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
     if rotate is not None and not (np.isfinite(rotate).all() and np.linalg.norm(rotate) > 0):
         raise ConversionError("rotation quaternion must be finite and not zero")
     if not (np.isfinite(tare_s) and tare_s >= 0):

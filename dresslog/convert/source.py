@@ -7,11 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
+from dresslog.io import well_known as wk
+
 #: The kinds of stream a converter looks for, and the ROS 2 message type of each.
 MESSAGE_TYPES = {
-    "wrench": "geometry_msgs/msg/WrenchStamped",
-    "twist": "geometry_msgs/msg/TwistStamped",
-    "pose": "geometry_msgs/msg/PoseStamped",
+    kind: wk.SCHEMAS[topic]
+    for kind, topic in (("wrench", wk.WRENCH), ("twist", wk.TWIST), ("pose", wk.POSE))
 }
 #: Values per sample of each kind: force+torque, linear+angular, position+quaternion (x y z w).
 WIDTHS = {"wrench": 6, "twist": 6, "pose": 7}

@@ -19,10 +19,13 @@ _NAMES = {
 }
 
 
-def check_output(path: Path, source: Path | None = None, *, suffix: str | None = None) -> None:
+def check_output(
+    path: Path, source: Path | None = None, *, suffix: str | None = None, overwrite: bool = True
+) -> None:
     """Fail before any work if the output cannot be written or would replace `source`.
 
-    `suffix` (".mcap" or ".rrd") is the name the output must have: tools open a file by it.
+    `suffix` (".mcap" or ".rrd") is the name the output must have: tools open a file by
+    it. Without `overwrite` an existing file is refused (what took time to make).
     """
     if not path.parent.is_dir():
         raise TrialWriteError("folder does not exist; create it first", path=path)
@@ -33,6 +36,8 @@ def check_output(path: Path, source: Path | None = None, *, suffix: str | None =
         raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
     if suffix is not None and path.suffix != suffix:
         raise TrialWriteError(_NAMES[suffix], path=path)
+    if not overwrite and path.exists():
+        raise TrialWriteError("file exists; pass --overwrite to replace it", path=path)
 
 
 def check_writable(folder: Path) -> None:

@@ -63,9 +63,7 @@ class TrialWriter:
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
-        check_output(self.path, suffix=".mcap")
-        if self.path.exists() and not self.overwrite:
-            raise TrialWriteError("file exists; pass --overwrite to replace it", path=self.path)
+        check_output(self.path, suffix=".mcap", overwrite=self.overwrite)
         self._stream = self._tmp.open("wb")
         self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._writer.start(profile=wk.PROFILE, library=f"{wk.LIBRARY} {__version__}")

@@ -149,13 +149,12 @@ def live_source(
 
     Without a model (none given, none bundled) the live view shows ground truth alone.
     """
-    from dresslog.replay.pipeline import bundled_model, resolve_model
+    from dresslog.replay.pipeline import resolve_model
     from dresslog.replay.rerun_sink import RerunSink
     from dresslog.spec import Task
 
-    estimator = None
-    if model is not None or bundled_model(Task(task)) is not None:
-        estimator = resolve_model(model, Task(task), None).estimator()
+    loaded = resolve_model(model, Task(task), None, required=False)
+    estimator = loaded.estimator() if loaded is not None else None
     rec = recording if recording is not None else live_viewer(connect=connect)
     sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS, vmax=vmax)
     return SimulationSource(estimator, [sink])

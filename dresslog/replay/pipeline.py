@@ -47,12 +47,19 @@ def bundled_model(task: Task | str) -> Path | None:
     return None
 
 
-def resolve_model(model: str | Path | None, task: Task, n_points: int | None) -> LoadedModel:
-    """Load `model` (or the bundled one for `task`) and check it fits the trial."""
+def resolve_model(
+    model: str | Path | None, task: Task, n_points: int | None, *, required: bool = True
+) -> LoadedModel | None:
+    """Load `model` (or the bundled one for `task`) and check it fits the trial.
+
+    Without a model given or bundled: an error if `required`, else None.
+    """
     from dresslog.model.files import check_task, load_model
 
     if model is None:
         model = bundled_model(task)
+        if model is None and not required:
+            return None
         if model is None:
             looked = ", ".join(str(p) for p in bundled_model_candidates(task))
             raise ModelError(
@@ -127,11 +134,9 @@ def replay_file(
     t0 = clock()
     task = trial.metadata.task
     n_points = len(trial.limb_points) if trial.limb_points is not None else None
-    loaded = None
     # a trial without ground truth (a converted log) has nothing to show but an estimate
     need_model = require_model or trial.force_map is None
-    if model is not None or need_model or bundled_model(task) is not None:
-        loaded = resolve_model(model, task, n_points)
+    loaded = resolve_model(model, task, n_points, required=need_model)
     estimator = loaded.estimator() if loaded is not None else None
     timings["load_model"] = clock() - t0
 
