@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from dresslog.cli.common import reports_errors
-from dresslog.spec import LimbRotation, Task
+from dresslog.spec import Task
 
 
 @click.command("record")
@@ -44,14 +44,11 @@ def record(
 ) -> None:
     """Simulate one trial (random spec from --seed, or set explicitly) and record it."""
     from dresslog.sim import random_spec, record_trial
-    from dresslog.sim.record import ProgressBar
 
-    overrides: dict[str, object] = {"speed": speed, "duration": duration}
-    if offset:
-        overrides["limb_offset"] = tuple(offset)
-    if rotation:
-        overrides["limb_rotation"] = LimbRotation(axis=rotation[0], degrees=rotation[1])
-    spec = random_spec(task, seed, **{k: v for k, v in overrides.items() if v is not None})
+    turn = dict(zip(("axis", "degrees"), rotation, strict=True)) if rotation else None
+    spec = random_spec(
+        task, seed, speed=speed, duration=duration, limb_offset=offset or None, limb_rotation=turn
+    )
     if live or connect:
         from dresslog.replay.live import record_live
 
@@ -61,6 +58,5 @@ def record(
         if metrics.rmse is not None:
             click.echo(f"estimate RMSE {metrics.rmse:.4g} N (all-zero {metrics.zero_rmse:.4g} N)")
     else:
-        with ProgressBar() as bar:
-            result = record_trial(spec, output, overwrite=overwrite, sinks=[bar])
+        result = record_trial(spec, output, overwrite=overwrite, progress=True)
     click.echo(result.summary())

@@ -123,12 +123,17 @@ def record_trial(
     *,
     overwrite: bool = False,
     sinks: Sequence[StepSink] = (),
+    progress: bool = False,
 ) -> SimResult:
-    """Simulate `spec` and write it to `path` (atomically); `sinks` see every step too."""
+    """Simulate `spec` and write it to `path` (atomically); `sinks` see every step too.
+
+    `progress` draws the steps on a progress bar when stderr is a terminal.
+    """
     metadata = TrialMetadata(task=spec.task, spec=spec)
-    with TrialWriter(path, metadata, overwrite=overwrite) as writer:
+    with TrialWriter(path, metadata, overwrite=overwrite) as writer, ProgressBar() as bar:
         sink = WriterSink(writer)
-        result = simulate(spec, FanOut(sink, *sinks) if sinks else sink)
+        sinks = [sink, *sinks, *([bar] if progress else [])]
+        result = simulate(spec, FanOut(*sinks) if len(sinks) > 1 else sink)
         sink.flush()
         writer.metadata = metadata.model_copy(update={"outcome": result.outcome})
     return result

@@ -46,7 +46,10 @@ CAUGHT_FORCE = 2.0
 
 
 def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
-    """A spec with offset, speed and path drawn from the paper's ranges by `seed`."""
+    """A spec with offset, speed and path drawn from the paper's ranges by `seed`.
+
+    `overrides` set spec fields (a None value leaves the drawn or default one).
+    """
     task = Task(task)
     rng = np.random.default_rng(seed)
     offset = tuple(float(v) for v in rng.uniform(-1, 1, 3) * OFFSET_RANGE[task])
@@ -59,7 +62,7 @@ def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
         "limb_offset": offset,
         "control_points": points,
     }
-    fields.update(overrides)
+    fields.update({k: v for k, v in overrides.items() if v is not None})
     return TrialSpec.model_validate(fields)
 
 
