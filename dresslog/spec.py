@@ -10,11 +10,9 @@ from __future__ import annotations
 from enum import StrEnum
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field
 
 Vec3 = tuple[float, float, float]
-#: Largest limb offset per axis a spec accepts, m.
-MAX_LIMB_OFFSET = 0.5
 
 
 class Task(StrEnum):
@@ -117,16 +115,6 @@ class TrialSpec(BaseModel):
         "empty means drawn from the seed",
     )
     sim: SimParams = SimParams()
-
-    @field_validator("limb_offset")
-    @classmethod
-    def _limb_offset_in_reach(cls, offset: Vec3) -> Vec3:
-        """Half a metre at most per axis (the paper's reach is 0.2 m): catches cm given as m."""
-        if not all(abs(v) <= MAX_LIMB_OFFSET for v in offset):
-            raise ValueError(
-                f"each component must be within +-{MAX_LIMB_OFFSET} m (metres, not cm)"
-            )
-        return offset
 
 
 class TrialMetadata(BaseModel):

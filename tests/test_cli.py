@@ -147,11 +147,13 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
 @pytest.mark.parametrize(
     ("option", "message"),
     [
-        (["--offset", "5", "5", "5"], "invalid limb_offset: each component must be within +-0.5 m"),
         (["--speed", "5"], "invalid speed"),
-        (["--rotation", "z", "999"], "invalid degrees: Input should be less than or equal to 90"),
+        (
+            ["--rotation", "z", "999"],
+            "invalid limb_rotation.degrees: Input should be less than or equal to 90",
+        ),
     ],
-    ids=["offset-in-cm", "speed", "rotation"],
+    ids=["speed", "rotation"],
 )
 def test_record_refuses_a_setting_out_of_range_before_simulating(
     tmp_path: Path, option: list[str], message: str
