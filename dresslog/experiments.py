@@ -43,6 +43,7 @@ from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, first_problem
 from dresslog.io.files import atomic_path
+from dresslog.model.evaluate import Scores, evaluate
 from dresslog.model.files import (
     CARD_FILE,
     DataProvenance,
@@ -94,9 +95,8 @@ def train_dataset(
     rows = arrays.rows(Split.TRAIN)
     if len(rows) < 2:
         raise DatasetError(f"needs at least 2 training trials, has {len(rows)}", path=data)
-    from dresslog.model.evaluate import evaluate  # torch only once the data checks out
     from dresslog.model.files import save_model
-    from dresslog.model.train import make_card, train
+    from dresslog.model.train import make_card, train  # torch only once the data checks out
 
     checkpoint = out.with_name(f".{out.name}.checkpoint.pt")
     if overwrite:  # start afresh: an interrupted earlier run is replaced, not resumed
@@ -136,22 +136,6 @@ def train_dataset(
 
 
 # -- evaluation ----------------------------------------------------------------------
-@dataclass(frozen=True)
-class Scores:
-    """The paper's numbers for one group of sequences."""
-
-    n: int
-    rmse: float
-    zero_rmse: float
-    ratio: float
-    contact_precision: float
-    contact_recall: float
-    #: the ratio with the estimate rescaled to each step's true total force: where it errs
-    ratio_at_true_total: float
-    #: the ratio of the true map rescaled to the estimate's total: how much it errs
-    ratio_true_shape: float
-
-
 @dataclass(frozen=True)
 class EvalReport:
     task: str
@@ -202,19 +186,7 @@ def _finite(value: Any) -> Any:
 
 
 def _scores(model: LoadedModel, arrays: DatasetArrays, rows: Sequence[int]) -> Scores:
-    from dresslog.model.evaluate import evaluate
-
-    e = evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
-    return Scores(
-        n=len(rows),
-        rmse=e.rmse,
-        zero_rmse=e.zero_rmse,
-        ratio=e.ratio,
-        contact_precision=e.contact_precision,
-        contact_recall=e.contact_recall,
-        ratio_at_true_total=e.ratio_at_true_total,
-        ratio_true_shape=e.ratio_true_shape,
-    )
+    return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
 
 
 def evaluate_dataset(

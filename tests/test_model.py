@@ -265,7 +265,7 @@ def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
     assert result.rmse == pytest.approx(rmse(forces, ests), rel=1e-5)
     assert result.zero_rmse == pytest.approx(zero_baseline_rmse(forces))
     assert result.ratio == pytest.approx(result.rmse / result.zero_rmse)
-    assert 0 <= result.contact_recall <= 1 and result.n_sequences == 5
+    assert 0 <= result.contact_recall <= 1 and result.n == 5
     assert set(result.as_metrics()) >= {"rmse", "zero_rmse", "ratio"}
 
 

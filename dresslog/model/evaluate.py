@@ -2,18 +2,17 @@
 
 Public API
 ----------
-``evaluate(model, sequences, forces, *, batch_size=32, progress=False) -> Evaluation``
+``evaluate(model, sequences, forces, *, batch_size=32, progress=False) -> Scores``
     ``model``: a ``LoadedModel`` or ``NumpyEstimator``; ``sequences``: phi (T_i, 9);
     ``forces``: ground truth (T_i, N). Runs every sequence from a zero state (batched,
     zero-padded at the end, which cannot change earlier outputs), applies Eq. 2, then:
-``Evaluation``: ``rmse`` (per-sequence RMSE averaged, N), ``zero_rmse`` (all-zero
+``Scores``: ``n`` (sequences), ``rmse`` (per-sequence RMSE averaged, N), ``zero_rmse`` (all-zero
     estimate), ``ratio`` (rmse / zero_rmse; the paper got 0.45 gown, 0.48 shorts),
     ``contact_precision`` / ``contact_recall`` (estimated contact = contact map > 0 vs
     true force > 0, counted over all steps and points; nan when undefined),
     ``ratio_at_true_total`` / ``ratio_true_shape`` (the ratio with the estimate's total
-    or its shape replaced by the truth's, `dresslog.model.bounds.error_split`),
-    ``per_sequence`` (RMSE of each sequence), ``n_sequences``; ``as_metrics()`` gives
-    the finite ones as a dict for ``ModelCard.metrics``.
+    or its shape replaced by the truth's, `dresslog.model.bounds.error_split`);
+    ``as_metrics()`` gives the finite ones as a dict for ``ModelCard.metrics``.
 """
 
 from __future__ import annotations
@@ -32,16 +31,19 @@ from dresslog.model.postprocess import apply_contact, sequence_rmse, split_outpu
 
 
 @dataclass(frozen=True)
-class Evaluation:
+class Scores:
+    """The paper's numbers for one group of sequences."""
+
+    n: int
     rmse: float
     zero_rmse: float
     ratio: float
     contact_precision: float
     contact_recall: float
+    #: the ratio with the estimate rescaled to each step's true total force: where it errs
     ratio_at_true_total: float
+    #: the ratio of the true map rescaled to the estimate's total: how much it errs
     ratio_true_shape: float
-    per_sequence: list[float]
-    n_sequences: int
 
     def as_metrics(self) -> dict[str, float]:
         """The summary numbers, finite only (JSON has no nan)."""
@@ -53,7 +55,7 @@ class Evaluation:
             "contact_recall": self.contact_recall,
             "ratio_at_true_total": self.ratio_at_true_total,
             "ratio_true_shape": self.ratio_true_shape,
-            "n_sequences": float(self.n_sequences),
+            "n_sequences": float(self.n),
         }
         return {k: v for k, v in values.items() if math.isfinite(v)}
 
@@ -69,7 +71,7 @@ def evaluate(
     *,
     batch_size: int = 32,
     progress: bool = False,
-) -> Evaluation:
+) -> Scores:
     """RMSE after Eq. 2, the all-zero baseline, their ratio and contact precision/recall."""
     from tqdm import tqdm
 
@@ -107,7 +109,8 @@ def evaluate(
             fp += int(np.count_nonzero(said & ~real))
             fn += int(np.count_nonzero(~said & real))
     rmse, zero_rmse = float(np.mean(per_seq)), float(np.mean(zero))
-    return Evaluation(
+    return Scores(
+        n=len(sequences),
         rmse=rmse,
         zero_rmse=zero_rmse,
         ratio=_ratio(rmse, zero_rmse),
@@ -115,6 +118,4 @@ def evaluate(
         contact_recall=_ratio(tp, tp + fn),
         ratio_at_true_total=_ratio(float(np.mean(at_true_total)), zero_rmse),
         ratio_true_shape=_ratio(float(np.mean(true_shape)), zero_rmse),
-        per_sequence=per_seq,
-        n_sequences=len(sequences),
     )
