@@ -28,7 +28,7 @@ from dresslog.limb import (
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
-from dresslog.spec import Outcome, Task, TrialSpec
+from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
 
 #: Limb offset ranges (m) of the paper, per axis, and speed ranges (m/s). The paper's
@@ -361,6 +361,82 @@ class _StepBatch:
         self.ee_forces.append(fmag)
 
 
+def _gripper_path(
+    spec: TrialSpec, ctrl: np.ndarray, limb: Limb, garment: Garment, sub: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The gripper's positions at the physics rate and at the recorded rate.
+
+    Constant speed along the spline, lifted where its held edge would touch the limb.
+    """
+    p = spec.sim
+    n_rec = round(spec.duration * p.record_hz)
+    path = constant_speed(ctrl, spec.speed, np.arange(n_rec) / p.record_hz)
+    path_phys = constant_speed(ctrl, spec.speed, np.arange(n_rec * sub) / p.physics_hz)
+    held = garment.vertices[garment.gripped]
+    rise = spec.speed / p.physics_hz  # the lift moves no faster than the path
+    smoothing = round(p.lift_smoothing * p.physics_hz)
+    cleared = keep_clear(path_phys, limb, held, p.grip_clearance, p.max_grip_lift, rise, smoothing)
+    if cleared is not path_phys:  # a path left alone keeps its own 100 Hz samples
+        path_phys, path = cleared, cleared[::sub]
+    return path_phys, path
+
+
+def _motion(path: np.ndarray, record_hz: int, tare: np.ndarray) -> _Motion:
+    """Twist, pose and the end effector's inertial force along the recorded path."""
+    n_rec = len(path)
+    vel = np.zeros_like(path)
+    if n_rec > 1:
+        vel[1:] = np.diff(path, axis=0) * record_hz
+        vel[0] = vel[1]
+    accel = np.gradient(vel, axis=0) * record_hz if n_rec > 2 else np.zeros_like(vel)
+    twist = np.concatenate([vel, np.zeros_like(vel)], axis=1)
+    pose = np.concatenate([path, np.tile([0.0, 0.0, 0.0, 1.0], (n_rec, 1))], axis=1)
+    return _Motion(np.arange(n_rec) / record_hz, twist, pose, EE_MASS * accel, tare)
+
+
+def _settle(scene: Scene, p: SimParams, rng: np.random.Generator) -> np.ndarray:
+    """Let the garment hang, after a brief uniform "wind" (a tilted gravity); the tare wrench."""
+    g = np.array([0.0, 0.0, -9.81])
+    wind = rng.normal(size=3)
+    wind *= p.wind_accel / np.linalg.norm(wind)
+    n_settle, n_wind = round(p.settle_s * p.physics_hz), round(p.wind_s * p.physics_hz)
+    n_tare = max(1, round(0.1 * p.physics_hz))
+    tare = np.zeros(6)
+    for k in range(n_settle):
+        scene.set_gravity(g + wind if k < n_wind else g)
+        scene.step()
+        if k >= n_settle - n_tare:
+            tare += scene.constraint_wrench()
+    return tare / n_tare
+
+
+def _record(
+    scene: Scene, path_phys: np.ndarray, sub: int, steps: _StepBatch, timings: dict[str, float]
+) -> None:
+    """Move the gripper along the path; each recorded step averages its physics substeps.
+
+    Contacts and wrench are averaged over the substeps: a recorded step carries the
+    impulse of its whole interval, not the chatter of its last substep.
+    """
+    for i in range(len(path_phys) // sub):
+        raw: list[tuple] = []
+        wrench = np.zeros(6)
+        for k in range(sub):
+            t0 = time.thread_time()
+            scene.move_ee(path_phys[i * sub + k])
+            scene.step()
+            t1 = time.thread_time()
+            raw += scene.contacts()
+            wrench += scene.constraint_wrench()
+            timings["physics"] += t1 - t0
+            timings["queries"] += time.thread_time() - t1
+        t1 = time.thread_time()
+        verts = scene.vertices()
+        timings["queries"] += time.thread_time() - t1
+        steps.add(i, raw, wrench, verts)
+    steps.flush()
+
+
 def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     """Run `spec`, streaming each recorded step to `sink`; raise SimulationError if unstable."""
     wall0 = time.perf_counter()
@@ -368,7 +444,7 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     if p.physics_hz % p.record_hz:
         raise SimulationError("physics_hz must be a multiple of record_hz")
     sub = p.physics_hz // p.record_hz
-    rng = np.random.default_rng(spec.seed)
+    rng = np.random.default_rng(spec.seed)  # draws the path (if not given), then the wind
     task = spec.task
     if spec.control_points:
         ctrl = np.asarray(spec.control_points, dtype=float)
@@ -377,25 +453,8 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     limb = build_limb(task, spec.limb_offset, spec.limb_rotation)
     points = limb_points(limb)
     garment = garment_for(task)
-    n_rec = round(spec.duration * p.record_hz)
-    t_rec = np.arange(n_rec) / p.record_hz
-    path = constant_speed(ctrl, spec.speed, t_rec)
-    t_phys = np.arange(n_rec * sub) / p.physics_hz
-    path_phys = constant_speed(ctrl, spec.speed, t_phys)
-    held = garment.vertices[garment.gripped]
-    rise = spec.speed / p.physics_hz  # the lift moves no faster than the path
-    smoothing = round(p.lift_smoothing * p.physics_hz)
-    cleared = keep_clear(path_phys, limb, held, p.grip_clearance, p.max_grip_lift, rise, smoothing)
-    if cleared is not path_phys:  # a path left alone keeps its own 100 Hz samples
-        path_phys, path = cleared, cleared[::sub]
-    start = path[0]
-    vel = np.zeros_like(path)
-    if n_rec > 1:
-        vel[1:] = np.diff(path, axis=0) * p.record_hz
-        vel[0] = vel[1]
-    accel = np.gradient(vel, axis=0) * p.record_hz if n_rec > 2 else np.zeros_like(vel)
-    twist = np.concatenate([vel, np.zeros_like(vel)], axis=1)
-    pose = np.concatenate([path, np.tile([0.0, 0.0, 0.0, 1.0], (n_rec, 1))], axis=1)
+    path_phys, path = _gripper_path(spec, ctrl, limb, garment, sub)
+    n_rec, start = len(path), path[0]
     force_map = ForceDistributor(points.points)
     spread = (
         ClothSpreader(garment.triangles, len(garment.vertices), p.contact_spread, p.contact_reach)
@@ -410,43 +469,12 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     try:
         if sink is not None:
             sink.start(SimStart(spec, points, garment.triangles))
-        # settle, with a brief uniform "wind" on every vertex (a tilted gravity)
-        g = np.array([0.0, 0.0, -9.81])
-        wind = rng.normal(size=3)
-        wind *= p.wind_accel / np.linalg.norm(wind)
-        n_settle, n_wind = round(p.settle_s * p.physics_hz), round(p.wind_s * p.physics_hz)
-        n_tare = max(1, round(0.1 * p.physics_hz))
-        tare = np.zeros(6)
-        for k in range(n_settle):
-            scene.set_gravity(g + wind if k < n_wind else g)
-            scene.step()
-            if k >= n_settle - n_tare:
-                tare += scene.constraint_wrench()
-        tare /= n_tare
-        verts = scene.vertices()
-        _guard(verts, start, 0.0)
-
-        motion = _Motion(t_rec, twist, pose, EE_MASS * accel, tare)
-        steps = _StepBatch(spec, limb, motion, force_map, spread, sink, timings)
-        for i in range(n_rec):
-            # Contacts and wrench are averaged over the substeps: a recorded step carries
-            # the impulse of its whole interval, not the chatter of its last substep.
-            raw: list[tuple] = []
-            wrench = np.zeros(6)
-            for k in range(sub):
-                t0 = time.thread_time()
-                scene.move_ee(path_phys[i * sub + k])
-                scene.step()
-                t1 = time.thread_time()
-                raw += scene.contacts()
-                wrench += scene.constraint_wrench()
-                timings["physics"] += t1 - t0
-                timings["queries"] += time.thread_time() - t1
-            t1 = time.thread_time()
-            verts = scene.vertices()
-            timings["queries"] += time.thread_time() - t1
-            steps.add(i, raw, wrench, verts)
-        steps.flush()
+        tare = _settle(scene, p, rng)
+        _guard(scene.vertices(), start, 0.0)
+        steps = _StepBatch(
+            spec, limb, _motion(path, p.record_hz, tare), force_map, spread, sink, timings
+        )
+        _record(scene, path_phys, sub, steps, timings)
         peak_limb, peak_ee = steps.peak_limb, max(steps.ee_forces, default=0.0)
         final_force = max(steps.ee_forces[-max(1, p.record_hz // 5) :], default=0.0)
         outcome = decide_outcome(task, limb, garment, scene.vertices(), final_force)
