@@ -248,6 +248,33 @@ def convert(
     averaged = rs.median_rate(source.wrench.t_ns) > rs.AVERAGE_ABOVE_HZ
     grid = common_grid(source, averaged)
 
+    found = _warnings(source, grid, max_gap_s)
+    for message in found:
+        warnings.warn(message, ConversionWarning, stacklevel=2)
+
+    wrench, twist, pose, processing = _resample_all(source, grid, tare_s, rotate)
+
+    info = _source_info(source, grid, processing, found, motion)
+    metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
+    t_ns = grid - grid[0]
+    with TrialWriter(output, metadata, overwrite=overwrite) as writer:
+        writer.write_wrench(t_ns, wrench)
+        writer.write_twist(t_ns, twist)
+        if pose is not None:
+            writer.write_pose(t_ns, pose)
+    return ConversionReport(
+        output=str(output),
+        steps=len(grid),
+        duration_s=float(t_ns[-1]) / 1e9,
+        messages_in=source.message_count,
+        elapsed_s=time.perf_counter() - started,
+        source=info,
+        warnings=found,
+    )
+
+
+def _warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
+    """Gaps bridged, streams on different clocks, and time cut off the wrench."""
     found = _gap_warnings(source, grid, max_gap_s)
     if len({s.clock for s in source.streams}) > 1:
         clocks = ", ".join(f"{s.name} on its {s.clock} clock" for s in source.streams)
@@ -258,9 +285,13 @@ def convert(
             f"the trial covers {kept:.2f} s of the wrench's {wrench_s:.2f} s: only the time "
             "every stream covers"
         )
-    for message in found:
-        warnings.warn(message, ConversionWarning, stacklevel=2)
+    return found
 
+
+def _resample_all(
+    source: Source, grid: np.ndarray, tare_s: float, rotate: Quaternion | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
+    """Wrench, twist and pose on the grid, tared and rotated, and how each was made."""
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
     processing: dict[str, object] = {"wrench": _resampling(source.wrench.t_ns)}
     if source.twist is not None:
@@ -278,22 +309,31 @@ def convert(
         processing["pose"] = "linear interpolation, quaternions normalised"
     if tare_s > 0:
         if (grid[-1] - grid[0]) / 1e9 < tare_s:
-            raise ConversionError(f"tare of {tare_s} s is longer than the log", path=path)
+            raise ConversionError(f"tare of {tare_s} s is longer than the log", path=source.path)
         wrench = rs.tare(grid, wrench, tare_s)
         processing["tare_s"] = tare_s
     if rotate is not None:
         wrench, twist = rs.rotate_vectors(wrench, rotate), rs.rotate_vectors(twist, rotate)
         pose = rs.rotate_pose(pose, rotate) if pose is not None else None
         processing["rotation_xyzw"] = [float(v) for v in rotate]
+    return wrench, twist, pose, processing
 
-    described = {s.kind: _describe(s, source) for s in source.streams}
+
+def _source_info(
+    source: Source,
+    grid: np.ndarray,
+    processing: dict[str, object],
+    found: list[str],
+    motion: str | Path | None,
+) -> dict[str, object]:
+    """The metadata's `source`: where the trial came from and what was done to it."""
     info: dict[str, object] = {
-        "file": str(path.resolve()),
+        "file": str(source.path.resolve()),
         "format": source.format,
         "start_ns": int(grid[0]),
         "time": "output t = source t - start_ns",
         "rate_hz": rs.RATE_HZ,
-        "streams": described,
+        "streams": {s.kind: _describe(s, source) for s in source.streams},
         "processing": processing,
     }
     if source.format == "csv" and motion is not None:
@@ -302,19 +342,4 @@ def convert(
         info["notes"] = source.notes
     if found:
         info["warnings"] = found
-    metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
-    t_ns = grid - grid[0]
-    with TrialWriter(output, metadata, overwrite=overwrite) as writer:
-        writer.write_wrench(t_ns, wrench)
-        writer.write_twist(t_ns, twist)
-        if pose is not None:
-            writer.write_pose(t_ns, pose)
-    return ConversionReport(
-        output=str(output),
-        steps=len(grid),
-        duration_s=float(t_ns[-1]) / 1e9,
-        messages_in=source.message_count,
-        elapsed_s=time.perf_counter() - started,
-        source=info,
-        warnings=found,
-    )
+    return info
