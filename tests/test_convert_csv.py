@@ -155,7 +155,7 @@ def test_a_wrench_csv_without_motion_is_refused(tmp_path: Path) -> None:
     ("fault", "message"),
     [
         ("backwards", "timestamps not increasing at sample 50"),
-        ("nan", "NaN or infinite value at sample 30"),
+        ("nan", "nan wrench force z at sample 30 (0.030 s in); drop or fill that sample"),
     ],
 )
 def test_a_csv_with_times_going_backwards_or_a_nan_is_refused_in_one_line(

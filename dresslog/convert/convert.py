@@ -22,7 +22,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from dresslog.convert import resample as rs
-from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
+from dresslog.convert.source import COMPONENTS, MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError
 from dresslog.io.files import check_output
 from dresslog.io.writer import TrialWriter
@@ -115,8 +115,13 @@ def check_stream(stream: SourceStream, path: Path) -> None:
             path=path,
         )
     if not np.isfinite(stream.values).all():
-        row = int(np.flatnonzero(~np.isfinite(stream.values).all(axis=1))[0])
-        raise ConversionError(f"{where}NaN or infinite value at sample {row}", path=path)
+        row, col = (int(i[0]) for i in np.nonzero(~np.isfinite(stream.values)))
+        seconds = (stream.t_ns[row] - stream.t_ns[0]) / 1e9
+        raise ConversionError(
+            f"{where}{stream.values[row, col]} {stream.kind} {COMPONENTS[stream.kind][col]} at "
+            f"sample {row} ({seconds:.3f} s in); drop or fill that sample",
+            path=path,
+        )
 
 
 def _span(stream: SourceStream) -> str:

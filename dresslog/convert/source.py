@@ -14,8 +14,13 @@ MESSAGE_TYPES = {
     kind: wk.SCHEMAS[topic]
     for kind, topic in (("wrench", wk.WRENCH), ("twist", wk.TWIST), ("pose", wk.POSE))
 }
-#: Values per sample of each kind: force+torque, linear+angular, position+quaternion (x y z w).
-WIDTHS = {"wrench": 6, "twist": 6, "pose": 7}
+#: Each kind's values per sample: force+torque, linear+angular, position+quaternion (x y z w).
+COMPONENTS = {
+    "wrench": ("force x", "force y", "force z", "torque x", "torque y", "torque z"),
+    "twist": ("linear x", "linear y", "linear z", "angular x", "angular y", "angular z"),
+    "pose": ("position x", "position y", "position z", "qx", "qy", "qz", "qw"),
+}
+WIDTHS = {kind: len(names) for kind, names in COMPONENTS.items()}
 
 
 @dataclass
