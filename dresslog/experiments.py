@@ -42,7 +42,7 @@ from pydantic import ValidationError
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, first_problem
-from dresslog.io.files import atomic_path
+from dresslog.io.files import atomic_path, exclusive
 from dresslog.model.evaluate import Scores, evaluate
 from dresslog.model.files import (
     CARD_FILE,
@@ -91,47 +91,51 @@ def train_dataset(
     """Train the paper's network (by default) on `data`'s training split; save to `out`."""
     out = Path(out)
     check_model_folder(out, overwrite)  # say so now, not after hours of training
-    arrays = load_dataset(data, workers=workers, progress=progress)
-    rows = arrays.rows(Split.TRAIN)
-    if len(rows) < 2:
-        raise DatasetError(f"needs at least 2 training trials, has {len(rows)}", path=data)
-    from dresslog.model.files import save_model
-    from dresslog.model.train import make_card, train  # torch only once the data checks out
-
     checkpoint = out.with_name(f".{out.name}.checkpoint.pt")
-    if overwrite:  # start afresh: an interrupted earlier run is replaced, not resumed
-        checkpoint.unlink(missing_ok=True)
-    weights, history = train(
-        arrays.sequences(rows),
-        arrays.force_maps(rows),
-        epochs=epochs,
-        batch_size=batch_size,
-        lr=lr,
-        hidden=hidden,
-        layers=layers,
-        seed=seed,
-        window=window,
-        normalise=normalise,
-        balance_loss=balance_loss,
-        keep_best=keep_best,
-        lr_schedule=lr_schedule,
-        input_differences=input_differences,
-        progress=progress,
-        checkpoint=checkpoint,
-        on_epoch=on_epoch,
-    )
-    metrics: dict[str, float] = {}
-    test = arrays.rows(Split.TEST)
-    if len(test):
-        from dresslog.model.numpy_lstm import NumpyEstimator
+    # a second run on the same output would share (and garble) the checkpoint
+    with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train"):
+        arrays = load_dataset(data, workers=workers, progress=progress)
+        rows = arrays.rows(Split.TRAIN)
+        if len(rows) < 2:
+            raise DatasetError(f"needs at least 2 training trials, has {len(rows)}", path=data)
+        from dresslog.model.files import save_model
+        from dresslog.model.train import make_card, train  # torch once the data checks out
 
-        scores = evaluate(NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test))
-        metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
-    provenance = DataProvenance(manifest_sha256=arrays.manifest_sha256, description=str(data))
-    card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
-    card = save_model(out, weights, card, overwrite=overwrite)
-    plot_training(out / TRAINING_PLOT, card)
-    checkpoint.unlink(missing_ok=True)
+        if overwrite:  # start afresh: an interrupted earlier run is replaced, not resumed
+            checkpoint.unlink(missing_ok=True)
+        weights, history = train(
+            arrays.sequences(rows),
+            arrays.force_maps(rows),
+            epochs=epochs,
+            batch_size=batch_size,
+            lr=lr,
+            hidden=hidden,
+            layers=layers,
+            seed=seed,
+            window=window,
+            normalise=normalise,
+            balance_loss=balance_loss,
+            keep_best=keep_best,
+            lr_schedule=lr_schedule,
+            input_differences=input_differences,
+            progress=progress,
+            checkpoint=checkpoint,
+            on_epoch=on_epoch,
+        )
+        metrics: dict[str, float] = {}
+        test = arrays.rows(Split.TEST)
+        if len(test):
+            from dresslog.model.numpy_lstm import NumpyEstimator
+
+            scores = evaluate(
+                NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test)
+            )
+            metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
+        provenance = DataProvenance(manifest_sha256=arrays.manifest_sha256, description=str(data))
+        card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
+        card = save_model(out, weights, card, overwrite=overwrite)
+        plot_training(out / TRAINING_PLOT, card)
+        checkpoint.unlink(missing_ok=True)
     return card
 
 

@@ -26,7 +26,8 @@ from dresslog.dataset import (
 )
 from dresslog.dataset import cache as cache_module
 from dresslog.dataset.manifest import check_files
-from dresslog.errors import DatasetError, SimulationError
+from dresslog.errors import DatasetError, DresslogError, SimulationError
+from dresslog.io.files import exclusive
 from dresslog.io.reader import TrialReader
 from dresslog.spec import TrialSpec
 from tests.conftest import write_synthetic_trial
@@ -303,3 +304,14 @@ def test_a_folder_holding_something_else_is_refused_and_left_as_it_was(
     assert result.exit_code == 1 and "holds no dataset (manifest.json)" in result.output
     assert sorted(tmp_path.rglob("*")) == before
     generate("gown", 1, tmp_path / "new", workers=1, recorder=FAKE)  # an empty folder is fine
+
+
+def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
+    tmp_path: Path,
+) -> None:
+    tmp_path.joinpath("d").mkdir()
+    lock = exclusive(tmp_path / "d" / ".generate.lock", "dresslog generate")
+    with lock, pytest.raises(DresslogError, match=r"another `dresslog generate` .* writing here"):
+        generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)
+    generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)  # free again
+    assert len(load_manifest(tmp_path / "d").trials) == 1

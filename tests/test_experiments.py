@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import socket
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from dresslog.experiments import (
     sweep_settings,
     train_dataset,
 )
+from dresslog.io.files import exclusive
 from dresslog.model.files import ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_lines
@@ -262,3 +264,18 @@ def test_a_model_reading_the_signals_change_still_infers_from_the_9d_signal(
     trial = next((data / "test").glob("*.mcap"))
     code, output = invoke("infer", trial, "--model", out, "-o", tmp_path / "t.rrd")
     assert code == 0 and "RMSE" in output and (tmp_path / "t.rrd").is_file(), output
+
+
+def test_a_second_train_on_the_same_output_is_refused_while_the_first_runs(
+    data: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "m"
+    with exclusive(tmp_path / ".m.train.lock", "dresslog train"):  # held by this live process
+        code, output = invoke("train", data, "-o", out, "--epochs", "1", "--hidden", "4", "-q")
+    assert code == 1 and f"another `dresslog train` ({socket.gethostname()} pid" in output
+    assert not out.exists()
+    # a lock whose process is gone is taken over
+    (tmp_path / ".m.train.lock").write_text(f"{socket.gethostname()} {2**22 + 12345}")
+    code, output = invoke("train", data, "-o", out, "--epochs", "1", "--hidden", "4", "-q")
+    assert code == 0, output
+    assert not (tmp_path / ".m.train.lock").exists()

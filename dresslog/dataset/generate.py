@@ -11,12 +11,10 @@ folder always produces the same data, however often it was interrupted.
 
 from __future__ import annotations
 
-import contextlib
 import importlib
 import os
-import socket
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +33,7 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogError, SimulationError
-from dresslog.io.files import sha256_file
+from dresslog.io.files import exclusive, sha256_file
 from dresslog.spec import Outcome, Task, TrialSpec
 
 #: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
@@ -277,43 +275,6 @@ def _job(
     return Job(str(root), split, slot, attempt, spec, recorder)
 
 
-@contextlib.contextmanager
-def _lock(root: Path) -> Iterator[None]:
-    """Refuse a second generation into the same folder while one is running here."""
-    path = root / LOCK_FILE
-    me = f"{socket.gethostname()} {os.getpid()}"
-    for _ in range(2):
-        try:
-            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-        except FileExistsError:
-            host, _, pid = path.read_text().partition(" ")
-            if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
-                path.unlink(missing_ok=True)  # stale: its process is gone
-                continue
-            raise DatasetError(
-                f"another `dresslog generate` ({host} pid {pid}) is writing this folder; "
-                f"wait for it, or delete {LOCK_FILE} if it is dead",
-                path=root,
-            ) from None
-        os.write(fd, me.encode())
-        os.close(fd)
-        break
-    try:
-        yield
-    finally:
-        path.unlink(missing_ok=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def _remove_partials(root: Path) -> None:
     """Delete temporary files left by a run that was killed (we hold the folder's lock)."""
     for split in Split:
@@ -360,7 +321,7 @@ def generate(
     _check_folder(root)
     check_executor(executor)
     root.mkdir(parents=True, exist_ok=True)
-    with _lock(root):
+    with exclusive(root / LOCK_FILE, "dresslog generate"):
         manifest = _open_manifest(root, task, seed, counts, overrides)
         for split in Split:
             if manifest.wanted(split):
