@@ -22,8 +22,7 @@ def test_help_lists_the_commands() -> None:
     result = CliRunner().invoke(main, ["--help"])
     assert result.exit_code == 0
     listed = {line.split()[0] for line in result.output.split("Commands:")[1].splitlines() if line}
-    assert "info" in listed
-    assert listed <= set(COMMANDS)
+    assert listed == set(COMMANDS)
 
 
 def test_version() -> None:
@@ -80,7 +79,35 @@ def test_record_makes_the_readme_trial_and_never_replaces_a_file_unasked(tmp_pat
     assert again.exit_code == 1
     assert again.output.strip() == f"Error: {out}: file exists; pass --overwrite to replace it"
     assert out.read_bytes() == before
-    assert CliRunner().invoke(main, [*args, "--overwrite"]).exit_code == 0
+    other = ["record", "--task", "gown", "--seed", "5", "--duration", "0.1", "-o", str(out)]
+    assert CliRunner().invoke(main, [*other, "--overwrite"]).exit_code == 0
+    assert read_trial(out).metadata.spec.seed == 5  # replaced
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["record", "--task", "gown", "--duration", "0.1", "--offset", "0.01", "-0.02", "0.03"],
+        ["convert", str(SAMPLE), "--task", "gown"],
+    ],
+    ids=["record", "convert"],
+)
+def test_a_trial_not_named_mcap_is_refused_before_any_work(tmp_path: Path, args: list[str]) -> None:
+    out = tmp_path / "t.txt"
+    result = CliRunner().invoke(main, [*args, "-o", str(out)])
+    assert result.exit_code == 1 and "a trial is an MCAP file; name it .mcap" in result.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_record_options_reach_the_spec(tmp_path: Path) -> None:
+    out = tmp_path / "t.mcap"
+    args = ["record", "--task", "shorts", "--seed", "2", "--speed", "0.2", "--duration", "0.1"]
+    args += ["--offset", "0.01", "-0.02", "0.03", "--rotation", "x", "5", "-o", str(out)]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    spec = read_trial(out).metadata.spec
+    assert (spec.seed, spec.speed, spec.duration) == (2, 0.2, 0.1)
+    assert spec.limb_offset == (0.01, -0.02, 0.03)
+    assert (spec.limb_rotation.axis, spec.limb_rotation.degrees) == ("x", 5.0)
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")

@@ -30,7 +30,7 @@ from dresslog.errors import DatasetError, DresslogError, SimulationError
 from dresslog.io.files import exclusive
 from dresslog.io.reader import TrialReader
 from dresslog.spec import TrialSpec
-from tests.conftest import write_synthetic_trial
+from tests.conftest import SAMPLES, write_synthetic_trial
 
 FAKE = "tests.test_dataset:fake_record"
 FAILING_SEED = trial_seed(0, Split.TRAIN, 1, 0)
@@ -140,11 +140,14 @@ def test_failed_trials_are_listed_with_reasons_and_replaced_by_fresh_seeds(tmp_p
 
 
 def test_a_slot_failing_every_seed_stops_generation_with_one_line(tmp_path: Path) -> None:
-    with pytest.raises(DatasetError, match=r"1 slot\(s\) failed 2 seeds.*garment exploded"):
-        generate(
-            "gown", 1, tmp_path, workers=1, overrides={"speed": 0.99}, max_attempts=2, recorder=FAKE
-        )
-    assert len(load_manifest(tmp_path).failures) == 2
+    # the real simulator, with its instability guard set below any contact force
+    unstable = {"sim": {"max_limb_force": 1e-3}, "limb_offset": (0, 0, 0), "duration": 1.5}
+    with pytest.raises(
+        DatasetError, match=r"1 slot\(s\) failed 2 seeds.*SimulationError: .*exceeds"
+    ):
+        generate("shorts", 1, tmp_path, workers=1, overrides=unstable, max_attempts=2)
+    failures = load_manifest(tmp_path).failures
+    assert len(failures) == 2 and failures[0].spec.seed != failures[1].spec.seed
 
 
 def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
@@ -274,11 +277,24 @@ def test_missing_or_corrupt_trials_are_named(copy: Path) -> None:
 def test_cli_bad_data_folder_is_one_line_and_exit_1(tmp_path: Path, command: str) -> None:
     args = [command, str(tmp_path), "-o", str(tmp_path / "m")] if command == "train" else []
     if command == "eval":
-        args = ["eval", str(tmp_path / "no-model"), str(tmp_path)]
+        args = ["eval", str(SAMPLES / "models" / "gown"), str(tmp_path)]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1
-    assert result.output.count("\n") == 1 and result.output.startswith("Error: ")
-    assert "Traceback" not in result.output
+    assert result.output == (
+        f"Error: {tmp_path}: no manifest.json; not a dataset folder "
+        "(make one with `dresslog generate`)\n"
+    )
+
+
+def test_cli_generate_seed_reaches_every_trial(tmp_path: Path) -> None:
+    args = ["generate", "--task", "shorts", "--trials", "2", "--test-fraction", "0.5"]
+    args += ["--seed", "5", "--duration", "0.1", "--workers", "1", "-q", "-o", str(tmp_path / "d")]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    manifest = load_manifest(tmp_path / "d")
+    assert manifest.seed == 5
+    assert {(e.split, e.spec.seed) for e in manifest.trials} == {
+        (split, trial_seed(5, split, 0)) for split in (Split.TRAIN, Split.TEST)
+    }
 
 
 def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkeypatch) -> None:

@@ -26,6 +26,7 @@ from dresslog.model import (
     save_model,
     zero_baseline_rmse,
 )
+from dresslog.model.bounds import error_split
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import EpochRecord, Hyperparameters
 from dresslog.model.inputs import network_inputs
@@ -265,7 +266,16 @@ def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
     assert result.rmse == pytest.approx(rmse(forces, ests), rel=1e-5)
     assert result.zero_rmse == pytest.approx(zero_baseline_rmse(forces))
     assert result.ratio == pytest.approx(result.rmse / result.zero_rmse)
-    assert 0 <= result.contact_recall <= 1 and result.n == 5
+    said = np.concatenate([est.run(p)[1] > 0 for p in phis]).ravel()
+    real = np.concatenate(forces).ravel() > 0
+    assert result.contact_precision == pytest.approx((said & real).sum() / said.sum())
+    assert result.contact_recall == pytest.approx((said & real).sum() / real.sum())
+    at_true_total, true_shape = np.mean(
+        [error_split(f, e) for f, e in zip(forces, ests, strict=True)], axis=0
+    )
+    assert result.ratio_at_true_total == pytest.approx(at_true_total / result.zero_rmse, rel=1e-5)
+    assert result.ratio_true_shape == pytest.approx(true_shape / result.zero_rmse, rel=1e-5)
+    assert result.n == 5
     assert set(result.as_metrics()) >= {"rmse", "zero_rmse", "ratio"}
 
 

@@ -20,6 +20,7 @@ from dresslog.replay.live import SimulationSource
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink
 from dresslog.replay.pipeline import MODELS_ENV, replay_file
+from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
 from tests.conftest import SAMPLES
 from tests.test_bad_input import TWIST, _raw_mcap, _vectors, missing_twist, nan_wrench
@@ -124,13 +125,30 @@ def test_a_nan_measurement_stops_a_live_replay(gown) -> None:
         replay.push(bad)
 
 
+def test_a_replay_failing_midway_leaves_no_output_behind(gown, tmp_path: Path) -> None:
+    trial_path, model_path = gown
+    trial = read_trial(trial_path)
+    steps = list(trial_steps(trial))
+    steps[10] = steps[10].__class__(10, steps[10].t_ns, np.full(9, np.nan, np.float32))
+    (out := tmp_path / "out").mkdir()
+    sinks = [McapSink(out / "e.mcap"), RerunSink(out / "e.rrd")]
+    estimator = load_model(model_path).estimator()
+    with pytest.raises(TrialFormatError, match="at step 10"):
+        Replay(estimator, sinks).run(trial_context(trial, trial_path), steps)
+    assert list(out.iterdir()) == []  # neither the outputs nor their temporaries
+
+
 def test_infer_prints_rmse_and_writes_both_outputs(gown, tmp_path: Path) -> None:
     trial_path, model_path = gown
     rrd, mcap = tmp_path / "out.rrd", tmp_path / "out.mcap"
     args = ["infer", str(trial_path), "--model", str(model_path), "-o", str(rrd)]
     result = CliRunner().invoke(main, [*args, "--mcap-out", str(mcap)])
     assert result.exit_code == 0, result.output
-    assert "40 steps" in result.output and "RMSE" in result.output
+    again = CliRunner().invoke(main, [*args, "--mcap-out", str(mcap)])
+    assert again.exit_code == 0, again.output  # derived outputs are replaced on a re-run
+    report = replay_file(trial_path, model=model_path)  # the same replay, no outputs
+    assert "40 steps" in result.output
+    assert f"RMSE {report.rmse:.4g} N (all-zero estimate {report.zero_rmse:.4g} N)" in result.output
     assert rrd.stat().st_size > 0 and mcap.stat().st_size > 0
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
 

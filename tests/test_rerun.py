@@ -199,7 +199,13 @@ def test_default_layout_renders_headless(inferred, tmp_path: Path) -> None:
     _, _, rrd = inferred
     png = tmp_path / "shot.png"
     capture(rrd, png, step=20, port=9871, settle=1.0)
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    import matplotlib.image
+
+    image = matplotlib.image.imread(png)[..., :3]
+    h, w, _ = image.shape
+    # the default layout: the limbs on a light 3D view at the left, the plots dark at the right
+    assert image[h // 10 : h * 8 // 10, w // 50 : w * 55 // 100].mean() > 0.6
+    assert image[h // 10 : h * 8 // 10, w * 62 // 100 :].mean() < 0.35
 
 
 @pytest.mark.slow

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import importlib
 import re
-from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -239,8 +238,15 @@ def _outcome(args: tuple[str, int]) -> str:
 
 
 @pytest.mark.parametrize("task", list(Task))
-def test_twenty_random_seeds_include_dressed_and_not_dressed(task: Task) -> None:
-    with ProcessPoolExecutor(2) as pool:
-        outcomes = Counter(pool.map(_outcome, [(task.value, s) for s in range(20)]))
-    assert outcomes[Outcome.DRESSED.value] > 0
-    assert sum(outcomes.values()) - outcomes[Outcome.DRESSED.value] > 0
+def test_the_first_random_seeds_include_dressed_and_not_dressed(task: Task) -> None:
+    """Of at most 20 seeds; stops as soon as both have come up (seed 4 for the gown)."""
+    dressed: set[bool] = set()
+    pool = ProcessPoolExecutor(2)
+    try:
+        for future in [pool.submit(_outcome, (task.value, s)) for s in range(20)]:
+            dressed.add(future.result() == Outcome.DRESSED.value)
+            if len(dressed) == 2:
+                break
+    finally:
+        pool.shutdown(cancel_futures=True)
+    assert dressed == {True, False}
