@@ -304,3 +304,37 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
     with pytest.raises(ConversionError, match=r"log covers 0.002 s, .* give --time-unit"):
         convert(ati_style(tmp_path), tmp_path / "t.mcap", "gown", time_unit="ms")
     assert not (tmp_path / "t.mcap").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--rotate", "0", "0", "0", "0"], "rotation quaternion must be finite and not zero"),
+        (["--tare", "-1"], "tare of -1.0 s: give a duration of 0 s or more"),
+        (["--tare", "10"], "tare of 10.0 s is longer than the log"),
+        (["--column", "fx"], "--column fx: expected ROLE=HEADER"),
+        (["--column", "fq=Fx (N)"], "unknown column role 'fq'"),
+    ],
+    ids=["rotate", "negative-tare", "long-tare", "column-without-header", "unknown-role"],
+)
+def test_bad_convert_options_are_one_line_and_write_nothing(
+    tmp_path: Path, options: list[str], message: str
+) -> None:
+    source, out = ati_style(tmp_path), tmp_path / "t.mcap"
+    args = ["convert", str(source), "-o", str(out), "--task", "gown", *options]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and message in result.output, result.output
+    assert len(result.output.splitlines()) == 1 and not out.exists()
+
+
+def test_a_motion_file_from_another_time_is_said_not_to_overlap(tmp_path: Path) -> None:
+    t_w, t_m = times(1000, 2.0), times(100, 2.0) + 60 * 10**9  # a minute later
+    header = ["%time"] + [f"field.wrench.{q}.{a}" for q in ("force", "torque") for a in "xyz"]
+    wrench_file = write_csv(tmp_path / "w.csv", header, [t_w, *wrench(seconds_of(t_w)).T])
+    motion_header = ["%time"] + [f"field.pose.position.{a}" for a in "xyz"]
+    motion_header += [f"field.pose.orientation.{a}" for a in "xyzw"]
+    motion = write_csv(tmp_path / "m.csv", motion_header, [t_m, *pose(seconds_of(t_m)).T])
+    with pytest.raises(
+        ConversionError, match=r"do not overlap in time .* they must share one clock"
+    ):
+        convert(wrench_file, tmp_path / "t.mcap", "gown", motion=motion)

@@ -303,3 +303,27 @@ def test_a_second_train_on_the_same_output_is_refused_while_the_first_runs(
     code, output = invoke("train", data, "-o", out, "--epochs", "1", "--hidden", "4", "-q")
     assert code == 0, output
     assert not (tmp_path / ".m.train.lock").exists()
+
+
+def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
+    data = tmp_path / "one"
+    generate("gown", 1, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
+    code, output = invoke("train", data, "-o", tmp_path / "m", "-q")
+    assert code == 1 and "needs at least 2 training trials, has 1" in output
+    code, output = invoke("eval", _fake_model(tmp_path / "gown", "gown"), data)
+    assert code == 1 and f"{data}: the dataset has no test trials" in output
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ([], "give at least one --speeds or --rotations value"),
+        (["--speeds", "fast"], "speed 'fast' is not a number"),
+    ],
+)
+def test_sweep_without_a_setting_or_with_a_bad_speed_is_refused(
+    model: Path, tmp_path: Path, options: list[str], message: str
+) -> None:
+    code, output = invoke("sweep", model, *options, "-o", tmp_path / "s")
+    assert code == 1 and message in output, output
+    assert not (tmp_path / "s").exists()

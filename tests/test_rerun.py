@@ -261,3 +261,48 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     # a fixed colour scale, not one stretched to a weak estimate; the limb said to be nominal
     text = spec_text(rrd)
     assert "the task's nominal limb" in text and "0 to 0.5 N." in text
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_view_web_serves_the_viewer_on_localhost_until_interrupted(inferred) -> None:
+    """What the README advises without a display: `view --web` prints a URL that answers."""
+    import signal
+    import time
+    import urllib.request
+
+    _, _, rrd = inferred
+    port = _free_port()
+    command = [sys.executable, "-c", "from dresslog.cli.main import main; main()"]
+    process = subprocess.Popen(
+        [*command, "view", str(rrd), "--web", "--port", str(port)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        assert process.stdout is not None
+        line = process.stdout.readline()
+        assert line.startswith(f"Web viewer: http://127.0.0.1:{port}/?url=rerun%2Bhttp"), line
+        deadline, status = time.monotonic() + 30, None
+        while status is None and time.monotonic() < deadline:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2) as reply:
+                    status = reply.status
+            except OSError:
+                time.sleep(0.5)
+        assert status == 200
+    finally:
+        process.send_signal(signal.SIGINT)  # to dresslog alone: it must stop the viewer
+        process.wait(timeout=30)
+    assert process.returncode == 0
+    time.sleep(1)
+    with pytest.raises(OSError):  # the viewer is gone too
+        urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2)

@@ -7,7 +7,9 @@ its default blueprint; the viewer itself is Rerun's own executable.
 
 from __future__ import annotations
 
+import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -113,11 +115,17 @@ def view_file(
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
             echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")
-        process = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+        # its own process group: `python -m rerun` starts the viewer binary as a child,
+        # which terminating the wrapper alone would leave serving
+        group = hasattr(os, "killpg")
+        process = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=group)
         try:
             _, err = process.communicate()
         except KeyboardInterrupt:
-            process.terminate()
+            if group:
+                os.killpg(process.pid, signal.SIGTERM)
+            else:
+                process.terminate()
             process.wait()
             return
         if process.returncode != 0:
