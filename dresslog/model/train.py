@@ -35,7 +35,7 @@ progress=True, checkpoint=None, on_epoch=None)
 
 ``TrainHistory``: ``settings``, ``epochs`` (list of ``EpochRecord(epoch, train_loss,
     val_loss, seconds)``, the card's ``history``), ``n_train``, ``n_val``,
-    ``final_train_loss``, ``final_val_loss``, ``kept`` (the record of the epoch whose
+    ``final_val_loss``, ``kept`` (the record of the epoch whose
     weights were returned).
 """
 
