@@ -45,6 +45,8 @@ def record(
     """Simulate one trial (random spec from --seed, or set explicitly) and record it."""
     from dresslog.sim import random_spec, record_trial
 
+    if model is not None and not (live or connect):
+        raise click.UsageError("--model is the live view's; use it with --live or --connect")
     turn = dict(zip(("axis", "degrees"), rotation, strict=True)) if rotation else None
     spec = random_spec(
         task, seed, speed=speed, duration=duration, limb_offset=offset or None, limb_rotation=turn

@@ -40,6 +40,7 @@ from typing import Any, Literal
 from pydantic import ValidationError
 
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
+from dresslog.dataset.generate import check_executor
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, first_problem
 from dresslog.io.files import atomic_path, exclusive
@@ -93,7 +94,7 @@ def train_dataset(
     check_model_folder(out, overwrite)  # say so now, not after hours of training
     checkpoint = out.with_name(f".{out.name}.checkpoint.pt")
     # a second run on the same output would share (and garble) the checkpoint
-    with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train"):
+    with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
         arrays = load_dataset(data, workers=workers, progress=progress)
         rows = arrays.rows(Split.TRAIN)
         if len(rows) < 2:
@@ -367,6 +368,7 @@ def sweep(
     if not speeds and not rotations:
         raise DatasetError("give at least one --speeds or --rotations value")
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
+    check_executor(executor)
     out = Path(out)
     for name, what in ((MANIFEST_FILE, "a dataset"), (CARD_FILE, "a model")):
         if (out / name).is_file():

@@ -5,7 +5,8 @@ Public API
 ``describe(path, *, as_json=False) -> Description``
     The text `dresslog info` prints, and the problem that makes it exit non-zero: a
     model whose weights do not match its card is still described (the card says what it
-    claims to be), with the mismatch as the problem.
+    claims to be), with the mismatch as the problem; so is a dataset with trials missing
+    or of another size than its manifest records.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
 
     path = Path(path)
     if (path / MANIFEST_FILE).is_file():
-        return Description(_dataset(path, as_json))
+        return _dataset(path, as_json)
     if (path / CARD_FILE).is_file():
         return _model(path, as_json)
     if path.is_dir():
@@ -42,18 +43,21 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
     return Description(summary.model_dump_json(indent=2) if as_json else format_summary(summary))
 
 
-def _dataset(path: Path, as_json: bool) -> str:
-    from dresslog.dataset.manifest import damaged_files, load_manifest
+def _dataset(path: Path, as_json: bool) -> Description:
+    """The manifest's summary; trials missing or of another size than it records fail it."""
+    from dresslog.dataset.manifest import damaged_error, damaged_files, load_manifest
 
     manifest = load_manifest(path)
+    damaged = list(damaged_files(path, manifest))  # sizes only: hashing every trial is slow
+    problem = damaged_error(path, *damaged[0]) if damaged else None
     if as_json:
-        return manifest.model_dump_json(indent=1)
+        return Description(manifest.model_dump_json(indent=1), problem)
     lines = [f"{path}: {manifest.describe()}"]
-    if damaged := list(damaged_files(path, manifest)):
+    if damaged:
         names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
         more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""
         lines.append(f"  damaged: {names}{more}; run `dresslog generate` on it again")
-    return "\n".join(lines)
+    return Description("\n".join(lines), problem)
 
 
 def _model(path: Path, as_json: bool) -> Description:

@@ -10,9 +10,11 @@ from __future__ import annotations
 from enum import StrEnum
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat
 
-Vec3 = tuple[float, float, float]
+Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+#: Longest trial a spec accepts, s: an hour at 100 Hz (a typo like 1e9 would need TBs).
+MAX_DURATION = 3600.0
 
 
 class Task(StrEnum):
@@ -108,7 +110,7 @@ class TrialSpec(BaseModel):
     ] = 0.125
     limb_offset: Vec3 = Field((0.0, 0.0, 0.0), description="limb offset from nominal, m")
     limb_rotation: LimbRotation = LimbRotation()
-    duration: Annotated[float, Field(gt=0, description="recorded motion, s")] = 7.0
+    duration: Annotated[float, Field(gt=0, le=MAX_DURATION, description="recorded motion, s")] = 7.0
     control_points: list[Vec3] = Field(
         default_factory=list,
         description="end-effector path control points in the world frame, m; "

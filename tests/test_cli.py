@@ -99,6 +99,14 @@ def test_a_trial_not_named_mcap_is_refused_before_any_work(tmp_path: Path, args:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_record_model_without_live_and_an_upper_case_suffix(tmp_path: Path) -> None:
+    args = ["record", "--task", "gown", "--duration", "0.1"]
+    unused = CliRunner().invoke(main, [*args, "--model", "m", "-o", str(tmp_path / "a.mcap")])
+    assert unused.exit_code == 2 and "use it with --live" in unused.output
+    upper = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "B.MCAP")])
+    assert upper.exit_code == 0 and read_trial(tmp_path / "B.MCAP").metadata.spec.duration == 0.1
+
+
 def test_record_options_reach_the_spec(tmp_path: Path) -> None:
     out = tmp_path / "t.mcap"
     args = ["record", "--task", "shorts", "--seed", "2", "--speed", "0.2", "--duration", "0.1"]
@@ -175,12 +183,15 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
     ("option", "message"),
     [
         (["--speed", "5"], "invalid speed"),
+        (["--duration", "inf"], "invalid duration: Input should be less than or equal to 3600"),
+        (["--duration", "1e9"], "invalid duration: Input should be less than or equal to 3600"),
+        (["--offset", "nan", "0", "0"], "invalid limb_offset.0: Input should be a finite number"),
         (
             ["--rotation", "z", "999"],
             "invalid limb_rotation.degrees: Input should be less than or equal to 90",
         ),
     ],
-    ids=["speed", "rotation"],
+    ids=["speed", "duration-inf", "duration-huge", "offset-nan", "rotation"],
 )
 def test_record_refuses_a_setting_out_of_range_before_simulating(
     tmp_path: Path, option: list[str], message: str

@@ -268,7 +268,8 @@ def test_missing_or_corrupt_trials_are_named(copy: Path) -> None:
         load_dataset(copy, workers=1, progress=False)
     trial.unlink()
     shown = CliRunner().invoke(main, ["info", str(copy)])
-    assert shown.exit_code == 0 and "damaged: train/000002.mcap (missing)" in shown.output
+    assert shown.exit_code == 1 and "damaged: train/000002.mcap (missing)" in shown.stdout
+    assert "train/000002.mcap listed in the manifest is missing" in shown.stderr
     with pytest.raises(DatasetError, match=r"train/000002\.mcap listed in the manifest is missing"):
         load_dataset(copy, workers=1, progress=False)
 
@@ -308,6 +309,15 @@ def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkey
     assert not (tmp_path / "d").exists()  # refused before anything was written
 
 
+def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
+    tmp_path: Path,
+) -> None:
+    args = ["generate", "--task", "gown", "--trials", "2", "--duration", "inf"]
+    result = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "d")])
+    assert result.exit_code == 1 and "invalid duration" in result.output
+    assert not (tmp_path / "d").exists()  # no manifest that would pin the bad value
+
+
 @pytest.mark.parametrize("holds", ["card.json", "notes.txt", "train/000000.mcap"])
 def test_a_folder_holding_something_else_is_refused_and_left_as_it_was(
     tmp_path: Path, holds: str
@@ -327,7 +337,7 @@ def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
 ) -> None:
     tmp_path.joinpath("d").mkdir()
     lock = exclusive(tmp_path / "d" / ".generate.lock", "dresslog generate")
-    with lock, pytest.raises(DresslogError, match=r"another `dresslog generate` .* writing here"):
+    with lock, pytest.raises(DresslogError, match=r"another `dresslog generate` .* is writing it"):
         generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)
     generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)  # free again
     assert len(load_manifest(tmp_path / "d").trials) == 1

@@ -296,7 +296,8 @@ def test_a_second_train_on_the_same_output_is_refused_while_the_first_runs(
     out = tmp_path / "m"
     with exclusive(tmp_path / ".m.train.lock", "dresslog train"):  # held by this live process
         code, output = invoke("train", data, "-o", out, "--epochs", "1", "--hidden", "4", "-q")
-    assert code == 1 and f"another `dresslog train` ({socket.gethostname()} pid" in output
+    assert code == 1 and output.startswith(f"Error: {out}: another `dresslog train` (")
+    assert f"({socket.gethostname()} pid {os.getpid()}) is writing it" in output
     assert not out.exists()
     # a lock whose process is gone is taken over
     (tmp_path / ".m.train.lock").write_text(f"{socket.gethostname()} {2**22 + 12345}")

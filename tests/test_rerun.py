@@ -176,7 +176,9 @@ def test_view_without_a_display_says_so_before_any_work(
 
 
 @pytest.mark.parametrize(
-    "options", [["--port", "9000"], ["--web", "--save", "x.rrd"]], ids=["port", "web-save"]
+    "options",
+    [["--port", "9000"], ["--web", "--port", "-5"], ["--web", "--save", "x.rrd"]],
+    ids=["port-without-web", "port-out-of-range", "web-save"],
 )
 def test_view_options_that_cannot_go_together_are_a_usage_error(
     inferred, options: list[str]

@@ -146,14 +146,15 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
     if len(grid) < 2:
         first = max(int(s.t_ns[0]) for s in source.streams)
         overlap = (min(int(s.t_ns[-1]) for s in source.streams) - first) / 1e9
+        spans = "; ".join(_span(s) for s in source.streams)
         if overlap >= 0:  # too short (or times read in too large a unit), not two clocks
-            what = "log covers" if len({s.name for s in source.streams}) == 1 else "streams share"
+            one = len({s.name for s in source.streams}) == 1
+            what = "log covers" if one else f"streams ({spans}) share"
             raise ConversionError(
                 f"the {what} {overlap:.3g} s, less than two 100 Hz steps; "
                 "if the times are in another unit, give --time-unit",
                 path=source.path,
             )
-        spans = "; ".join(_span(s) for s in source.streams)
         raise ConversionError(
             f"streams do not overlap in time ({spans}); they must share one clock",
             path=source.path,

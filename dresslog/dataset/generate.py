@@ -20,6 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
+from pydantic import ValidationError
+
 from dresslog.dataset.manifest import (
     MANIFEST_FILE,
     TEST_FRACTION,
@@ -32,7 +34,7 @@ from dresslog.dataset.manifest import (
     slot_file,
     trial_seed,
 )
-from dresslog.errors import DatasetError, DresslogError, SimulationError
+from dresslog.errors import DatasetError, DresslogError, SimulationError, first_problem
 from dresslog.io.files import exclusive, sha256_file
 from dresslog.spec import Outcome, Task, TrialSpec
 
@@ -318,6 +320,10 @@ def generate(
         counts = _split_counts(trials, test_fraction)
     workers = workers or os.cpu_count() or 1
     overrides = dict(overrides or {})
+    try:  # a bad override stops here, before a manifest records it
+        TrialSpec.model_validate({"task": task, **overrides})
+    except ValidationError as err:
+        raise DatasetError(f"invalid {first_problem(err)}") from None
     _check_folder(root)
     check_executor(executor)
     root.mkdir(parents=True, exist_ok=True)

@@ -35,7 +35,7 @@ def check_output(
     check_writable(path.parent)
     if source is not None and path.resolve() == source.resolve():
         raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
-    if suffix is not None and path.suffix != suffix:
+    if suffix is not None and path.suffix.lower() != suffix:
         raise TrialWriteError(_NAMES[suffix], path=path)
     if not overwrite and path.exists():
         raise TrialWriteError("file exists; pass --overwrite to replace it", path=path)
@@ -84,28 +84,34 @@ def sha256_file(path: str | Path) -> str:
 
 
 @contextmanager
-def exclusive(lock: Path, command: str) -> Iterator[None]:
-    """Refuse a second `command` on the same output while one runs (a lock file naming it).
+def exclusive(lock: Path, command: str, output: Path | None = None) -> Iterator[None]:
+    """Refuse a second `command` on `output` while one runs (a lock file naming its process).
 
-    A lock left by a process of this host that is gone is taken over.
+    The lock appears with its content or not at all (linked from a private file), and
+    one left by a process of this host that is gone is taken over.
     """
     me = f"{socket.gethostname()} {os.getpid()}"
-    for _ in range(2):
-        try:
-            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-        except FileExistsError:
-            host, _, pid = lock.read_text().partition(" ")
-            if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
-                lock.unlink(missing_ok=True)  # stale: its process is gone
-                continue
-            raise TrialWriteError(
-                f"another `{command}` ({host} pid {pid}) is writing here; wait for it, or "
-                f"delete {lock.name} if it is dead",
-                path=lock.parent,
-            ) from None
-        os.write(fd, me.encode())
-        os.close(fd)
-        break
+    mine = lock.with_name(f"{lock.name}.{os.getpid()}")
+    mine.write_text(me)
+    try:
+        for _ in range(2):
+            try:
+                os.link(mine, lock)
+                break
+            except FileExistsError:
+                host, _, pid = lock.read_text().partition(" ")
+                if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
+                    lock.unlink(missing_ok=True)  # stale: its process is gone
+                    continue
+                raise TrialWriteError(
+                    f"another `{command}` ({host} pid {pid}) is writing it; wait for it, or "
+                    f"delete {lock} if it is dead",
+                    path=output or lock.parent,
+                ) from None
+        else:
+            raise TrialWriteError(f"could not take {lock}; try again", path=output or lock.parent)
+    finally:
+        mine.unlink(missing_ok=True)
     try:
         yield
     finally:

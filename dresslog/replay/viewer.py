@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -75,6 +76,12 @@ def check_rrd(path: Path) -> None:
             raise DresslogError("not a Rerun recording (.rrd)", path=path)
 
 
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
 def web_address(web_port: int, grpc_port: int) -> str:
     """The URL that opens the web viewer connected to the local gRPC server."""
     proxy = quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
@@ -96,7 +103,7 @@ def view_file(
     model: str | Path | None = None,
     web: bool = False,
     web_port: int = 9090,
-    grpc_port: int = 9876,
+    grpc_port: int | None = None,
     echo: Callable[[str], None] = print,
 ) -> None:
     """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed (or Ctrl-C)."""
@@ -112,6 +119,8 @@ def view_file(
         if not is_rrd(path, model):
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model))
+        # the web viewer's data port: a free one, so a second `view --web` can run beside
+        grpc_port = grpc_port or _free_port()
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
             echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")
