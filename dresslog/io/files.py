@@ -99,7 +99,10 @@ def exclusive(lock: Path, command: str, output: Path | None = None) -> Iterator[
                 os.link(mine, lock)
                 break
             except FileExistsError:
-                host, _, pid = lock.read_text().partition(" ")
+                try:
+                    host, _, pid = lock.read_text().partition(" ")
+                except FileNotFoundError:  # released meanwhile
+                    continue
                 if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
                     lock.unlink(missing_ok=True)  # stale: its process is gone
                     continue
