@@ -204,10 +204,13 @@ def _open_manifest(
             overrides=overrides,
         )
     manifest = load_manifest(root)
+    def fixed(fields: Mapping[str, Any]) -> str:
+        return ", ".join(f"{k}={v}" for k, v in fields.items()) or "none"
+
     for what, have, want in (
         ("task", manifest.task, task),
         ("seed", manifest.seed, seed),
-        ("spec overrides", manifest.overrides, overrides),
+        ("fixed spec fields", fixed(manifest.overrides), fixed(overrides)),
     ):
         if have != want:
             raise DatasetError(
@@ -219,7 +222,8 @@ def _open_manifest(
         if wanted < len(manifest.split(split)):
             raise DatasetError(
                 f"folder already has {len(manifest.split(split))} {split} trials, more than "
-                f"the {wanted} asked for; ask for at least as many or use another folder",
+                f"the {wanted} asked for (--trials and --test-fraction set both splits); "
+                "ask for at least as many or use another folder",
                 path=root,
             )
     manifest.n_train = counts.get(Split.TRAIN, 0)
