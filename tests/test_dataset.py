@@ -154,7 +154,7 @@ def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
     generate("gown", 2, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
     with pytest.raises(DatasetError, match="task gown, not shorts"):
         generate("shorts", 2, tmp_path, workers=1, recorder=FAKE)
-    with pytest.raises(DatasetError, match="fixed spec fields none, not duration=0.5"):
+    with pytest.raises(DatasetError, match=r"fixed spec fields none, not duration=0\.5"):
         generate("gown", 2, tmp_path, workers=1, overrides={"duration": 0.5}, recorder=FAKE)
     with pytest.raises(DatasetError, match="more than the 1 asked for"):
         generate("gown", 1, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
