@@ -190,6 +190,11 @@ def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
     return {Split.TRAIN: trials - n_test, Split.TEST: n_test}
 
 
+def _fields(fields: Mapping[str, Any]) -> str:
+    """Spec fields fixed for every trial, as an option-like list: duration=1.0, or none."""
+    return ", ".join(f"{k}={v}" for k, v in fields.items()) or "none"
+
+
 def _open_manifest(
     root: Path, task: Task, seed: int, counts: Mapping[Split, int], overrides: dict[str, Any]
 ) -> Manifest:
@@ -204,13 +209,10 @@ def _open_manifest(
             overrides=overrides,
         )
     manifest = load_manifest(root)
-    def fixed(fields: Mapping[str, Any]) -> str:
-        return ", ".join(f"{k}={v}" for k, v in fields.items()) or "none"
-
     for what, have, want in (
         ("task", manifest.task, task),
         ("seed", manifest.seed, seed),
-        ("fixed spec fields", fixed(manifest.overrides), fixed(overrides)),
+        ("fixed spec fields", _fields(manifest.overrides), _fields(overrides)),
     ):
         if have != want:
             raise DatasetError(
