@@ -14,7 +14,7 @@ from dresslog.cli.common import reports_errors
 @click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder for an MCAP.")
 @click.option("--web", is_flag=True, help="Serve the web viewer on localhost; print its address.")
 @click.option("--save", type=click.Path(path_type=Path), help="Only write this .rrd; no viewer.")
-@click.option("--port", type=click.IntRange(1, 65535), help="Web viewer port (with --web) [9090].")
+@click.option("--port", type=click.IntRange(1, 65535), help="Web viewer port (--web) [9090|free].")
 @reports_errors
 def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int | None) -> None:
     """Open a trial (MCAP) or a Rerun recording (.rrd) in the Rerun viewer.
@@ -31,4 +31,4 @@ def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int
             raise click.UsageError("--save writes a file and opens no viewer; drop --web")
         click.echo(save_rrd(path, save, model=model))
         return
-    view_file(path, model=model, web=web, web_port=port or 9090, echo=click.echo)
+    view_file(path, model=model, web=web, web_port=port, echo=click.echo)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from enum import StrEnum
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, FiniteFloat
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, model_validator
 
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 #: Longest trial a spec accepts, s: an hour at 100 Hz (a typo like 1e9 would need TBs).
@@ -117,6 +117,12 @@ class TrialSpec(BaseModel):
         "empty means drawn from the seed",
     )
     sim: SimParams = SimParams()
+
+    @model_validator(mode="after")
+    def _at_least_two_steps(self) -> TrialSpec:
+        if round(self.duration * self.sim.record_hz) < 2:
+            raise ValueError(f"duration: at least two recorded steps, {2 / self.sim.record_hz} s")
+        return self
 
 
 class TrialMetadata(BaseModel):

@@ -185,13 +185,14 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
         (["--speed", "5"], "invalid speed"),
         (["--duration", "inf"], "invalid duration: Input should be less than or equal to 3600"),
         (["--duration", "1e9"], "invalid duration: Input should be less than or equal to 3600"),
+        (["--duration", "0.004"], "invalid duration: at least two recorded steps, 0.02 s"),
         (["--offset", "nan", "0", "0"], "invalid limb_offset.0: Input should be a finite number"),
         (
             ["--rotation", "z", "999"],
             "invalid limb_rotation.degrees: Input should be less than or equal to 90",
         ),
     ],
-    ids=["speed", "duration-inf", "duration-huge", "offset-nan", "rotation"],
+    ids=["speed", "duration-inf", "duration-huge", "duration-tiny", "offset-nan", "rotation"],
 )
 def test_record_refuses_a_setting_out_of_range_before_simulating(
     tmp_path: Path, option: list[str], message: str

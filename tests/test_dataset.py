@@ -156,6 +156,10 @@ def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
         generate("shorts", 2, tmp_path, workers=1, recorder=FAKE)
     with pytest.raises(DatasetError, match=r"fixed spec fields none, not duration=0\.5"):
         generate("gown", 2, tmp_path, workers=1, overrides={"duration": 0.5}, recorder=FAKE)
+    fixed = tmp_path / "fixed"
+    generate("gown", 1, fixed, workers=1, overrides={"speed": 0.2, "duration": 1}, recorder=FAKE)
+    same = {"duration": 1.0, "speed": 0.2}  # other order, 1.0 for 1: the same request
+    assert len(generate("gown", 2, fixed, workers=1, overrides=same, recorder=FAKE).trials) == 2
     with pytest.raises(DatasetError, match="more than the 1 asked for"):
         generate("gown", 1, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
 
@@ -332,6 +336,10 @@ def test_a_folder_holding_something_else_is_refused_and_left_as_it_was(
     assert result.exit_code == 1 and "holds no dataset (manifest.json)" in result.output
     assert sorted(tmp_path.rglob("*")) == before
     generate("gown", 1, tmp_path / "new", workers=1, recorder=FAKE)  # an empty folder is fine
+    killed = tmp_path / "killed"  # a first run killed while saving its manifest
+    (killed / "train").mkdir(parents=True)
+    (killed / ".manifest.json.4242.partial").write_text("{")
+    generate("gown", 1, killed, workers=1, recorder=FAKE)
 
 
 def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(

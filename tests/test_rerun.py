@@ -273,38 +273,51 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def test_view_web_serves_the_viewer_on_localhost_until_interrupted(inferred) -> None:
-    """What the README advises without a display: `view --web` prints a URL that answers."""
+def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferred) -> None:
+    """What the README advises without a display: `view --web` prints a URL that answers.
+
+    A second one beside it takes other ports; Ctrl-C or a kill (a closed terminal) of
+    dresslog alone stops its viewer too.
+    """
+    import re
     import signal
     import time
     import urllib.request
 
     _, _, rrd = inferred
-    port = _free_port()
     command = [sys.executable, "-c", "from dresslog.cli.main import main; main()"]
-    process = subprocess.Popen(
-        [*command, "view", str(rrd), "--web", "--port", str(port)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-        start_new_session=True,
-    )
+    runs: list[subprocess.Popen] = []
+    pages = []
     try:
-        assert process.stdout is not None
-        line = process.stdout.readline()
-        assert line.startswith(f"Web viewer: http://127.0.0.1:{port}/?url=rerun%2Bhttp"), line
-        deadline, status = time.monotonic() + 30, None
-        while status is None and time.monotonic() < deadline:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2) as reply:
-                    status = reply.status
-            except OSError:
-                time.sleep(0.5)
-        assert status == 200
+        for _ in range(2):  # the second once the first serves
+            run = subprocess.Popen(
+                [*command, "view", str(rrd), "--web"],
+                stdout=subprocess.PIPE,
+                stderr=subprocess.DEVNULL,
+                text=True,
+                start_new_session=True,
+            )
+            runs.append(run)
+            assert run.stdout is not None
+            line = run.stdout.readline()
+            found = re.match(r"Web viewer: (http://127\.0\.0\.1:\d+/)\?url=rerun%2Bhttp", line)
+            assert found, line
+            pages.append(page := found.group(1))
+            deadline, status = time.monotonic() + 30, None
+            while status is None and time.monotonic() < deadline:
+                try:
+                    with urllib.request.urlopen(page, timeout=2) as reply:
+                        status = reply.status
+                except OSError:
+                    time.sleep(0.5)
+            assert status == 200, page
+        assert pages[0] != pages[1]
     finally:
-        process.send_signal(signal.SIGINT)  # to dresslog alone: it must stop the viewer
-        process.wait(timeout=30)
-    assert process.returncode == 0
+        for run, sent in zip(runs, (signal.SIGINT, signal.SIGTERM), strict=False):
+            run.send_signal(sent)  # to dresslog alone: it must stop its viewer
+            run.wait(timeout=30)
+    assert [run.returncode for run in runs] == [0, 0]
     time.sleep(1)
-    with pytest.raises(OSError):  # the viewer is gone too
-        urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2)
+    for page in pages:
+        with pytest.raises(OSError):  # the viewers are gone too
+            urllib.request.urlopen(page, timeout=2)

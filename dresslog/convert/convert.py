@@ -150,10 +150,13 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
         if overlap >= 0:  # too short (or times read in too large a unit), not two clocks
             one = len({s.name for s in source.streams}) == 1
             what = "log covers" if one else f"streams ({spans}) share"
+            unit = (
+                "; if the times are in another unit, give --time-unit"
+                if source.format == "csv"
+                else ""
+            )
             raise ConversionError(
-                f"the {what} {overlap:.3g} s, less than two 100 Hz steps; "
-                "if the times are in another unit, give --time-unit",
-                path=source.path,
+                f"the {what} {overlap:.3g} s, less than two 100 Hz steps{unit}", path=source.path
             )
         raise ConversionError(
             f"streams do not overlap in time ({spans}); they must share one clock",

@@ -164,7 +164,7 @@ def _check_folder(root: Path) -> None:
     """Refuse a folder that holds something other than a dataset (a model, say).
 
     Only a dataset's manifest makes a folder resumable; a first run killed before its
-    manifest was written leaves at most the lock and empty split folders.
+    manifest was written leaves at most the lock, empty split folders and a temporary.
     """
     if not root.exists():
         return
@@ -173,7 +173,12 @@ def _check_folder(root: Path) -> None:
     if (root / MANIFEST_FILE).exists():
         return
     ours = {LOCK_FILE, *(split.value for split in Split)}
-    if any(p.name not in ours or (p.is_dir() and any(p.iterdir())) for p in root.iterdir()):
+
+    def foreign(p: Path) -> bool:
+        temporary = p.name.startswith(".") and p.name.endswith(".partial")  # a killed save
+        return not temporary and (p.name not in ours or (p.is_dir() and any(p.iterdir())))
+
+    if any(foreign(p) for p in root.iterdir()):
         raise DatasetError(
             f"folder is not empty and holds no dataset ({MANIFEST_FILE}); "
             "give a new or empty folder",
@@ -209,14 +214,14 @@ def _open_manifest(
             overrides=overrides,
         )
     manifest = load_manifest(root)
-    for what, have, want in (
-        ("task", manifest.task, task),
-        ("seed", manifest.seed, seed),
-        ("fixed spec fields", _fields(manifest.overrides), _fields(overrides)),
+    for what, have, want, shown in (
+        ("task", manifest.task, task, str),
+        ("seed", manifest.seed, seed, str),
+        ("fixed spec fields", manifest.overrides, overrides, _fields),
     ):
         if have != want:
             raise DatasetError(
-                f"folder holds a dataset with {what} {have}, not {want}; "
+                f"folder holds a dataset with {what} {shown(have)}, not {shown(want)}; "
                 "use another folder or the same options",
                 path=root,
             )

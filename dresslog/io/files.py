@@ -85,47 +85,34 @@ def sha256_file(path: str | Path) -> str:
 
 @contextmanager
 def exclusive(lock: Path, command: str, output: Path | None = None) -> Iterator[None]:
-    """Refuse a second `command` on `output` while one runs (a lock file naming its process).
+    """Refuse a second `command` on `output` while one runs: an OS lock on the file `lock`.
 
-    The lock appears with its content or not at all (linked from a private file), and
-    one left by a process of this host that is gone is taken over.
+    The kernel releases the lock when its process ends, however it ends, so a killed
+    run leaves nothing to clean up; the file names the holder for the message.
     """
-    me = f"{socket.gethostname()} {os.getpid()}"
-    mine = lock.with_name(f"{lock.name}.{os.getpid()}")
-    mine.write_text(me)
-    try:
-        for _ in range(2):
-            try:
-                os.link(mine, lock)
+    import fcntl
+
+    while True:
+        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 200).decode(errors="replace").strip() or "starting"
+            os.close(fd)
+            raise TrialWriteError(
+                f"another `{command}` ({holder}) is writing it; wait for it to finish",
+                path=output or lock.parent,
+            ) from None
+        try:  # the file may have been removed by the holder we waited on: lock the new one
+            if os.fstat(fd).st_ino == lock.stat().st_ino:
                 break
-            except FileExistsError:
-                try:
-                    host, _, pid = lock.read_text().partition(" ")
-                except FileNotFoundError:  # released meanwhile
-                    continue
-                if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
-                    lock.unlink(missing_ok=True)  # stale: its process is gone
-                    continue
-                raise TrialWriteError(
-                    f"another `{command}` ({host} pid {pid}) is writing it; wait for it, or "
-                    f"delete {lock} if it is dead",
-                    path=output or lock.parent,
-                ) from None
-        else:
-            raise TrialWriteError(f"could not take {lock}; try again", path=output or lock.parent)
-    finally:
-        mine.unlink(missing_ok=True)
+        except FileNotFoundError:
+            pass
+        os.close(fd)
     try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{socket.gethostname()} pid {os.getpid()}".encode())
         yield
     finally:
-        lock.unlink(missing_ok=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+        lock.unlink(missing_ok=True)  # while still held, so no one locks a removed file
+        os.close(fd)

@@ -7,6 +7,7 @@ its default blueprint; the viewer itself is Rerun's own executable.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -14,7 +15,7 @@ import socket
 import subprocess
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from urllib.parse import quote
 
@@ -76,10 +77,35 @@ def check_rrd(path: Path) -> None:
             raise DresslogError("not a Rerun recording (.rrd)", path=path)
 
 
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
+def _free_port(preferred: int = 0) -> int:
+    """`preferred` if nothing listens there, else a port the system picks."""
+    for port in (preferred, 0):
+        with socket.socket() as probe:
+            try:
+                probe.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return int(probe.getsockname()[1])
+    raise DresslogError("no free port on 127.0.0.1")
+
+
+@contextlib.contextmanager
+def _stopped_by_hangup_and_term() -> Iterator[None]:
+    """A closed terminal (SIGHUP) or a kill (SIGTERM) stops the viewer as Ctrl-C does.
+
+    The viewer runs in its own session, so these no longer reach it by themselves.
+    """
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    names = [n for n in ("SIGHUP", "SIGTERM") if hasattr(signal, n)]
+    previous = {n: signal.signal(getattr(signal, n), interrupt) for n in names}
+    try:
+        yield
+    finally:
+        for n, handler in previous.items():
+            signal.signal(getattr(signal, n), handler)
 
 
 def web_address(web_port: int, grpc_port: int) -> str:
@@ -102,11 +128,15 @@ def view_file(
     *,
     model: str | Path | None = None,
     web: bool = False,
-    web_port: int = 9090,
+    web_port: int | None = None,
     grpc_port: int | None = None,
     echo: Callable[[str], None] = print,
 ) -> None:
-    """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed (or Ctrl-C)."""
+    """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed (or Ctrl-C).
+
+    Without `web_port` the web viewer takes 9090, or a free port if that one is in use
+    (a second `view --web`); its data port is always a free one.
+    """
     path = Path(path)
     if not web and not has_display():  # checked before inferring, not after
         raise DresslogError(
@@ -119,7 +149,7 @@ def view_file(
         if not is_rrd(path, model):
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model))
-        # the web viewer's data port: a free one, so a second `view --web` can run beside
+        web_port = web_port or _free_port(9090)
         grpc_port = grpc_port or _free_port()
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
@@ -129,7 +159,8 @@ def view_file(
         group = hasattr(os, "killpg")
         process = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=group)
         try:
-            _, err = process.communicate()
+            with _stopped_by_hangup_and_term():
+                _, err = process.communicate()
         except KeyboardInterrupt:
             if group:
                 os.killpg(process.pid, signal.SIGTERM)
