@@ -316,8 +316,21 @@ def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferr
         for run, sent in zip(runs, (signal.SIGINT, signal.SIGTERM), strict=False):
             run.send_signal(sent)  # to dresslog alone: it must stop its viewer
             run.wait(timeout=30)
-    assert [run.returncode for run in runs] == [0, 0]
+    assert [run.returncode for run in runs] == [1, 1]  # click's "Aborted!"
     time.sleep(1)
     for page in pages:
         with pytest.raises(OSError):  # the viewers are gone too
             urllib.request.urlopen(page, timeout=2)
+
+
+def test_view_web_on_a_port_in_use_says_so_before_starting(inferred) -> None:
+    import socket
+
+    _, _, rrd = inferred
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(main, ["view", str(rrd), "--web", "--port", str(port)])
+    assert result.exit_code == 1
+    assert result.output == f"Error: port {port} is in use; pass another --port or leave it out\n"

@@ -93,7 +93,10 @@ def exclusive(lock: Path, command: str, output: Path | None = None) -> Iterator[
     import fcntl
 
     while True:
-        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
+        except PermissionError:  # left by another user: a shared lock on it still works
+            fd = os.open(lock, os.O_RDONLY)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -110,9 +113,11 @@ def exclusive(lock: Path, command: str, output: Path | None = None) -> Iterator[
             pass
         os.close(fd)
     try:
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{socket.gethostname()} pid {os.getpid()}".encode())
+        with contextlib.suppress(OSError):  # read-only when another user made the file
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{socket.gethostname()} pid {os.getpid()}".encode())
         yield
     finally:
-        lock.unlink(missing_ok=True)  # while still held, so no one locks a removed file
+        with contextlib.suppress(OSError):  # while still held, so no one locks a removed file
+            lock.unlink(missing_ok=True)
         os.close(fd)

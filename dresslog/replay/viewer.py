@@ -132,12 +132,15 @@ def view_file(
     grpc_port: int | None = None,
     echo: Callable[[str], None] = print,
 ) -> None:
-    """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed (or Ctrl-C).
+    """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed.
 
     Without `web_port` the web viewer takes 9090, or a free port if that one is in use
-    (a second `view --web`); its data port is always a free one.
+    (a second `view --web`); its data port is always a free one. Ctrl-C, SIGTERM or
+    SIGHUP stop the viewer, then reach the caller as KeyboardInterrupt.
     """
     path = Path(path)
+    if web_port is not None and _free_port(web_port) != web_port:
+        raise DresslogError(f"port {web_port} is in use; pass another --port or leave it out")
     if not web and not has_display():  # checked before inferring, not after
         raise DresslogError(
             "the Rerun viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY is set); "
@@ -157,17 +160,20 @@ def view_file(
         # its own process group: `python -m rerun` starts the viewer binary as a child,
         # which terminating the wrapper alone would leave serving
         group = hasattr(os, "killpg")
-        process = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=group)
-        try:
-            with _stopped_by_hangup_and_term():
+        with _stopped_by_hangup_and_term():  # from before the viewer starts
+            process = subprocess.Popen(
+                cmd, stderr=subprocess.PIPE, text=True, start_new_session=group
+            )
+            try:
                 _, err = process.communicate()
-        except KeyboardInterrupt:
-            if group:
-                os.killpg(process.pid, signal.SIGTERM)
-            else:
-                process.terminate()
-            process.wait()
-            return
+            except KeyboardInterrupt:
+                with contextlib.suppress(ProcessLookupError):  # it may be gone already
+                    if group:
+                        os.killpg(process.pid, signal.SIGTERM)
+                    else:
+                        process.terminate()
+                process.wait()
+                raise
         if process.returncode != 0:
             last = (err or "").strip().splitlines()[-1:] or ["no output"]
             hint = "" if web else "; without a display, try --web or --save"
