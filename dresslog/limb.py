@@ -174,6 +174,7 @@ class LimbGeometry:
     u: np.ndarray  # (F, 3) frustum unit axis
     length: np.ndarray  # (F,) frustum length
     segment_rows: np.ndarray  # row of each of `limb.segment_names`
+    part_names: tuple[str, ...]  # the part of each row
 
     @classmethod
     def of(cls, limb: Limb) -> LimbGeometry:
@@ -190,6 +191,7 @@ class LimbGeometry:
             u=np.array([v / n for v, n in zip(ab, length, strict=True)]),
             length=np.array(length)[:, None],
             segment_rows=np.array([rows.index(n) for n in limb.segment_names]),
+            part_names=tuple(rows),
         )
 
     @cached_property
@@ -254,8 +256,7 @@ def surface_points(
 
 
 def _part_sdf(limb: Limb, p: np.ndarray, skip: set[str]) -> np.ndarray:
-    rows = [*limb.spheres, *(f.name for f in limb.frustums)]
-    keep = [name not in skip for name in rows]
+    keep = [name not in skip for name in limb.geometry.part_names]
     return limb.geometry.part_distances(p)[keep].min(axis=0)
 
 

@@ -142,7 +142,7 @@ class ProcessExecutor:
 
 
 def make_executor(name: ExecutorName | str, workers: int) -> Executor:
-    check_executor(name)
+    """The pool for `name`, which `check_executor` has passed."""
     if name == "ray":
         from dresslog.dataset.ray_executor import RayExecutor
 

@@ -48,16 +48,17 @@ def is_rrd(path: Path, model: str | Path | None = None) -> bool:
 
     A recording already holds its estimate, so a `model` for it is refused, not ignored.
     """
-    rrd = path.suffix == ".rrd" or _starts_with(path, RRD_MAGIC)
-    if rrd:
+    if path.suffix == ".rrd":
         check_rrd(path)
-        if model is not None:
-            raise DresslogError(
-                "is a Rerun recording, which holds its estimate already; "
-                "--model applies to an MCAP trial",
-                path=path,
-            )
-    return rrd
+    elif not _starts_with(path, RRD_MAGIC):
+        return False
+    if model is not None:
+        raise DresslogError(
+            "is a Rerun recording, which holds its estimate already; "
+            "--model applies to an MCAP trial",
+            path=path,
+        )
+    return True
 
 
 def _starts_with(path: Path, magic: bytes) -> bool:
@@ -72,9 +73,8 @@ def check_rrd(path: Path) -> None:
     """A Rerun recording by its first bytes, or a one-line error (before a viewer chokes on it)."""
     if not path.is_file():
         raise DresslogError("no such file", path=path)
-    with path.open("rb") as stream:
-        if stream.read(len(RRD_MAGIC)) != RRD_MAGIC:
-            raise DresslogError("not a Rerun recording (.rrd)", path=path)
+    if not _starts_with(path, RRD_MAGIC):
+        raise DresslogError("not a Rerun recording (.rrd)", path=path)
 
 
 def _free_port(preferred: int = 0) -> int:

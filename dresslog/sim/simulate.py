@@ -383,11 +383,10 @@ def _gripper_path(
 
 def _motion(path: np.ndarray, record_hz: int, tare: np.ndarray) -> _Motion:
     """Twist, pose and the end effector's inertial force along the recorded path."""
-    n_rec = len(path)
+    n_rec = len(path)  # at least 2: a spec covers two recorded steps
     vel = np.zeros_like(path)
-    if n_rec > 1:
-        vel[1:] = np.diff(path, axis=0) * record_hz
-        vel[0] = vel[1]
+    vel[1:] = np.diff(path, axis=0) * record_hz
+    vel[0] = vel[1]
     accel = np.gradient(vel, axis=0) * record_hz if n_rec > 2 else np.zeros_like(vel)
     twist = np.concatenate([vel, np.zeros_like(vel)], axis=1)
     pose = np.concatenate([path, np.tile([0.0, 0.0, 0.0, 1.0], (n_rec, 1))], axis=1)
