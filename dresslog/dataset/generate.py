@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import signal
 import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -69,16 +70,41 @@ class Job:
         return slot_file(self.split, self.slot)
 
 
+class _Worker:
+    """A pool worker's view of Ctrl-C, which the terminal sends to every process.
+
+    The trial being recorded stops at once (its temporary file is removed) and queued
+    trials are not started; an idle worker stays alive, so the pool never breaks and
+    never has to kill a worker in the middle of a file.
+    """
+
+    busy = False
+    interrupted = False
+
+    @classmethod
+    def start(cls) -> None:
+        signal.signal(signal.SIGINT, cls._on_interrupt)
+
+    @classmethod
+    def _on_interrupt(cls, signum: int, frame: object) -> None:
+        cls.interrupted = True
+        if cls.busy:
+            raise KeyboardInterrupt
+
+
 def run_job(job: Job) -> Entry:
     """Simulate and record one trial; an unstable simulation becomes a failed entry.
 
     Runs in a worker. Only `DresslogError`s count as trial failures; any other
     exception is a bug and propagates, stopping the generation.
     """
+    if _Worker.interrupted:
+        raise KeyboardInterrupt
     path = Path(job.root) / job.file
     started = time.perf_counter()
     base = {"split": job.split, "slot": job.slot, "attempt": job.attempt, "spec": job.spec}
     try:
+        _Worker.busy = True
         result = _resolve(job.recorder)(job.spec, path, overwrite=True)
     except DresslogError as err:
         path.unlink(missing_ok=True)
@@ -90,6 +116,8 @@ def run_job(job: Job) -> Entry:
             failure=f"{type(err).__name__}: {reason}",
             seconds=time.perf_counter() - started,
         )
+    finally:
+        _Worker.busy = False
     return Entry(
         **base,
         status=Status.OK,
@@ -121,7 +149,9 @@ class ProcessExecutor:
     def __init__(self, workers: int) -> None:
         import multiprocessing
 
-        self._pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+        self._pool = ProcessPoolExecutor(
+            workers, mp_context=multiprocessing.get_context("spawn"), initializer=_Worker.start
+        )
         self._futures: set[Future[Entry]] = set()
 
     def submit(self, job: Job) -> None:
@@ -288,11 +318,15 @@ def _job(
     return Job(str(root), split, slot, attempt, spec, recorder)
 
 
-def _remove_partials(root: Path) -> None:
-    """Delete temporary files left by a run that was killed (we hold the folder's lock)."""
+def _tidy(root: Path, manifest: Manifest) -> None:
+    """Delete what no manifest entry accounts for: a killed worker's temporary file, a
+    trial finished as the run was stopped but never reported (we hold the folder's lock).
+    """
+    listed = {root / e.file for e in manifest.trials}
     for split in Split:
-        for path in (root / split.value).glob(".*.partial"):
-            path.unlink(missing_ok=True)
+        for path in (root / split.value).glob("*.mcap*"):
+            if path not in listed:
+                path.unlink(missing_ok=True)
 
 
 def generate(
@@ -343,8 +377,8 @@ def generate(
         for split in Split:
             if manifest.wanted(split):
                 (root / split.value).mkdir(exist_ok=True)
-        _remove_partials(root)
         jobs = _plan(root, manifest, recorder, workers)
+        _tidy(root, manifest)
         manifest.save(root)
         if jobs:
             label = (label or manifest.task.value) if progress else None
@@ -399,6 +433,7 @@ def _run(
                 (manifest.trials if entry.status == Status.OK else manifest.failures).append(entry)
         finally:
             manifest.save(root)
+            _tidy(root, manifest)
     if given_up:
         last = given_up[-1]
         raise DatasetError(
