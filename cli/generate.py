@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from dresslog.cli.common import reports_errors
+from .common import reports_errors
 
 
 @click.command("generate")

@@ -6,8 +6,9 @@ from pathlib import Path
 
 import click
 
-from dresslog.cli.common import reports_errors
 from dresslog.spec import Task
+
+from .common import reports_errors
 
 
 @click.command("record")

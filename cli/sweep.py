@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
-from dresslog.cli.common import reports_errors
+from .common import reports_errors
 
 
 def _items(values: tuple[str, ...]) -> list[str]:
@@ -30,7 +32,7 @@ def sweep(
     out: str | None,
     sequences: int,
     quiet: bool,
-    **options: object,
+    **options: Any,
 ) -> None:
     """RMSE per speed and limb rotation on fresh sequences: sweep.csv, sweep.json, sweep.png."""
     from dresslog.experiments import default_sweep_folder

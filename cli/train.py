@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
-from dresslog.cli.common import reports_errors
+from .common import reports_errors
 
 
 @click.command("train")
@@ -46,11 +47,12 @@ from dresslog.cli.common import reports_errors
 )
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors
-def train(data: str, out: str, quiet: bool, **options: object) -> None:
+def train(data: str, out: str, quiet: bool, **options: Any) -> None:
     """Train a force-map LSTM on DATA's training split; score it on the test split."""
     from dresslog.experiments import TRAINING_PLOT, train_dataset
+    from dresslog.model.train import EpochRecord
 
-    def report(epoch) -> None:
+    def report(epoch: EpochRecord) -> None:
         val = "n/a" if epoch.val_loss is None else f"{epoch.val_loss:.4g}"
         click.echo(f"epoch {epoch.epoch}: train loss {epoch.train_loss:.4g}, val {val}", err=True)
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from dresslog.cli.common import reports_errors
+from .common import reports_errors
 
 
 @click.command("view")

@@ -35,8 +35,9 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
+import numpy as np
 from pydantic import ValidationError
 
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
@@ -57,11 +58,12 @@ from dresslog.model.files import (
 from dresslog.plots import plot_sweep, plot_training
 from dresslog.spec import Task, TrialSpec
 
+if TYPE_CHECKING:  # training needs torch, imported only when a model is trained
+    from dresslog.model.train import EpochRecord
+
 #: The learning curve `train_dataset` draws into the model folder.
 TRAINING_PLOT = "training.png"
 
-#: How eval and sweep word a model of the other task: they take the model as MODEL.
-_DATA_MISMATCH = {"subject": "data", "hint": "give a {task} model (e.g. samples/models/{task})"}
 
 #: Mid-range speeds (m/s) the paper used for the rotation sweep (12.5 and 17.5 cm/s).
 ROTATION_SPEED = {Task.GOWN: 0.125, Task.SHORTS: 0.175}
@@ -87,7 +89,7 @@ def train_dataset(
     overwrite: bool = False,
     workers: int | None = None,
     progress: bool = True,
-    on_epoch: Callable[[Any], None] | None = None,
+    on_epoch: Callable[[EpochRecord], None] | None = None,
 ) -> ModelCard:
     """Train the paper's network (by default) on `data`'s training split; save to `out`."""
     out = Path(out)
@@ -190,7 +192,13 @@ def _finite(value: Any) -> Any:
     return value
 
 
-def _scores(model: LoadedModel, arrays: DatasetArrays, rows: Sequence[int]) -> Scores:
+def _check_data_task(model: LoadedModel, task: Task, n_points: int | None = None) -> None:
+    """`check_task` worded for eval and sweep, which take the model as MODEL."""
+    hint = "give a {task} model (e.g. samples/models/{task})"
+    check_task(model, task, n_points, subject="data", hint=hint)
+
+
+def _scores(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
     return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
 
 
@@ -209,9 +217,9 @@ def evaluate_dataset(
     so the model's ratio can be read against what the data allow.
     """
     loaded = load_model(model)
-    check_task(loaded, load_manifest(data).task, **_DATA_MISMATCH)
+    _check_data_task(loaded, load_manifest(data).task)
     arrays = load_dataset(data, workers=workers, progress=progress)
-    check_task(loaded, arrays.task, arrays.n_points, **_DATA_MISMATCH)
+    _check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
     if not len(rows):
         raise DatasetError(f"the dataset has no {Split(split)} trials", path=data)
@@ -238,7 +246,7 @@ def dataset_bounds(
     return _bounds(arrays, arrays.rows(split))
 
 
-def _bounds(arrays: DatasetArrays, rows: Sequence[int]) -> dict[str, float]:
+def _bounds(arrays: DatasetArrays, rows: np.ndarray) -> dict[str, float]:
     from dresslog.limb import build_limb, limb_points
     from dresslog.model.bounds import oracle_ratios
 
@@ -390,7 +398,7 @@ def sweep(
             label=f"{task.value} {setting.name}",
         )
         arrays = load_dataset(folder, workers=workers, progress=False)
-        check_task(loaded, arrays.task, arrays.n_points, **_DATA_MISMATCH)
+        _check_data_task(loaded, arrays.task, arrays.n_points)
         scores = _scores(loaded, arrays, arrays.rows(Split.SWEEP))
         done.append(Setting(**{**asdict(setting), "scores": scores}))
     baseline = done[0].scores

@@ -93,7 +93,8 @@ class ClothSpreader:
         s = max(1, subdivisions)
         grid = [(i, j, s - i - j) for i in range(s + 1) for j in range(s + 1 - i)]
         samples: dict[tuple[tuple[int, int], ...], int] = {}  # {(vertex, count)} -> id
-        parents, weights = [], []
+        parents: list[list[int]] = []
+        weights: list[list[float]] = []
         for tri in np.asarray(triangles, dtype=np.int64):
             for counts in grid:
                 key = tuple(sorted((int(v), c) for v, c in zip(tri, counts, strict=True) if c))

@@ -74,9 +74,9 @@ def sweep_lines(report: SweepReport, kind: str) -> dict[str, tuple[list[float], 
     for 0 deg there, and a straight line from -15 to +15 deg would draw a trend never measured.
     """
     lines: dict[str, tuple[list[float], ...]] = {}
-    chosen = [s for s in report.settings if s.kind == kind and s.scores]
-    for axis in sorted({s.axis for s in chosen}):
-        points = [(s.value, s.scores.rmse, s.scores.zero_rmse) for s in chosen if s.axis == axis]
+    chosen = [(s, s.scores) for s in report.settings if s.kind == kind and s.scores]
+    for axis in sorted({s.axis for s, _ in chosen}):
+        points = [(s.value, sc.rmse, sc.zero_rmse) for s, sc in chosen if s.axis == axis]
         if kind == "rotation" and all(value != 0 for value, _, _ in points):
             points.append((0.0, math.nan, math.nan))
         values, rmse, zero = zip(*sorted(points), strict=True)

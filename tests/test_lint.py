@@ -1,4 +1,4 @@
-"""The codebase stays ruff-clean: linting is part of the test run."""
+"""The codebase stays ruff-clean and type-checks: both are part of the test run."""
 
 from __future__ import annotations
 
@@ -9,8 +9,16 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
+def _run(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", *args], cwd=REPO, capture_output=True, text=True)
+
+
 def test_ruff_check_is_clean() -> None:
-    result = subprocess.run(
-        [sys.executable, "-m", "ruff", "check", "."], cwd=REPO, capture_output=True, text=True
-    )
+    result = _run("ruff", "check", ".")
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_mypy_is_clean() -> None:
+    """The package ships py.typed: its hints are a promise to users' type checkers."""
+    result = _run("mypy")  # files and settings: pyproject.toml
     assert result.returncode == 0, result.stdout + result.stderr

@@ -127,13 +127,13 @@ def assign_columns(
     # a sensor's header stamp beats a receive time (rostopic's `%time`) when both are there
     order = sorted(range(len(names)), key=lambda i: "stamp" not in _key(names[i]))
     for index in order:
-        role = role_of(names[index])
+        guess = role_of(names[index])
         if index in taken:
             continue
-        if role is None or role in found:
+        if guess is None or guess in found:
             ignored.append(names[index])
         else:
-            found[role] = index
+            found[guess] = index
     return found, ignored
 
 

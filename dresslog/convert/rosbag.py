@@ -95,7 +95,9 @@ def _decode_group(
     return sec, nsec, values, _frame_id(messages[0], ros1)
 
 
-def decode(kind: str, payloads: Sequence, *, ros1: bool) -> tuple[np.ndarray, np.ndarray, str]:
+def decode(
+    kind: str, payloads: Sequence[bytes], *, ros1: bool
+) -> tuple[np.ndarray, np.ndarray, str]:
     """Header stamps (int64 ns), values (T, width) and the first frame_id of raw payloads."""
     count = len(payloads)
     lengths = np.fromiter(map(len, payloads), dtype=np.int64, count=count)
@@ -104,7 +106,7 @@ def decode(kind: str, payloads: Sequence, *, ros1: bool) -> tuple[np.ndarray, np
     frame_id = ""
     for size in np.unique(lengths):  # one group unless frame_id lengths vary
         index = np.flatnonzero(lengths == size)
-        group = payloads if len(index) == count else [payloads[i] for i in index]
+        group = payloads if len(index) == count else [payloads[int(i)] for i in index]
         sec, nsec, vals, frame = _decode_group(kind, list(group), ros1)
         stamps[index] = sec.astype(np.int64) * 1_000_000_000 + nsec.astype(np.int64)
         values[index] = vals

@@ -144,7 +144,7 @@ def _write(path: Path, arrays: dict[str, np.ndarray]) -> None:
     """Uncompressed (force maps are read at disk speed), written atomically."""
     path.parent.mkdir(exist_ok=True)
     with atomic_path(path) as tmp, tmp.open("wb") as stream:
-        np.savez(stream, **arrays)
+        np.savez(stream, allow_pickle=False, **arrays)
     for old in path.parent.glob("arrays-*.npz"):
         if old != path:
             old.unlink(missing_ok=True)

@@ -225,9 +225,12 @@ def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
     return {Split.TRAIN: trials - n_test, Split.TEST: n_test}
 
 
-def _fields(fields: Mapping[str, Any]) -> str:
-    """Spec fields fixed for every trial, as an option-like list: duration=1.0, or none."""
-    return ", ".join(f"{k}={v}" for k, v in fields.items()) or "none"
+def _shown(value: object) -> str:
+    """A request's value for a message; spec fields fixed for every trial as an option-like
+    list: duration=1.0, or none."""
+    if isinstance(value, Mapping):
+        return ", ".join(f"{k}={v}" for k, v in value.items()) or "none"
+    return str(value)
 
 
 def _open_manifest(
@@ -244,14 +247,14 @@ def _open_manifest(
             overrides=overrides,
         )
     manifest = load_manifest(root)
-    for what, have, want, shown in (
-        ("task", manifest.task, task, str),
-        ("seed", manifest.seed, seed, str),
-        ("fixed spec fields", manifest.overrides, overrides, _fields),
+    for what, have, want in (
+        ("task", manifest.task, task),
+        ("seed", manifest.seed, seed),
+        ("fixed spec fields", manifest.overrides, overrides),
     ):
         if have != want:
             raise DatasetError(
-                f"folder holds a dataset with {what} {shown(have)}, not {shown(want)}; "
+                f"folder holds a dataset with {what} {_shown(have)}, not {_shown(want)}; "
                 "use another folder or the same options",
                 path=root,
             )
@@ -322,7 +325,7 @@ def _tidy(root: Path, manifest: Manifest) -> None:
     """Delete what no manifest entry accounts for: a killed worker's temporary file, a
     trial finished as the run was stopped but never reported (we hold the folder's lock).
     """
-    listed = {root / e.file for e in manifest.trials}
+    listed = {root / str(e.file) for e in manifest.trials}
     for split in Split:
         for path in (root / split.value).glob("*.mcap*"):
             if path not in listed:

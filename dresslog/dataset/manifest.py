@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from datetime import UTC, datetime
 from enum import IntEnum, StrEnum
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Final, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
@@ -31,7 +31,7 @@ from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Outcome, Task, TrialSpec
 
 MANIFEST_FILE = "manifest.json"
-FORMAT = "dresslog-dataset"
+FORMAT: Final = "dresslog-dataset"
 FORMAT_VERSION = 1
 #: The paper's proportion: 1,000 test sequences to 5,000 training ones.
 TEST_FRACTION = 1 / 6

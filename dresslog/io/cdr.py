@@ -20,6 +20,7 @@ from collections.abc import Mapping, Sequence
 from functools import cache
 
 import numpy as np
+import numpy.typing as npt
 
 from dresslog.io.msgdefs import _full_name, fields
 
@@ -60,7 +61,7 @@ class _Builder:
         self.offsets: list[int] = []
         self.offset = _ORIGIN
 
-    def add(self, name: str, fmt: object, align: int) -> None:
+    def add(self, name: str, fmt: npt.DTypeLike, align: int) -> None:
         self.offset = _align(self.offset, align)
         self.names.append(name)
         self.formats.append(fmt)
@@ -85,6 +86,7 @@ class _Builder:
     def single(self, base: str, package: str, path: str) -> None:
         if base == "string":
             length = self._size(path, False, string=True)
+            assert isinstance(length, int)  # one string: its byte length
             self.add(f"{path}.len", "<u4", 4)
             self.add(path, f"S{length + 1}", 1)
         elif base in _NUMPY:
@@ -152,6 +154,11 @@ class _Builder:
                          "itemsize": self.offset})  # fmt: skip
 
 
+def _names(dtype: np.dtype) -> tuple[str, ...]:
+    """A structured dtype's field names (numpy types them as possibly None)."""
+    return dtype.names or ()
+
+
 def _max_align(dtype: np.dtype) -> int:
     if dtype.fields is None:
         return dtype.base.itemsize if dtype.subdtype else dtype.itemsize
@@ -165,9 +172,9 @@ def element_dtype(msg: str) -> np.dtype:
     builder.offset = _ORIGIN
     builder.message(msg, "")
     raw = builder.dtype()
-    names = raw.names[1:]
-    offsets = [raw.fields[n][1] - _ORIGIN for n in names]
-    formats = [raw.fields[n][0] for n in names]
+    names, layout = _names(raw)[1:], dict(raw.fields or {})
+    offsets = [layout[n][1] - _ORIGIN for n in names]
+    formats = [layout[n][0] for n in names]
     size = builder.offset - _ORIGIN
     align = max(_max_align(f) for f in formats)
     if size % align:
@@ -210,7 +217,7 @@ def decode(msg: str, payloads: Sequence[bytes]) -> list[np.ndarray]:
     if payloads and len({len(p) for p in payloads}) == 1:
         dtype = _layout(msg, _key(sizes_of(msg, payloads[0])))
         whole = from_payloads(payloads, dtype)
-        lengths = [n for n in dtype.names if n.endswith(".len")]
+        lengths = [n for n in _names(dtype) if n.endswith(".len")]
         if all((whole[n] == whole[n][0]).all() for n in lengths):
             return [whole]
     out: list[np.ndarray] = []
@@ -238,7 +245,7 @@ def new_messages(msg: str, sizes: Sizes, count: int) -> np.ndarray:
             out[f"{path}.len"] = len(size)
             for i, length in enumerate(size):
                 out[f"{path}.{i}.len"] = length + 1
-        elif f"{path}.len" in dtype.names:
+        elif f"{path}.len" in _names(dtype):
             out[f"{path}.len"] = size + 1 if dtype[path].kind == "S" else size
     return out
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 from types import TracebackType
-from typing import Self
+from typing import BinaryIO, Self
 
 import numpy as np
 from mcap.exceptions import McapError
@@ -104,7 +104,7 @@ class TrialReader:
     ) -> None:
         self.close()
 
-    def _scan(self, stream) -> tuple[dict[str, _Raw], dict[str, str] | None]:
+    def _scan(self, stream: BinaryIO) -> tuple[dict[str, _Raw], dict[str, str] | None]:
         schemas: dict[int, Schema] = {}
         channels: dict[int, Channel] = {}
         messages: dict[int, tuple[list[int], list[bytes]]] = {}

@@ -37,7 +37,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Literal
+from typing import Final, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -51,7 +51,7 @@ from dresslog.spec import Task
 
 WEIGHTS_FILE = "model.safetensors"
 CARD_FILE = "card.json"
-FORMAT = "dresslog-model"
+FORMAT: Final = "dresslog-model"
 FORMAT_VERSION = 1
 
 

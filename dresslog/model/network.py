@@ -36,6 +36,9 @@ LSTMState = tuple[torch.Tensor, torch.Tensor]
 class ForceMapLSTM(nn.Module):
     """phi_{1:T} (9-D per step) -> [unprocessed force map, contact map] per step."""
 
+    input_mean: torch.Tensor  # buffers: saved with the weights, not trained
+    input_std: torch.Tensor
+
     def __init__(
         self, n_points: int, hidden: int = 50, layers: int = 3, input_dim: int = PHI_DIM
     ) -> None:

@@ -48,7 +48,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import torch
@@ -124,7 +124,9 @@ def _batch(
     return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
 
 
-def _crop(phi: np.ndarray, y: np.ndarray, window: int, rng: np.random.Generator):
+def _crop(
+    phi: np.ndarray, y: np.ndarray, window: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
     if len(phi) <= window:
         return phi, y
     start = int(rng.integers(0, len(phi) - window + 1))
@@ -151,7 +153,9 @@ def _evaluate_loss(
     return total / count
 
 
-def _run_key(net, history: TrainHistory, normalise: bool, data: str) -> dict:
+def _run_key(
+    net: ForceMapLSTM, history: TrainHistory, normalise: bool, data: str
+) -> dict[str, Any]:
     """What a checkpoint must share with the run that resumes it: settings, shape, data."""
     return {
         "settings": history.settings.model_dump(),
@@ -170,7 +174,14 @@ def _fingerprint(*arrays: Sequence[np.ndarray]) -> str:
     return digest.hexdigest()
 
 
-def _save_checkpoint(path: Path, net, optim, history: TrainHistory, best: dict, key: dict) -> None:
+def _save_checkpoint(
+    path: Path,
+    net: ForceMapLSTM,
+    optim: torch.optim.Optimizer,
+    history: TrainHistory,
+    best: dict[str, Any],
+    key: dict[str, Any],
+) -> None:
     state = {
         "model": net.state_dict(),
         "best": best,
@@ -182,7 +193,14 @@ def _save_checkpoint(path: Path, net, optim, history: TrainHistory, best: dict, 
         torch.save(state, tmp)
 
 
-def _resume(path: Path, net, optim, history: TrainHistory, best: dict, key: dict) -> None:
+def _resume(
+    path: Path,
+    net: ForceMapLSTM,
+    optim: torch.optim.Optimizer,
+    history: TrainHistory,
+    best: dict[str, Any],
+    key: dict[str, Any],
+) -> None:
     """Continue from a checkpoint of the same settings and data; refuse one from another run."""
     try:
         state = torch.load(path, weights_only=True)
