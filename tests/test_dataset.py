@@ -255,6 +255,44 @@ def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path)
     check_files(tmp_path, manifest, checksums=True)
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGKILL are POSIX")
+def test_workers_of_a_killed_generation_stop_and_leave_no_temporary(tmp_path: Path) -> None:
+    """`kill -9` (or the out-of-memory killer) on the main process alone."""
+    script = (
+        "from dresslog.dataset import generate\n"
+        "if __name__ == '__main__':\n"
+        f"    generate('gown', 40, {str(tmp_path)!r}, workers=2, progress=False,\n"
+        "             recorder='tests.test_dataset:slow_record')\n"
+    )
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.Popen(
+        [sys.executable, "-c", script], cwd=root, start_new_session=True, stderr=subprocess.DEVNULL
+    )
+    deadline = time.monotonic() + 60
+    while len(list(tmp_path.glob("*/*.mcap"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.kill(run.pid, signal.SIGKILL)
+    run.wait(timeout=10)
+    deadline = time.monotonic() + 20
+    while _session_alive(run.pid) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not _session_alive(run.pid), "workers outlived their generation"
+    assert not list(tmp_path.glob("*/.*.partial"))
+
+
+def _session_alive(session: int) -> bool:
+    """Whether any process of the session is left (a zombie is gone: it only awaits reaping)."""
+    states = [p / "stat" for p in Path("/proc").iterdir() if p.name.isdigit()]
+    for stat in states:
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == session and fields[0] != "Z":
+            return True
+    return False
+
+
 def test_a_folder_without_a_manifest_is_one_clear_error(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match=r"no manifest\.json; not a dataset folder"):
         load_dataset(tmp_path)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib
 import os
 import signal
+import threading
 import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -75,7 +76,9 @@ class _Worker:
 
     The trial being recorded stops at once (its temporary file is removed) and queued
     trials are not started; an idle worker stays alive, so the pool never breaks and
-    never has to kill a worker in the middle of a file.
+    never has to kill a worker in the middle of a file. A worker whose generation was
+    killed outright (``kill -9``, out of memory) stops the same way and exits: it would
+    otherwise wait for work forever.
     """
 
     busy = False
@@ -84,6 +87,15 @@ class _Worker:
     @classmethod
     def start(cls) -> None:
         signal.signal(signal.SIGINT, cls._on_interrupt)
+        threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
+
+    @staticmethod
+    def _exit_with(parent: int) -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(1.0)  # time to remove the trial's temporary file
+        os._exit(1)
 
     @classmethod
     def _on_interrupt(cls, signum: int, frame: object) -> None:
