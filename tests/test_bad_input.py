@@ -83,6 +83,23 @@ def truncated(tmp: Path, good: Path) -> Path:
     return path
 
 
+SAMPLE = SAMPLES / "gown.mcap"
+
+
+def cut_in_a_chunk(tmp: Path, good: Path) -> Path:
+    """A recording cut mid-chunk: the compressed chunk ends early."""
+    (path := tmp / "cut.mcap").write_bytes(SAMPLE.read_bytes()[:500_000])
+    return path
+
+
+def flipped_bit(tmp: Path, good: Path) -> Path:
+    """One bit flipped inside a compressed chunk (CRCs are checked too)."""
+    data = bytearray(SAMPLE.read_bytes())
+    data[154_100] ^= 0x10
+    (path := tmp / "flipped.mcap").write_bytes(data)
+    return path
+
+
 def foreign(tmp: Path, good: Path) -> Path:
     path = tmp / "chatter.mcap"
     _raw_mcap(path, {"/joint_states": (TWIST[0], _vectors(*TWIST, np.zeros((3, 6))))}, False)
@@ -131,6 +148,8 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (json_named_mcap, "not an MCAP file"),
     (rerun_recording, "is a Rerun recording, not a trial; open it with `dresslog view`"),
     (truncated, "truncated"),
+    (cut_in_a_chunk, "damaged or truncated"),
+    (flipped_bit, "damaged or truncated"),
     (foreign, "not a dresslog trial.*/joint_states.*dresslog convert"),
     (wrong_schema, "channel /ee/wrench: has schema geometry_msgs/msg/TwistStamped"),
     (missing_twist, "missing channel /ee/twist"),
@@ -191,3 +210,27 @@ def test_an_output_folder_that_cannot_be_written_is_one_line(args: list[str]) ->
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"Error: {UNWRITABLE}"), result.output
+
+
+def test_a_flipped_bit_is_an_error_never_silently_different_data(tmp_path: Path) -> None:
+    """Bit rot in the data section: the chunk CRCs catch what decompression would not."""
+    with TrialReader(SAMPLE) as reader:
+        reference = reader.read()
+    data = SAMPLE.read_bytes()
+    rng = np.random.default_rng(0)
+    errors = 0
+    for position in rng.integers(1_000, 500_000, size=30):
+        flipped = bytearray(data)
+        flipped[position] ^= 1 << int(rng.integers(8))
+        (path := tmp_path / "flipped.mcap").write_bytes(flipped)
+        try:
+            with TrialReader(path) as reader:
+                trial = reader.read()
+        except TrialFormatError:
+            errors += 1
+            continue
+        assert trial.force_map is not None and reference.force_map is not None
+        np.testing.assert_array_equal(trial.wrench.values, reference.wrench.values)
+        np.testing.assert_array_equal(trial.twist.values, reference.twist.values)
+        np.testing.assert_array_equal(trial.force_map.forces, reference.force_map.forces)
+    assert errors >= 25  # the rest fell in padding, indexes or metadata strings

@@ -9,6 +9,7 @@ decoded on first use with the vectorised codec. Every problem becomes one
 from __future__ import annotations
 
 import json
+import struct
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -20,6 +21,7 @@ from mcap.exceptions import McapError
 from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from pydantic import ValidationError
+from zstandard import ZstdError
 
 from dresslog.errors import TrialFormatError, first_problem
 from dresslog.io import cdr
@@ -111,7 +113,7 @@ class TrialReader:
         metadata: dict[str, str] | None = None
         complete = False
         try:
-            for record in StreamReader(stream).records:
+            for record in StreamReader(stream, validate_crcs=True).records:
                 if isinstance(record, Message):
                     times, payloads = messages.setdefault(record.channel_id, ([], []))
                     times.append(record.log_time)
@@ -125,7 +127,7 @@ class TrialReader:
                 elif isinstance(record, DataEnd | Footer):
                     complete = True
                     break
-        except (McapError, ValueError, EOFError) as err:
+        except (McapError, ValueError, EOFError, OverflowError, struct.error, ZstdError) as err:
             raise TrialFormatError(
                 f"MCAP file is damaged or truncated ({type(err).__name__}: {err}); "
                 "re-record it, or salvage it with `mcap recover`",
