@@ -108,11 +108,13 @@ def test_resume_recreates_a_deleted_trial_identically_and_keeps_the_rest(copy: P
     (copy / "train/.000002.mcap.1234.partial").write_bytes(b"left by a killed run")
     mtimes = {p: p.stat().st_mtime_ns for p in copy.glob("*/*.mcap")}
     (copy / "test/000003.mcap").write_bytes(b"finished as a run stopped, never reported")
+    (copy / "train/mine.mcap").write_bytes(b"the user's own file")
     after = generate("gown", 4, copy, workers=2, test_fraction=0.25, overrides={"duration": 0.5})
     assert after.content_hash() == before.content_hash()  # same bytes: deterministic
     assert {p: p.stat().st_mtime_ns for p in mtimes} == mtimes  # the others were skipped
     on_disk = sorted(str(p.relative_to(copy)) for p in copy.glob("*/*mcap*"))
-    assert on_disk == sorted(str(e.file) for e in after.trials)  # nothing unaccounted for
+    listed = sorted(str(e.file) for e in after.trials)
+    assert on_disk == sorted([*listed, "train/mine.mcap"])  # no stray slot file; theirs kept
 
 
 @pytest.mark.slow

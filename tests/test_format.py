@@ -245,6 +245,23 @@ def test_interrupted_write_leaves_nothing_under_the_final_name(tmp_path: Path) -
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("stage", ["start", "finish"])
+def test_ctrl_c_while_opening_or_finishing_leaves_no_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, stage: str
+) -> None:
+    """Finishing compresses the last chunk, the likeliest place for a Ctrl-C to land."""
+    from mcap.writer import Writer
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Writer, stage, interrupted)
+    metadata = TrialMetadata(task=Task.GOWN)
+    with pytest.raises(KeyboardInterrupt), TrialWriter(tmp_path / "t.mcap", metadata) as writer:
+        writer.write_wrench(0, np.zeros(6))
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_writer_refuses_to_overwrite_unless_asked(make_trial) -> None:
     from dresslog.errors import TrialWriteError
 

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import importlib
 import os
+import re
 import signal
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, Protocol
@@ -37,13 +39,15 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogError, SimulationError, first_problem
-from dresslog.io.files import exclusive, sha256_file
+from dresslog.io.files import discard, exclusive, sha256_file, temporary_path
 from dresslog.spec import Outcome, Task, TrialSpec
 
 #: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
 MAX_ATTEMPTS = 5
 #: Seconds between manifest rewrites while trials arrive (always rewritten at the end).
 SAVE_EVERY_S = 2.0
+#: Seconds between checks for Ctrl-C while waiting on the workers.
+POLL_S = 0.2
 LOCK_FILE = ".generate.lock"
 RECORDER = "dresslog.sim:record_trial"
 SPEC_FACTORY = "dresslog.sim:random_spec"
@@ -81,7 +85,7 @@ class _Worker:
     otherwise wait for work forever.
     """
 
-    busy = False
+    writing: Path | None = None  # the trial being recorded
     interrupted = False
 
     @classmethod
@@ -89,18 +93,22 @@ class _Worker:
         signal.signal(signal.SIGINT, cls._on_interrupt)
         threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
 
-    @staticmethod
-    def _exit_with(parent: int) -> None:
+    @classmethod
+    def _exit_with(cls, parent: int) -> None:
         while os.getppid() == parent:
             time.sleep(0.5)
         os.kill(os.getpid(), signal.SIGINT)
-        time.sleep(1.0)  # time to remove the trial's temporary file
+        deadline = time.monotonic() + 5.0
+        while cls.writing is not None and time.monotonic() < deadline:
+            time.sleep(0.05)  # the trial stops and removes its temporary file
+        if cls.writing is not None:  # the interrupt went astray (into cleanup code)
+            discard(temporary_path(cls.writing))
         os._exit(1)
 
     @classmethod
     def _on_interrupt(cls, signum: int, frame: object) -> None:
         cls.interrupted = True
-        if cls.busy:
+        if cls.writing is not None:
             raise KeyboardInterrupt
 
 
@@ -116,7 +124,7 @@ def run_job(job: Job) -> Entry:
     started = time.perf_counter()
     base = {"split": job.split, "slot": job.slot, "attempt": job.attempt, "spec": job.spec}
     try:
-        _Worker.busy = True
+        _Worker.writing = path
         result = _resolve(job.recorder)(job.spec, path, overwrite=True)
     except DresslogError as err:
         path.unlink(missing_ok=True)
@@ -129,7 +137,7 @@ def run_job(job: Job) -> Entry:
             seconds=time.perf_counter() - started,
         )
     finally:
-        _Worker.busy = False
+        _Worker.writing = None
     return Entry(
         **base,
         status=Status.OK,
@@ -143,14 +151,14 @@ def run_job(job: Job) -> Entry:
 
 
 class Executor(Protocol):
-    """Runs jobs somewhere; `done()` blocks until at least one finished job is back.
+    """Runs jobs somewhere; `done(timeout)` returns the jobs finished by then, maybe none.
 
     `shutdown()` stops the work and returns the jobs that finished meanwhile (after an
     interrupt, workers may complete what they had started), so none goes unrecorded.
     """
 
     def submit(self, job: Job) -> None: ...
-    def done(self) -> list[Entry]: ...
+    def done(self, timeout: float) -> list[Entry]: ...
     def pending(self) -> int: ...
     def shutdown(self) -> list[Entry]: ...
 
@@ -169,9 +177,15 @@ class ProcessExecutor:
     def submit(self, job: Job) -> None:
         self._futures.add(self._pool.submit(run_job, job))
 
-    def done(self) -> list[Entry]:
-        finished, self._futures = wait(self._futures, return_when=FIRST_COMPLETED)
-        return [f.result() for f in finished]
+    def done(self, timeout: float) -> list[Entry]:
+        """Finished entries; a job that raised (a bug) raises once the others are out."""
+        finished, _ = wait(self._futures, timeout, return_when=FIRST_COMPLETED)
+        ok = {f for f in finished if f.exception() is None}
+        if not ok:
+            for f in finished:
+                f.result()
+        self._futures -= ok
+        return [f.result() for f in ok]
 
     def pending(self) -> int:
         return len(self._futures)
@@ -333,14 +347,19 @@ def _job(
     return Job(str(root), split, slot, attempt, spec, recorder)
 
 
+#: The names generation writes in a split folder: slot files and their temporaries.
+_SLOT_NAME = re.compile(r"\.?\d{6}\.mcap(\.\d+\.partial)?")
+
+
 def _tidy(root: Path, manifest: Manifest) -> None:
-    """Delete what no manifest entry accounts for: a killed worker's temporary file, a
-    trial finished as the run was stopped but never reported (we hold the folder's lock).
+    """Delete the slot files no manifest entry accounts for: a killed worker's temporary,
+    a trial finished as the run was killed (we hold the folder's lock). Other files are
+    the user's and stay.
     """
     listed = {root / str(e.file) for e in manifest.trials}
     for split in Split:
         for path in (root / split.value).glob("*.mcap*"):
-            if path not in listed:
+            if _SLOT_NAME.fullmatch(path.name) and path not in listed:
                 path.unlink(missing_ok=True)
 
 
@@ -401,6 +420,25 @@ def generate(
     return manifest
 
 
+@contextmanager
+def _stop_at_safe_points() -> Iterator[threading.Event]:
+    """Ctrl-C in the main process sets the event the loop checks; the interrupt is raised
+    on leaving, after the bookkeeping. Raised mid-loop, it dropped a trial a worker had
+    just reported (its file was then removed as unaccounted for).
+    """
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():  # signals need the main one
+        yield stop
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if stop.is_set():
+        raise KeyboardInterrupt
+
+
 def _run(
     root: Path,
     manifest: Manifest,
@@ -417,38 +455,41 @@ def _run(
     given_up: list[Entry] = []
     bar = tqdm(total=len(jobs), unit="trial", desc=label, disable=label is None)
     saved = time.monotonic()
-    try:
-        for job in jobs:
-            executor.submit(job)
-        recorder = jobs[0].recorder
-        factory = _spec_factory(recorder)
-        while executor.pending():
-            for entry in executor.done():
-                if entry.status == Status.OK:
-                    manifest.trials.append(entry)
-                    bar.update()
-                    continue
-                manifest.failures.append(entry)
-                if entry.attempt + 1 >= max_attempts:
-                    given_up.append(entry)
-                    bar.update()
-                else:
-                    retry = entry.attempt + 1
-                    executor.submit(
-                        _job(root, manifest, entry.split, entry.slot, retry, recorder, factory)
-                    )
-                bar.set_postfix(failed=len(manifest.failures))
-            if time.monotonic() - saved > SAVE_EVERY_S:
-                manifest.save(root)
-                saved = time.monotonic()
-    finally:
-        bar.close()
-        try:  # trials finished while stopping (after an interrupt) are kept, not redone
-            for entry in executor.shutdown():
-                (manifest.trials if entry.status == Status.OK else manifest.failures).append(entry)
+    with _stop_at_safe_points() as stop:
+        try:
+            for job in jobs:
+                executor.submit(job)
+            recorder = jobs[0].recorder
+            factory = _spec_factory(recorder)
+            while executor.pending() and not stop.is_set():
+                for entry in executor.done(timeout=POLL_S):
+                    if entry.status == Status.OK:
+                        manifest.trials.append(entry)
+                        bar.update()
+                        continue
+                    manifest.failures.append(entry)
+                    if entry.attempt + 1 >= max_attempts:
+                        given_up.append(entry)
+                        bar.update()
+                    else:
+                        retry = entry.attempt + 1
+                        executor.submit(
+                            _job(root, manifest, entry.split, entry.slot, retry, recorder, factory)
+                        )
+                    bar.set_postfix(failed=len(manifest.failures))
+                if time.monotonic() - saved > SAVE_EVERY_S:
+                    manifest.save(root)
+                    saved = time.monotonic()
         finally:
-            manifest.save(root)
-            _tidy(root, manifest)
+            bar.close()
+            try:  # trials finished while stopping (after an interrupt) are kept, not redone
+                for entry in executor.shutdown():
+                    (manifest.trials if entry.status == Status.OK else manifest.failures).append(
+                        entry
+                    )
+            finally:
+                manifest.save(root)
+                _tidy(root, manifest)
     if given_up:
         last = given_up[-1]
         raise DatasetError(

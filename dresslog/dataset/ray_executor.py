@@ -48,8 +48,8 @@ class RayExecutor:
     def submit(self, job: Job) -> None:
         self._refs.append(self._remote.remote(job))
 
-    def done(self) -> list[Entry]:
-        ready, self._refs = self._ray.wait(self._refs, num_returns=1)
+    def done(self, timeout: float) -> list[Entry]:
+        ready, self._refs = self._ray.wait(self._refs, num_returns=1, timeout=timeout)
         return list(self._ray.get(ready))
 
     def pending(self) -> int:

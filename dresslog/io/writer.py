@@ -93,7 +93,11 @@ class TrialWriter:
         discard(self._tmp)
 
     def __enter__(self) -> Self:
-        return self.open()
+        try:
+            return self.open()
+        except BaseException:  # a Ctrl-C while opening leaves no temporary either
+            self.abort()
+            raise
 
     def __exit__(
         self,
@@ -102,7 +106,11 @@ class TrialWriter:
         tb: TracebackType | None,
     ) -> None:
         if exc_type is None:
-            self.close()
+            try:
+                self.close()
+            except BaseException:  # finishing compresses the last chunk: Ctrl-C lands here
+                self.abort()
+                raise
         else:
             self.abort()
 
