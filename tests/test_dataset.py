@@ -234,20 +234,26 @@ def test_a_hand_edited_manifest_that_moves_a_trial_is_refused(
         load_dataset(copy, workers=1, progress=False)
 
 
-@pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT are POSIX")
-def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path) -> None:
-    """A terminal's Ctrl-C reaches the whole process group: main process and workers."""
+def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
+    """A slow fake generation in its own session, once two trials are on disk."""
     script = (
         "from dresslog.dataset import generate\n"
         "if __name__ == '__main__':\n"
-        f"    generate('gown', 12, {str(tmp_path)!r}, workers=2, progress=False,\n"
+        f"    generate('gown', {trials}, {str(out)!r}, workers=2, progress=False,\n"
         "             recorder='tests.test_dataset:slow_record')\n"
     )
     root = Path(__file__).resolve().parents[1]
     run = subprocess.Popen([sys.executable, "-c", script], cwd=root, start_new_session=True)
     deadline = time.monotonic() + 60
-    while len(list(tmp_path.glob("*/*.mcap"))) < 2 and time.monotonic() < deadline:
+    while len(list(out.glob("*/*.mcap"))) < 2 and time.monotonic() < deadline:
         time.sleep(0.05)
+    return run
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT are POSIX")
+def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path) -> None:
+    """A terminal's Ctrl-C reaches the whole process group: main process and workers."""
+    run = _generation_under_way(tmp_path, 12)
     os.killpg(run.pid, signal.SIGINT)
     assert run.wait(timeout=60) != 0
     manifest = load_manifest(tmp_path)
@@ -260,19 +266,7 @@ def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path)
 @pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGKILL are POSIX")
 def test_workers_of_a_killed_generation_stop_and_leave_no_temporary(tmp_path: Path) -> None:
     """`kill -9` (or the out-of-memory killer) on the main process alone."""
-    script = (
-        "from dresslog.dataset import generate\n"
-        "if __name__ == '__main__':\n"
-        f"    generate('gown', 40, {str(tmp_path)!r}, workers=2, progress=False,\n"
-        "             recorder='tests.test_dataset:slow_record')\n"
-    )
-    root = Path(__file__).resolve().parents[1]
-    run = subprocess.Popen(
-        [sys.executable, "-c", script], cwd=root, start_new_session=True, stderr=subprocess.DEVNULL
-    )
-    deadline = time.monotonic() + 60
-    while len(list(tmp_path.glob("*/*.mcap"))) < 2 and time.monotonic() < deadline:
-        time.sleep(0.05)
+    run = _generation_under_way(tmp_path, 40)
     os.kill(run.pid, signal.SIGKILL)
     run.wait(timeout=10)
     deadline = time.monotonic() + 20
