@@ -22,17 +22,16 @@ from .common import reports_errors
 @click.option("--time-unit", type=click.Choice(["s", "ms", "us", "ns"]), help="CSV time unit.")
 @click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame.")  # fmt: skip
-@click.option("--tare", "tare_s", type=float, default=0.0, metavar="SECONDS",
+@click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",
               help="Subtract the mean wrench of the first SECONDS.")  # fmt: skip
 @click.option("--overwrite", is_flag=True, help="Replace OUTPUT if it exists.")
 @reports_errors
 def convert(source: str, output: str, columns: tuple[str, ...], **options: object) -> None:
     """Convert a ROS 1/2 bag, ROS 2 MCAP file or force/torque CSV into a dresslog trial."""
     from dresslog.convert import convert as run
-    from dresslog.errors import ConversionError
 
     if bad := [c for c in columns if "=" not in c]:
-        raise ConversionError(f"--column {bad[0]}: expected ROLE=HEADER")
+        raise click.BadParameter(f"{bad[0]!r} is not ROLE=HEADER", param_hint="'--column'")
     mapping = dict(c.split("=", 1) for c in columns)
     with warnings.catch_warnings():  # warnings come back in the report, printed below
         warnings.simplefilter("ignore")

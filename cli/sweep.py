@@ -38,6 +38,8 @@ def sweep(
     from dresslog.experiments import default_sweep_folder
     from dresslog.experiments import sweep as run_sweep
 
+    if not speeds and not rotations:
+        raise click.UsageError("give --speeds, --rotations or both")
     out = out or str(default_sweep_folder(model))
     report = run_sweep(
         model, out, speeds=_items(speeds), rotations=_items(rotations), n=sequences,

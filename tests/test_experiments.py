@@ -316,15 +316,15 @@ def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    ("options", "message"),
+    ("options", "code", "message"),
     [
-        ([], "give at least one --speeds or --rotations value"),
-        (["--speeds", "fast"], "speed 'fast' is not a number"),
+        ([], 2, "Error: give --speeds, --rotations or both"),
+        (["--speeds", "fast"], 1, "speed 'fast' is not a number"),
     ],
 )
 def test_sweep_without_a_setting_or_with_a_bad_speed_is_refused(
-    model: Path, tmp_path: Path, options: list[str], message: str
+    model: Path, tmp_path: Path, options: list[str], code: int, message: str
 ) -> None:
-    code, output = invoke("sweep", model, *options, "-o", tmp_path / "s")
-    assert code == 1 and message in output, output
+    exit_code, output = invoke("sweep", model, *options, "-o", tmp_path / "s")
+    assert exit_code == code and message in output, output
     assert not (tmp_path / "s").exists()
