@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import signal
 
 import click
 
@@ -57,3 +58,10 @@ class LazyGroup(click.Group):
 @click.version_option(__version__, prog_name="dresslog")
 def main() -> None:
     """dresslog: simulate robot-assisted dressing, record trials, infer the forces felt."""
+
+
+def run() -> None:
+    """The console script: a kill (SIGTERM) stops a command as Ctrl-C does, so what it
+    was writing is removed rather than left as a temporary file."""
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    main()

@@ -201,3 +201,24 @@ def test_record_refuses_a_setting_out_of_range_before_simulating(
     result = CliRunner().invoke(main, ["record", "--task", "gown", *option, "-o", str(out)])
     assert result.exit_code == 1 and message in result.output, result.output
     assert not out.exists()
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM ends a process outright there")
+def test_a_killed_record_leaves_no_file(tmp_path: Path) -> None:
+    """`kill PID` (a scheduler's timeout, `docker stop`) stops a command as Ctrl-C does."""
+    import os
+    import signal
+    import time
+
+    out = tmp_path / "t.mcap"
+    entry = "import sys; from dresslog.cli.main import run; sys.argv[0] = 'dresslog'; run()"
+    args = ["record", "--task", "gown", "--duration", "30", "-o", str(out)]
+    run = subprocess.Popen([sys.executable, "-c", entry, *args], stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while not list(tmp_path.glob(".t.mcap.*.partial")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)  # into the simulation, with messages written
+    os.kill(run.pid, signal.SIGTERM)
+    _, err = run.communicate(timeout=30)
+    assert run.returncode != 0 and b"Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []

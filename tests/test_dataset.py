@@ -251,10 +251,14 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT are POSIX")
-def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path) -> None:
-    """A terminal's Ctrl-C reaches the whole process group: main process and workers."""
+@pytest.mark.parametrize("stop", ["ctrl-c", "sigterm"])
+def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path, stop: str) -> None:
+    """A terminal's Ctrl-C reaches the whole process group; `kill PID` the main process alone."""
     run = _generation_under_way(tmp_path, 12)
-    os.killpg(run.pid, signal.SIGINT)
+    if stop == "ctrl-c":
+        os.killpg(run.pid, signal.SIGINT)
+    else:
+        os.kill(run.pid, signal.SIGTERM)
     assert run.wait(timeout=60) != 0
     manifest = load_manifest(tmp_path)
     on_disk = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.glob("*/*.mcap"))

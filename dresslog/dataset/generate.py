@@ -48,6 +48,8 @@ MAX_ATTEMPTS = 5
 SAVE_EVERY_S = 2.0
 #: Seconds between checks for Ctrl-C while waiting on the workers.
 POLL_S = 0.2
+#: Signals that stop a generation cleanly: Ctrl-C, and a kill (SIGTERM).
+_STOPS = (signal.SIGINT, signal.SIGTERM)
 LOCK_FILE = ".generate.lock"
 RECORDER = "dresslog.sim:record_trial"
 SPEC_FACTORY = "dresslog.sim:random_spec"
@@ -91,6 +93,7 @@ class _Worker:
     @classmethod
     def start(cls) -> None:
         signal.signal(signal.SIGINT, cls._on_interrupt)
+        signal.signal(signal.SIGTERM, cls._on_terminate)
         threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
 
     @classmethod
@@ -104,6 +107,13 @@ class _Worker:
         if cls.writing is not None:  # the interrupt went astray (into cleanup code)
             discard(temporary_path(cls.writing))
         os._exit(1)
+
+    @classmethod
+    def _on_terminate(cls, signum: int, frame: object) -> None:
+        """Still the end (the pool terminates a broken worker so), minus the temporary."""
+        if cls.writing is not None:
+            discard(temporary_path(cls.writing))
+        os._exit(128 + signum)
 
     @classmethod
     def _on_interrupt(cls, signum: int, frame: object) -> None:
@@ -422,19 +432,21 @@ def generate(
 
 @contextmanager
 def _stop_at_safe_points() -> Iterator[threading.Event]:
-    """Ctrl-C in the main process sets the event the loop checks; the interrupt is raised
-    on leaving, after the bookkeeping. Raised mid-loop, it dropped a trial a worker had
-    just reported (its file was then removed as unaccounted for).
+    """Ctrl-C or SIGTERM in the main process sets the event the loop checks;
+    KeyboardInterrupt is raised on leaving, after the bookkeeping. Raised mid-loop, it
+    dropped a trial a worker had just reported (its file was then removed as unaccounted
+    for).
     """
     stop = threading.Event()
     if threading.current_thread() is not threading.main_thread():  # signals need the main one
         yield stop
         return
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
+    previous = {s: signal.signal(s, lambda signum, frame: stop.set()) for s in _STOPS}
     try:
         yield stop
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
     if stop.is_set():
         raise KeyboardInterrupt
 
