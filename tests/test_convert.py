@@ -278,6 +278,15 @@ def test_a_truncated_bag_is_refused_with_the_tool_that_may_repair_it(
     assert not (tmp_path / "out.mcap").exists()
 
 
+def test_a_ros2_bag_with_broken_metadata_is_one_line(tmp_path: Path) -> None:
+    bag = make_bag(tmp_path, standard_topics(1.0), "ros2")
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 9")
+    args = ["convert", str(bag), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and len(result.output.splitlines()) == 1, result.output
+    assert "cannot read bag:" in result.output and "ros2 bag reindex" in result.output
+
+
 # -- command line --------------------------------------------------------------------------
 
 

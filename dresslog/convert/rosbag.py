@@ -245,8 +245,9 @@ def read_bag(
                     payloads.append(raw)
     except errors as err:
         tool = "rosbag reindex" if path.suffix == ".bag" else "ros2 bag reindex"
+        reason = " ".join(str(err).split())  # a YAML error draws a caret under the line
         raise ConversionError(
-            f"cannot read bag: {err}; if its recording was cut short, `{tool}` may repair it",
+            f"cannot read bag: {reason}; if its recording was cut short, `{tool}` may repair it",
             path=path,
         ) from None
     streams: dict[str, SourceStream] = {}
