@@ -354,3 +354,12 @@ def test_a_motion_file_from_another_time_is_said_not_to_overlap(tmp_path: Path) 
         ConversionError, match=r"do not overlap in time .* they must share one clock"
     ):
         convert(wrench_file, tmp_path / "t.mcap", "gown", motion=motion)
+
+
+def test_a_nan_timestamp_is_named_by_its_line(tmp_path: Path) -> None:
+    source = ati_style(tmp_path)
+    lines = source.read_text().splitlines(keepends=True)
+    lines[6] = "nan" + lines[6][lines[6].index(",") :]
+    source.write_text("".join(lines))
+    with pytest.raises(ConversionError, match=r"'Time \(s\)', line 7: time 'nan' is not a finite"):
+        convert(source, tmp_path / "t.mcap", "gown")

@@ -166,15 +166,21 @@ def _missing_hint(missing: list[str], names: list[str]) -> str:
     )
 
 
-def _time_ns(raw: np.ndarray, unit: str | None, path: Path) -> tuple[np.ndarray, str]:
+def _time_ns(
+    raw: np.ndarray, unit: str | None, name: str, header_line: int, path: Path
+) -> tuple[np.ndarray, str]:
     """Integer nanoseconds from a time column read as text, and the unit used."""
     try:
         values: np.ndarray = raw.astype(np.int64)
     except ValueError:
-        try:
-            values = raw.astype(np.float64)
-        except ValueError as err:
-            raise ConversionError(f"time column is not numeric: {err}", path=path) from None
+        values = _numbers(raw, name, header_line, path)
+        if not np.isfinite(values).all():
+            row = int(np.argmin(np.isfinite(values)))
+            raise ConversionError(
+                f"column {name!r}, line {header_line + row + 2}: time {str(raw[row])!r} "
+                "is not a finite number; drop that row",
+                path=path,
+            ) from None
     if unit is None:
         steps = np.diff(values)
         big = np.abs(values).max(initial=0) > 1e12
@@ -249,12 +255,15 @@ def read_table(
         raise ConversionError("CSV has a header but no rows", path=path)
     data = dict(zip(roles, text.T, strict=True))
     given = time_unit or _unit_in(names[found["time"]])
-    t_ns, unit = _time_ns(data.pop("time"), "s" if nanos is not None else given, path)
+    time_name = names[found["time"]]
+    t_ns, unit = _time_ns(
+        data.pop("time"), "s" if nanos is not None else given, time_name, line, path
+    )
     if nanos is not None:
-        t_ns = t_ns + _time_ns(data.pop("nanoseconds"), "ns", path)[0]
+        t_ns = t_ns + _time_ns(data.pop("nanoseconds"), "ns", names[nanos], line, path)[0]
         unit = f"s + {names[nanos]!r} in ns"
     elif given is None:
-        _check_guessed_unit(t_ns, unit, names[found["time"]], path)
+        _check_guessed_unit(t_ns, unit, time_name, path)
     values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
     notes = [f"{path.name}: time column {names[found['time']]!r} read as {unit}"]
     if ignored:
