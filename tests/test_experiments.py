@@ -231,7 +231,7 @@ def test_info_describes_a_tampered_model_and_fails_and_refuses_a_folder_that_is_
     weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
     result = CliRunner().invoke(main, ["info", str(path)])
     assert result.exit_code == 1 and "gown, 300 limb points" in result.stdout
-    assert "NOT what model.safetensors holds: the model will not load" in result.stdout
+    assert "but the model does not load (the error says why)" in result.stdout
     assert result.stderr.count("\n") == 1 and "does not match the sha256" in result.stderr
     code, output = invoke("info", tmp_path)
     assert code == 1 and output.count("\n") == 1

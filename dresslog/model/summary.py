@@ -5,7 +5,7 @@ Public API
 ``format_card(path, card, verified) -> str``
     Task and sizes, input normalisation, how it was trained (hyperparameters, data, the
     epochs run and the one kept), its recorded test metrics and the weights hash, and
-    whether the weights matched it, as `dresslog info` prints it (``--json`` prints the
+    whether the model loads, as `dresslog info` prints it (``--json`` prints the
     card itself).
 """
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dresslog.model.files import WEIGHTS_FILE, ModelCard
+from dresslog.model.files import ModelCard
 
 
 def format_card(path: Path, card: ModelCard, verified: bool) -> str:
@@ -56,7 +56,7 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
         if metrics:
             shown = ", ".join(f"{k} {v:.4g}" for k, v in metrics.items())
             lines.append(f"  {label:<8}  {shown}")
-    checked = "verified" if verified else f"NOT what {WEIGHTS_FILE} holds: the model will not load"
+    checked = "verified" if verified else "but the model does not load (the error says why)"
     lines.append(f"  weights   sha256 {card.weights_sha256[:16]}, {checked}")
     lines.append(f"  software  dresslog {card.dresslog_version}, created {card.created}")
     return "\n".join(lines)
