@@ -220,6 +220,7 @@ BAD = [
         ("out.rrd", "trial.mcap", "would overwrite trial.mcap, the file being read"),
         ("out.rrd", "out.rrd", "a trial is an MCAP file; name it .mcap"),
         ("out.rrd", "estimate.rrd", "a trial is an MCAP file; name it .mcap"),
+        ("out.rrd", "other.mcap", "exists and is not an earlier estimate copy (a recording?)"),
         ("out.txt", None, "a Rerun recording is named .rrd"),
     ],
 )
@@ -230,12 +231,13 @@ def test_infer_never_writes_over_its_trial_or_one_output_over_the_other(
     (work := tmp_path / "work").mkdir()
     copy = work / "trial.mcap"
     copy.write_bytes(trial.read_bytes())
+    (other := work / "other.mcap").write_bytes(trial.read_bytes())  # another recording
     args = ["infer", str(copy), "--model", str(model), "-o", str(work / output)]
     args += ["--mcap-out", str(work / mcap_out)] if mcap_out else []
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1 and message in result.output, result.output
-    assert copy.read_bytes() == trial.read_bytes()
-    assert sorted(p.name for p in work.iterdir()) == ["trial.mcap"]
+    assert copy.read_bytes() == trial.read_bytes() == other.read_bytes()
+    assert sorted(p.name for p in work.iterdir()) == ["other.mcap", "trial.mcap"]
 
 
 def test_infer_names_a_rerun_recording_given_as_the_trial_or_as_an_mcap_output(

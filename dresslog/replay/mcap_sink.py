@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from dresslog.errors import TrialWriteError
+from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
 from dresslog.io.writer import TrialWriter
 from dresslog.trial import LimbPoints, Trial
@@ -36,6 +37,12 @@ class McapSink:
         if context.trial is None:
             raise TrialWriteError("an MCAP copy needs a recorded trial as source", path=self.path)
         check_output(self.path, context.source_path, suffix=".mcap")
+        if self.path.exists() and not _holds_an_estimate(self.path):
+            raise TrialWriteError(
+                "exists and is not an earlier estimate copy (a recording?); give another "
+                "--mcap-out name, or delete it first",
+                path=self.path,
+            )
         self._trial = context.trial
         self._limb = context.limb_points
         self._t_ns, self._forces, self._contact = [], [], []
@@ -62,6 +69,19 @@ class McapSink:
 
     def abort(self) -> None:
         """Nothing is on disk before `close`, and `TrialWriter` cleans up after itself."""
+
+
+def _holds_an_estimate(path: Path) -> bool:
+    """Whether `path` is what this sink writes, so a re-run may replace it."""
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+
+    try:
+        with path.open("rb") as stream:
+            summary = make_reader(stream).get_summary()
+    except (OSError, McapError, ValueError, EOFError):
+        return False
+    return summary is not None and any(c.topic == wk.ESTIMATE for c in summary.channels.values())
 
 
 def copy_trial(writer: TrialWriter, trial: Trial, limb: LimbPoints | None = None) -> None:
