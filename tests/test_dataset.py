@@ -391,3 +391,15 @@ def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
         generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)
     generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)  # free again
     assert len(load_manifest(tmp_path / "d").trials) == 1
+
+
+@pytest.mark.slow
+def test_a_manifest_edited_to_the_other_task_is_refused(copy: Path) -> None:
+    """Trained on, it would make a gown model labelled shorts."""
+    raw = json.loads((copy / "manifest.json").read_text())
+    raw["task"] = "shorts"
+    for entry in raw["trials"]:
+        entry["spec"]["task"] = "shorts"
+    (copy / "manifest.json").write_text(json.dumps(raw))
+    with pytest.raises(DatasetError, match=r"/000000\.mcap is a gown trial in a shorts dataset"):
+        load_dataset(copy, workers=1, progress=False)

@@ -76,20 +76,25 @@ def cache_path(root: str | Path, manifest: Manifest) -> Path:
     return Path(root) / CACHE_DIR / f"arrays-{manifest.content_hash()[:16]}.npz"
 
 
-def _decode(args: tuple[str, str, str]) -> tuple[np.ndarray, np.ndarray]:
+def _decode(args: tuple[str, str, str, str]) -> tuple[np.ndarray, np.ndarray]:
     """One trial's (phi (T, 9), forces (T, N)) on the steps both have; runs in a worker."""
     from dresslog.io.reader import TrialReader
 
-    path, name, sha256 = args
+    path, name, sha256, task = args
     root = Path(path).parents[1]
     if sha256_file(path) != sha256:
         raise damaged_error(root, name, "changed")
     try:
         with TrialReader(path) as reader:
+            recorded = reader.metadata.task.value
             phi = reader.measurements
             truth = reader.force_map
     except TrialFormatError as err:
         raise DatasetError(f"trial {name} is unreadable: {err.message}", path=root) from None
+    if recorded != task:  # a model trained on it would carry the wrong task
+        raise DatasetError(
+            f"trial {name} is a {recorded} trial in a {task} dataset (manifest.json)", path=root
+        )
     if truth is None:
         raise DatasetError(f"trial {name} has no ground-truth force map", path=root)
     _, pi, fi = np.intersect1d(phi.t_ns, truth.t_ns, return_indices=True)
@@ -101,7 +106,8 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
 
     entries = manifest.trials
     mtimes = _mtimes(root, manifest)  # before decoding: a file changed meanwhile is stale
-    jobs = [(str(root / str(e.file)), str(e.file), str(e.sha256)) for e in entries]
+    task = manifest.task.value
+    jobs = [(str(root / str(e.file)), str(e.file), str(e.sha256), task) for e in entries]
     bar = tqdm(total=len(jobs), unit="trial", desc="decoding", disable=not progress)
     if workers > 1 and len(jobs) > 1:
         import multiprocessing
