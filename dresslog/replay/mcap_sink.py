@@ -12,9 +12,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dresslog.errors import TrialWriteError
+from dresslog.errors import TrialFormatError, TrialWriteError
 from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
+from dresslog.io.reader import TrialReader
 from dresslog.io.writer import TrialWriter
 from dresslog.trial import LimbPoints, Trial
 
@@ -73,15 +74,11 @@ class McapSink:
 
 def _holds_an_estimate(path: Path) -> bool:
     """Whether `path` is what this sink writes, so a re-run may replace it."""
-    from mcap.exceptions import McapError
-    from mcap.reader import make_reader
-
     try:
-        with path.open("rb") as stream:
-            summary = make_reader(stream).get_summary()
-    except (OSError, McapError, ValueError, EOFError):
+        with TrialReader(path) as reader:
+            return reader.has(wk.ESTIMATE)
+    except TrialFormatError:
         return False
-    return summary is not None and any(c.topic == wk.ESTIMATE for c in summary.channels.values())
 
 
 def copy_trial(writer: TrialWriter, trial: Trial, limb: LimbPoints | None = None) -> None:
