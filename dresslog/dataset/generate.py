@@ -104,16 +104,19 @@ class _Worker:
         deadline = time.monotonic() + 5.0
         while cls.writing is not None and time.monotonic() < deadline:
             time.sleep(0.05)  # the trial stops and removes its temporary file
-        if cls.writing is not None:  # the interrupt went astray (into cleanup code)
-            discard(temporary_path(cls.writing))
-        os._exit(1)
+        cls._exit(1)  # the interrupt may have gone astray (into cleanup code)
 
     @classmethod
     def _on_terminate(cls, signum: int, frame: object) -> None:
         """Still the end (the pool terminates a broken worker so), minus the temporary."""
+        cls._exit(128 + signum)
+
+    @classmethod
+    def _exit(cls, code: int) -> None:
+        """Exit now, removing the temporary file of a trial still being recorded."""
         if cls.writing is not None:
             discard(temporary_path(cls.writing))
-        os._exit(128 + signum)
+        os._exit(code)
 
     @classmethod
     def _on_interrupt(cls, signum: int, frame: object) -> None:
