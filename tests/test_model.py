@@ -257,6 +257,20 @@ def test_training_rejects_mismatched_data_in_one_line():
         train([np.zeros((5, 9), np.float32)], [np.zeros((4, 3), np.float32)], progress=False)
 
 
+def test_options_the_data_make_meaningless_are_refused_not_recorded():
+    phis, forces = synthetic(4, seed=2, n_points=4)  # 10% of 4 rounds to no validation
+    kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "progress": False}
+    with pytest.raises(ModelError, match="needs validation sequences"):
+        train(phis, forces, keep_best=True, **kwargs)
+    _, history = train(phis, forces, keep_best=True, val_fraction=0.25, **kwargs)
+    assert history.n_val == 1 and history.kept is not None
+    longest = max(len(p) for p in phis)
+    with pytest.raises(ModelError, match=f"the longest has {longest}"):
+        train(phis, forces, window=longest, **kwargs)
+    _, history = train(phis, forces, window=longest - 1, **kwargs)
+    assert history.settings.window == longest - 1
+
+
 def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
     weights, _ = trained
     est = NumpyEstimator(weights)

@@ -110,6 +110,29 @@ def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -
     return n_points
 
 
+def _check_options(
+    phis: Sequence[np.ndarray],
+    val_phis: Sequence[np.ndarray],
+    window: int | None,
+    keep_best: bool,
+    val_fraction: float,
+) -> None:
+    """Refuse options the data make meaningless, rather than record them in the card."""
+    if keep_best and not val_phis:
+        raise ModelError(
+            "keeping the epoch of lowest validation loss needs validation sequences, "
+            f"and {val_fraction:g} of {len(phis)} sequences rounds to none: train on "
+            "more trials, or keep the last epoch"
+        )
+    longest = max(len(p) for p in phis)
+    if window is not None and window >= longest:
+        raise ModelError(
+            f"a crop window of {window} steps is not shorter than any training sequence "
+            f"(the longest has {longest}): every crop would be a whole sequence; "
+            f"give a window below {longest} or none"
+        )
+
+
 def _batch(
     phis: Sequence[np.ndarray], targets: Sequence[np.ndarray], idx: np.ndarray, length: int
 ) -> Batch:
@@ -263,6 +286,7 @@ def train(
         held, kept = perm[:n_val], perm[n_val:]
         val_phis, val_targets = [phis[k] for k in held], [targets[k] for k in held]
         phis, targets = [phis[k] for k in kept], [targets[k] for k in kept]
+    _check_options(phis, val_phis, window, keep_best, val_fraction)
 
     settings = Hyperparameters(
         epochs=epochs,
