@@ -152,8 +152,9 @@ class EvalReport:
     manifest_sha256: str
     overall: Scores
     per_outcome: dict[str, Scores] = field(default_factory=dict)
-    #: oracle name -> its ratio on the same split (`dresslog.model.bounds`), if asked for
-    bounds: dict[str, float] = field(default_factory=dict)
+    #: oracle name -> its ratio on the same split (`dresslog.model.bounds`), if asked
+    #: for (None if not; empty if the split has no force, so nothing to place)
+    bounds: dict[str, float] | None = None
 
     def to_json(self) -> str:
         """JSON with nan as null (JSON has no nan)."""
@@ -179,6 +180,8 @@ class EvalReport:
         if self.bounds:
             lines.append("oracle ratios on the same sequences (the data's limits):")
             lines += [f"  {name:<28}{value:>8.3f}" for name, value in self.bounds.items()]
+        elif self.bounds is not None:
+            lines.append("oracle ratios: none, no force on the limb in these sequences")
         return "\n".join(lines)
 
 
@@ -234,7 +237,7 @@ def evaluate_dataset(
         manifest_sha256=arrays.manifest_sha256,
         overall=_scores(loaded, arrays, rows),
         per_outcome=per_outcome,
-        bounds=_bounds(arrays, rows) if bounds else {},
+        bounds=_bounds(arrays, rows) if bounds else None,
     )
 
 

@@ -27,6 +27,7 @@ from dresslog.model.files import ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_lines
 from dresslog.spec import Task
+from tests.conftest import SAMPLES
 
 
 @pytest.fixture(scope="module")
@@ -104,6 +105,7 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     report = json.loads(output)
     overall = report["overall"]
     assert report["split"] == "test" and overall["n"] == 1
+    assert report["bounds"] is None  # not asked for
     assert overall["zero_rmse"] > 0  # the test trial carries force
     assert overall["ratio"] == pytest.approx(overall["rmse"] / overall["zero_rmse"])
     assert 0 <= overall["contact_precision"] <= 1 and 0 <= overall["contact_recall"] <= 1
@@ -123,6 +125,18 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     bounds = json.loads(output)["bounds"]
     assert dataset_bounds(data) == pytest.approx(bounds)  # the same oracles without a model
     assert 0 <= bounds["blur 0.5 cm"] <= bounds["blur 8 cm"] <= 1.0
+
+
+def test_eval_bounds_say_so_when_the_split_has_no_force_to_place(tmp_path: Path) -> None:
+    data = tmp_path / "early"  # the first 0.3 s: the gripper has not reached the hand yet
+    args = ["--task", "gown", "--trials", "2", "--test-fraction", "0.5", "--duration", "0.3"]
+    code, output = invoke("generate", *args, "--out", data, "--workers", "1", "-q")
+    assert code == 0, output
+    model = SAMPLES / "models" / "gown"
+    code, output = invoke("eval", model, data, "--bounds", "-q")
+    assert code == 0 and "oracle ratios: none, no force on the limb" in output, output
+    code, output = invoke("eval", model, data, "--bounds", "--json")
+    assert code == 0 and json.loads(output)["bounds"] == {}
 
 
 @pytest.mark.slow
