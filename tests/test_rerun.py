@@ -139,6 +139,20 @@ def test_view_save_copies_an_rrd(inferred, tmp_path: Path) -> None:
     assert out.read_bytes() == rrd.read_bytes()
 
 
+@pytest.mark.parametrize("keep", [0.5, 0.001])  # cut mid-file, or inside the first message
+def test_view_save_refuses_to_copy_a_cut_rrd(inferred, tmp_path: Path, keep: float) -> None:
+    _, _, rrd = inferred
+    data = rrd.read_bytes()
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(data[: int(len(data) * keep)])
+    out = tmp_path / "copy.rrd"
+    out.write_bytes(b"earlier")
+    result = CliRunner().invoke(main, ["view", str(cut), "--save", str(out)])
+    assert result.exit_code == 1 and "cut short or damaged" in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1
+    assert out.read_bytes() == b"earlier"
+
+
 def test_view_refuses_a_file_that_is_not_a_rerun_recording(tmp_path: Path) -> None:
     junk = tmp_path / "junk.rrd"
     junk.write_bytes(b"junk\n")

@@ -31,6 +31,7 @@ def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = No
     path, out = Path(path), Path(out)
     check_output(out, suffix=".rrd")
     if is_rrd(path, model):
+        verify_rrd(path)  # a copy of a damaged recording would only hide the damage
         try:
             with atomic_path(out) as tmp:
                 shutil.copyfile(path, tmp)
@@ -75,6 +76,24 @@ def check_rrd(path: Path) -> None:
         raise DresslogError("no such file", path=path)
     if not _starts_with(path, RRD_MAGIC):
         raise DresslogError("not a Rerun recording (.rrd)", path=path)
+
+
+def verify_rrd(path: Path) -> None:
+    """Rerun's own check (`rerun rrd verify`) that the recording is whole and loads."""
+    cmd = [sys.executable, "-m", "rerun", "rrd", "verify", str(path)]
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    said = (done.stdout + done.stderr).strip()
+    if done.returncode == 0 and "1 file verified without error" in said:
+        return
+    if done.returncode == 0:  # rerun read no recording out of it
+        said = "no recording in it could be read"
+    reason = said.splitlines()[0] if said else f"exit status {done.returncode}"
+    reason = reason.removeprefix("Error: ").replace(f'"{path}"', "").strip(" :-")
+    raise DresslogError(
+        f"is cut short or damaged, so it is not copied (rerun rrd verify: {reason[:160]}); "
+        "write it again from its trial",
+        path=path,
+    )
 
 
 def _free_port(preferred: int = 0) -> int:
