@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -9,6 +13,41 @@ import pytest
 ray = pytest.importorskip("ray", reason="Ray is an optional extra: pip install 'dresslog[ray]'")
 
 from dresslog.dataset import generate, load_manifest  # noqa: E402
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="reads Linux's /proc")
+def test_the_cli_starts_its_own_ray_instance_and_stops_it(tmp_path: Path) -> None:
+    """What a user without a cluster gets from `dresslog generate --executor ray`."""
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
+    args = ["--task", "gown", "--trials", "2", "--test-fraction", "0.5", "--duration", "0.3"]
+    entry = "import sys; from dresslog.cli.main import run; sys.argv[0] = 'dresslog'; run()"
+    cli = [sys.executable, "-c", entry, "generate", *args, "--workers", "2", "-q"]
+    done = subprocess.run(
+        [*cli, "--out", str(tmp_path / "ray"), "--executor", "ray"],
+        env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "Traceback" not in done.stderr
+    local = generate("gown", 2, tmp_path / "local", workers=2, test_fraction=0.5,
+                     overrides={"duration": 0.3}, progress=False)  # fmt: skip
+    assert load_manifest(tmp_path / "ray").content_hash() == local.content_hash()
+    deadline = time.monotonic() + 30  # Ray's processes may take a moment to exit
+    while _raylets() and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert not _raylets(), "the instance it started was left running"
+
+
+def _raylets() -> list[str]:
+    """Running Ray node processes, by command line (Linux's /proc)."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if b"raylet" in cmdline.read_bytes():
+                found.append(cmdline.parent.name)
+        except OSError:  # exited meanwhile
+            continue
+    return found
 
 
 @pytest.fixture(scope="module")
