@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -348,3 +349,20 @@ def test_view_web_on_a_port_in_use_says_so_before_starting(inferred) -> None:
         result = CliRunner().invoke(main, ["view", str(rrd), "--web", "--port", str(port)])
     assert result.exit_code == 1
     assert result.output == f"Error: port {port} is in use; pass another --port or leave it out\n"
+
+
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="process groups are POSIX's")
+def test_a_viewer_that_ignores_sigterm_is_killed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C on `view` always ends its viewer, even one slow to or refusing to stop."""
+    import signal
+    import time
+
+    from dresslog.replay import viewer
+
+    monkeypatch.setattr(viewer, "VIEWER_STOP_S", 0.5)
+    stubborn = "import signal, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); time.sleep(60)"
+    process = subprocess.Popen([sys.executable, "-c", stubborn], start_new_session=True)
+    time.sleep(0.5)  # its handler in place
+    started = time.monotonic()
+    viewer._stop(process, group=True)
+    assert process.returncode == -signal.SIGKILL and time.monotonic() - started < 5

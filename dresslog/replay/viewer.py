@@ -25,6 +25,9 @@ from dresslog.io.reader import RRD_MAGIC
 from dresslog.replay.live import has_display
 from dresslog.replay.pipeline import InferenceReport, replay_file
 
+#: How long a viewer may take to stop on SIGTERM before it is killed.
+VIEWER_STOP_S = 5.0
+
 
 def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = None) -> str:
     """Write what `view` would show to `out`; returns a one-line description."""
@@ -94,6 +97,22 @@ def verify_rrd(path: Path) -> None:
         "write it again from its trial",
         path=path,
     )
+
+
+def _stop(process: subprocess.Popen, group: bool) -> None:
+    """Terminate the viewer (its whole group), and kill it if it has not gone in 5 s."""
+    for sig in (signal.SIGTERM, getattr(signal, "SIGKILL", signal.SIGTERM)):
+        with contextlib.suppress(ProcessLookupError):  # it may be gone already
+            if group:
+                os.killpg(process.pid, sig)
+            else:
+                process.send_signal(sig)
+        try:
+            process.wait(timeout=VIEWER_STOP_S)
+            return
+        except subprocess.TimeoutExpired:
+            continue  # a viewer that ignores SIGTERM (or is slow to) is killed
+    process.wait()
 
 
 def _free_port(preferred: int = 0) -> int:
@@ -186,12 +205,7 @@ def view_file(
             try:
                 _, err = process.communicate()
             except KeyboardInterrupt:
-                with contextlib.suppress(ProcessLookupError):  # it may be gone already
-                    if group:
-                        os.killpg(process.pid, signal.SIGTERM)
-                    else:
-                        process.terminate()
-                process.wait()
+                _stop(process, group)
                 raise
         if process.returncode != 0:
             last = (err or "").strip().splitlines()[-1:] or ["no output"]
