@@ -138,6 +138,35 @@ def test_a_replay_failing_midway_leaves_no_output_behind(gown, tmp_path: Path) -
     assert list(out.iterdir()) == []  # neither the outputs nor their temporaries
 
 
+@pytest.mark.parametrize("failing", ["first", "second"])
+def test_an_output_that_fails_to_write_leaves_every_earlier_output_as_it_was(
+    gown, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, failing: str
+) -> None:
+    """A full disk while writing one of infer's two outputs replaces neither earlier file."""
+    from mcap.writer import Writer
+
+    trial_path, model_path = gown
+    mcap, rrd = tmp_path / "e.mcap", tmp_path / "e.rrd"
+    args = ["infer", str(trial_path), "--model", str(model_path), "-o", str(rrd)]
+    assert CliRunner().invoke(main, [*args, "--mcap-out", str(mcap)]).exit_code == 0
+    before = {p.name: p.read_bytes() for p in (mcap, rrd)}
+
+    def full_disk(self: Writer) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Writer, "finish", full_disk)
+    sinks = [McapSink(mcap), RerunSink(rrd)]
+    if failing == "second":
+        sinks.reverse()
+    trial = read_trial(trial_path)
+    with pytest.raises(OSError, match="No space left"):
+        Replay(load_model(model_path).estimator(), sinks).run(
+            trial_context(trial, trial_path), trial_steps(trial)
+        )
+    outputs = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.name.startswith((".", "e."))}
+    assert outputs == before  # both as they were, and no temporaries
+
+
 def test_infer_prints_rmse_and_writes_both_outputs(gown, tmp_path: Path) -> None:
     trial_path, model_path = gown
     rrd, mcap = tmp_path / "out.rrd", tmp_path / "out.mcap"

@@ -74,13 +74,20 @@ class StepResult:
 
 
 class Sink(Protocol):
-    """Receives every step result; `close` commits the output, `abort` leaves nothing behind."""
+    """Receives every step result, then writes its output in two phases.
+
+    `close` writes everything under a temporary name (where most failures happen),
+    `commit` only moves it into place, and `abort` leaves nothing behind: so a replay
+    whose second output fails never replaces the first one's earlier file.
+    """
 
     def open(self, context: TrialContext) -> None: ...
 
     def write(self, result: StepResult) -> None: ...
 
     def close(self) -> None: ...
+
+    def commit(self) -> None: ...
 
     def abort(self) -> None: ...
 
@@ -127,10 +134,12 @@ class Replay:
         return result
 
     def finish(self) -> None:
-        """Commit every sink; if one fails, the rest are aborted."""
+        """Close every sink, then commit them all; if one fails, every sink is aborted."""
         try:
             for sink in self.sinks:
                 sink.close()
+            for sink in self.sinks:
+                sink.commit()
         except BaseException:
             self.abort()
             raise

@@ -7,6 +7,7 @@ replacing any old one) and appears under its name only when complete.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -14,7 +15,7 @@ import numpy as np
 
 from dresslog.errors import TrialFormatError, TrialWriteError
 from dresslog.io import well_known as wk
-from dresslog.io.files import check_output
+from dresslog.io.files import check_output, discard
 from dresslog.io.reader import TrialReader
 from dresslog.io.writer import TrialWriter
 from dresslog.trial import LimbPoints, Trial
@@ -33,6 +34,7 @@ class McapSink:
         self._t_ns: list[int] = []
         self._forces: list[np.ndarray] = []
         self._contact: list[np.ndarray] = []
+        self._staged: Path | None = None  # the finished copy, until `commit` names it
 
     def open(self, context: TrialContext) -> None:
         if context.trial is None:
@@ -58,7 +60,8 @@ class McapSink:
     def close(self) -> None:
         trial = self._trial
         assert trial is not None
-        with TrialWriter(self.path, trial.metadata, overwrite=True) as writer:
+        self._staged = self.path.with_name(f".{self.path.stem}.{os.getpid()}.staged.mcap")
+        with TrialWriter(self._staged, trial.metadata, overwrite=True) as writer:
             copy_trial(writer, trial, self._limb)
             if self._t_ns:
                 writer.write_force_map(
@@ -68,8 +71,16 @@ class McapSink:
                     estimate=True,
                 )
 
+    def commit(self) -> None:
+        if self._staged is not None:
+            self._staged.replace(self.path)
+            self._staged = None
+
     def abort(self) -> None:
-        """Nothing is on disk before `close`, and `TrialWriter` cleans up after itself."""
+        """Drop the staged copy; `TrialWriter` cleans up its own temporary."""
+        if self._staged is not None:
+            discard(self._staged)
+            self._staged = None
 
 
 def _holds_an_estimate(path: Path) -> bool:

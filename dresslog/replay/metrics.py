@@ -64,5 +64,8 @@ class MetricsSink:
             self.metrics.rmse = math.sqrt(self._sq / self._count)
             self.metrics.zero_rmse = math.sqrt(self._truth_sq / self._count)
 
+    def commit(self) -> None:
+        """Nothing to move: metrics live in memory."""
+
     def abort(self) -> None:
         """Nothing to undo: metrics live in memory."""

@@ -135,7 +135,6 @@ class RerunSink:
             self.flush()
             rec.flush()
             rec.disconnect()
-            self._tmp.replace(self.path)
         except RuntimeError as err:  # Rerun's own I/O errors (disk full, permissions)
             self.abort()
             raise TrialWriteError(f"could not write the recording: {err}", path=self.path) from None
@@ -144,6 +143,11 @@ class RerunSink:
             raise
         finally:
             self.recording = None
+
+    def commit(self) -> None:
+        if self.path is not None and self._tmp is not None:
+            self._tmp.replace(self.path)
+            self._tmp = None
 
     def abort(self) -> None:
         if self.path is not None and self.recording is not None:
