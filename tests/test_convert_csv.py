@@ -120,6 +120,34 @@ def test_a_time_unit_guessed_wrong_is_refused_with_the_option_to_give_it(tmp_pat
     assert report.steps == 199  # 2 s at 100 Hz, less the half bins the averaging needs
 
 
+def test_units_in_the_header_are_scaled_to_si_and_unknown_ones_refused(tmp_path: Path) -> None:
+    """A sensor exporting kN, N-mm and mm/s gives the trial of one exporting N, N m, m/s."""
+    t_ns = times(1000, 2.0)
+    t = seconds_of(t_ns)
+    w, v = wrench(t), twist(t)[:, :3]
+    si = write_csv(tmp_path / "si.csv", ["Time (s)", *HEADER_SI], [np.round(t, 6), *w.T, *v.T])
+    milli = [np.round(t, 6), *(w[:, :3] / 1e3).T, *(w[:, 3:] * 1e3).T, *(v * 1e3).T]
+    other = write_csv(tmp_path / "milli.csv", ["Time (s)", *HEADER_MILLI], milli)
+    convert(si, tmp_path / "si.mcap", "gown")
+    report = convert(other, tmp_path / "milli.mcap", "gown")
+    assert any("scaled to SI units: 'Fx (kN)'" in n for n in report.source["notes"])
+    _, si_wrench, si_twist, _ = converted(tmp_path / "si.mcap", 0)
+    _, milli_wrench, milli_twist, _ = converted(tmp_path / "milli.mcap", 0)
+    np.testing.assert_allclose(milli_wrench, si_wrench, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(milli_twist, si_twist, rtol=1e-6, atol=1e-9)
+    feet = ["Time (s)", *HEADER_SI[:6], "vx (ft/s)", *HEADER_SI[7:]]
+    path = write_csv(tmp_path / "ft.csv", feet, [np.round(t, 6), *w.T, *v.T])
+    with pytest.raises(ConversionError, match=r"'vx \(ft/s\)' is in 'ft/s'.*one of m/s"):
+        convert(path, tmp_path / "ft.mcap", "gown")
+    assert not (tmp_path / "ft.mcap").exists()
+
+
+HEADER_SI = ["Fx (N)", "Fy (N)", "Fz (N)", "Tx (N·m)", "Ty (N m)", "Tz (Nm)",
+             "vx (m/s)", "vy (m/s)", "vz (m/s)"]  # fmt: skip
+HEADER_MILLI = ["Fx (kN)", "Fy [kN]", "Fz (kN)", "Tx (N-mm)", "Ty (N.mm)", "Tz [Nmm]",
+                "vx (mm/s)", "vy (mm/s)", "vz [mm/s]"]  # fmt: skip
+
+
 def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:
     t = np.arange(200) / 1000.0
     values = wrench(t)

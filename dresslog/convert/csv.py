@@ -3,7 +3,9 @@
 Exports name their columns every way imaginable (`Fx`, `Force X (N)`,
 `field.wrench.force.x`, `Mx`, `torque_x`); a header is reduced to a key
 (lower case, units in brackets dropped, ROS prefixes dropped, letters and
-digits only) and the key matched against a few patterns. Anything else is
+digits only) and the key matched against a few patterns. A unit in brackets is
+read: values are scaled to SI (`Fx (kN)`, `Tz [N-mm]`, `vx (mm/s)`), and a unit
+not known is refused rather than taken for SI. Anything else is
 mapped by the caller (`columns={"fx": "Kraft X"}`, `--column fx="Kraft X"`).
 
 Time: seconds or nanoseconds, absolute or relative. A unit in the header
@@ -50,6 +52,48 @@ _UNIT_NAMES = {
     "us": "us", "usec": "us", "\u00b5s": "us", "\u03bcs": "us", "ns": "ns", "nsec": "ns",
     "nanoseconds": "ns",
 }  # fmt: skip
+
+
+#: SI factor of each unit a value column's header may give in brackets, by role
+#: group (`fx` -> "f", `x` -> ""); matched ignoring case, spaces, dots and dashes.
+_VALUE_UNITS: dict[str, dict[str, float]] = {
+    "f": {"N": 1.0, "kN": 1e3, "mN": 1e-3, "lbf": 4.4482216152605},
+    "t": {"N m": 1.0, "N mm": 1e-3, "mN m": 1e-3, "kN m": 1e3,
+          "lbf in": 0.1129848290276167, "lbf ft": 1.3558179483314004},
+    "v": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
+    "w": {"rad/s": 1.0, "deg/s": np.pi / 180},
+    "": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
+    "q": {},
+}  # fmt: skip
+#: A bracketed header part that reads as a unit (not, say, `Fx (sensor 2)`).
+_UNIT_LIKE = re.compile(r"^[a-z\u00b0\u00b5\u03bc/·*.\-\s]{1,12}$")
+
+
+def _unit_key(unit: str) -> str:
+    """`N·m`, `N-m`, `Nm` -> `nm`; `°/sec` -> `deg/s`."""
+    key = re.sub(r"[\s·*.\-]", "", unit.lower()).replace("\u00b0", "deg")
+    return key.replace("/sec", "/s").replace("degrees", "deg")
+
+
+def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
+    """The unit a value column's header gives and its SI factor; a unit not known is refused.
+
+    Values are stored in SI (N, N m, m/s, rad/s, m); a header that says `Fx (kN)` or
+    `Tz [N-mm]` is scaled, since reading its numbers as SI would be silently wrong.
+    """
+    bracket = re.search(r"[\(\[]([^\)\]]*)[\)\]]", name)
+    written = bracket.group(1).strip() if bracket else ""
+    if not _UNIT_LIKE.match(written.lower()):
+        return None
+    units = _VALUE_UNITS[role[:-1]]
+    scale = {_unit_key(unit): factor for unit, factor in units.items()}.get(_unit_key(written))
+    if scale is not None:
+        return written, scale
+    hint = f"give the values in one of {', '.join(units)}" if units else "a quaternion has none"
+    raise ConversionError(
+        f"column {name!r} is in {written!r}, a unit dresslog does not convert; {hint}",
+        path=path,
+    )
 
 
 def _unit_in(name: str) -> str | None:
@@ -266,6 +310,14 @@ def read_table(
         _check_guessed_unit(t_ns, unit, time_name, path)
     values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
     notes = [f"{path.name}: time column {names[found['time']]!r} read as {unit}"]
+    scaled = []
+    for role in values:
+        unit_scale = _value_scale(names[found[role]], role, path)
+        if unit_scale is not None and unit_scale[1] != 1.0:
+            values[role] = values[role] * unit_scale[1]
+            scaled.append(f"{names[found[role]]!r}")
+    if scaled:
+        notes.append(f"{path.name}: scaled to SI units: {', '.join(scaled)}")
     if ignored:
         notes.append(f"{path.name}: ignored columns {', '.join(ignored)}")
     return t_ns, values, notes
