@@ -15,7 +15,8 @@ from dresslog.errors import TrialFormatError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
 from dresslog.io.msgdefs import schema_text
-from dresslog.io.reader import TrialReader
+from dresslog.io.reader import TrialReader, read_trial
+from dresslog.io.writer import TrialWriter
 from dresslog.spec import Task, TrialMetadata
 from tests.conftest import SAMPLES
 
@@ -141,6 +142,71 @@ def no_metadata(tmp: Path, good: Path) -> Path:
     return path
 
 
+def _rewritten(tmp: Path, good: Path, name: str, **changes: np.ndarray) -> Path:
+    """`good` written again through TrialWriter with some streams changed."""
+    trial = read_trial(good)
+    path = tmp / name
+    with TrialWriter(path, trial.metadata) as writer:
+        assert trial.limb_points is not None and trial.garment is not None
+        writer.write_limb_points(int(trial.wrench.t_ns[0]), trial.limb_points)
+        writer.write_wrench(trial.wrench.t_ns, trial.wrench.values)
+        writer.write_twist(changes.get("twist_t_ns", trial.twist.t_ns), trial.twist.values)
+        if "forces" in changes:
+            writer.write_force_map(trial.wrench.t_ns, changes["forces"])
+        g = trial.garment
+        vertices = changes.get("vertices", g.vertices)
+        for i, t in enumerate(g.t_ns.tolist()):
+            triangles = changes.get("triangles", g.triangles) if i == 0 else None
+            writer.write_garment(t, vertices[i], triangles)
+    return path
+
+
+def no_common_stamp(tmp: Path, good: Path) -> Path:
+    return _rewritten(tmp, good, "apart.mcap", twist_t_ns=read_trial(good).twist.t_ns + 1)
+
+
+def force_map_too_narrow(tmp: Path, good: Path) -> Path:
+    return _rewritten(tmp, good, "narrow.mcap", forces=read_trial(good).force_map.forces[:, :200])
+
+
+def garment_changing_size(tmp: Path, good: Path) -> Path:
+    vertices = list(read_trial(good).garment.vertices)
+    vertices[-1] = vertices[-1][:4]
+    return _rewritten(tmp, good, "torn.mcap", vertices=vertices)
+
+
+def triangle_past_the_vertices(tmp: Path, good: Path) -> Path:
+    triangles = read_trial(good).garment.triangles.copy()
+    triangles[1, 2] = 99
+    return _rewritten(tmp, good, "tri.mcap", triangles=triangles)
+
+
+def no_wrench_messages(tmp: Path, good: Path) -> Path:
+    path = tmp / "silent.mcap"
+    channels = {
+        wk.WRENCH: (WRENCH[0], []),
+        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+    }
+    _raw_mcap(path, channels, True)
+    return path
+
+
+def nan_force_map(tmp: Path, good: Path) -> Path:
+    """NaN in the ground truth, which our writer refuses to write: mcap's own writer."""
+    path = tmp / "nan_truth.mcap"
+    schema = wk.SCHEMAS[wk.FORCE_MAP]
+    maps = cdr.new_messages(schema, {"header.frame_id": 4, "forces": 3, "contact": 0}, 3)
+    cdr.set_stamp(maps, np.arange(3) * 10_000_000, "limb")
+    maps["forces"][1, 2] = np.nan
+    channels = {
+        wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
+        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+        wk.FORCE_MAP: (schema, cdr.to_payloads(maps)),
+    }
+    _raw_mcap(path, channels, True)
+    return path
+
+
 CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (missing, "no such file"),
     (empty, "file is empty"),
@@ -155,6 +221,12 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (missing_twist, "missing channel /ee/twist"),
     (nan_wrench, "channel /ee/wrench: NaN"),
     (no_metadata, "no `dresslog` metadata record"),
+    (no_wrench_messages, "channel /ee/wrench has no messages, so there is no step"),
+    (no_common_stamp, "no /ee/wrench message has a /ee/twist message of the same stamp"),
+    (nan_force_map, "channel /limb/force_map: NaN or infinite value in message 1 of 3"),
+    (force_map_too_narrow, "force maps have 200 values but /limb/points has 300 points"),
+    (garment_changing_size, r"the garment changes size \(\[4, 6\] vertices\)"),
+    (triangle_past_the_vertices, "a triangle names vertex 99 of 6"),
 ]
 
 

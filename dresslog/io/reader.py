@@ -259,7 +259,19 @@ class TrialReader:
     @cached_property
     def measurements(self) -> Measurements:
         """The network input phi_t (T, 9) on the steps that have both wrench and twist."""
-        return measurements(self.wrench, self.twist)
+        steps = measurements(self.wrench, self.twist)
+        if not len(steps.t_ns):
+            empty = [t for t, s in ((wk.WRENCH, self.wrench), (wk.TWIST, self.twist)) if not len(s)]
+            problem = (
+                f"channel {empty[0]} has no messages"
+                if empty
+                else f"no {wk.WRENCH} message has a {wk.TWIST} message of the same stamp"
+            )
+            raise TrialFormatError(
+                f"{problem}, so there is no step to run the model on; re-record or re-convert it",
+                path=self.path,
+            )
+        return steps
 
     def force_maps(self, *, estimate: bool = False) -> ForceMaps | None:
         """Ground-truth force maps, or a model's estimate with its contact map."""
@@ -273,7 +285,24 @@ class TrialReader:
                 f"force maps change size ({sorted(widths)})", path=self.path, channel=topic
             )
         msgs = np.concatenate(runs)
-        return ForceMaps(cdr.stamp_ns(msgs), msgs["forces"].copy(), msgs["contact"].copy())
+        maps = ForceMaps(cdr.stamp_ns(msgs), msgs["forces"].copy(), msgs["contact"].copy())
+        bad = np.flatnonzero(~np.isfinite(maps.forces).all(axis=1))
+        if len(bad) or not np.isfinite(maps.contact).all():
+            at = f" in message {bad[0]} of {len(msgs)}" if len(bad) else " in a contact map"
+            raise TrialFormatError(
+                f"NaN or infinite value{at}; the recording is corrupt, re-record it",
+                path=self.path,
+                channel=topic,
+            )
+        limb = self.limb_points
+        if limb is not None and maps.forces.shape[1] != len(limb.points):
+            raise TrialFormatError(
+                f"force maps have {maps.forces.shape[1]} values but {wk.LIMB_POINTS} has "
+                f"{len(limb.points)} points; the recording is corrupt, re-record it",
+                path=self.path,
+                channel=topic,
+            )
+        return maps
 
     @cached_property
     def force_map(self) -> ForceMaps | None:
@@ -313,11 +342,22 @@ class TrialReader:
         runs = self._decode(wk.GARMENT)
         msgs = [m for run in runs for m in run]
         triangles = msgs[0]["triangles"].reshape(-1, 3).astype(np.int64)
+        counts = sorted({len(m["vertices"]) for m in msgs})
+        problem = f"the garment changes size ({counts} vertices)" if len(counts) > 1 else ""
+        if not problem and len(triangles) and (triangles.min() < 0 or triangles.max() >= counts[0]):
+            problem = f"a triangle names vertex {triangles.max()} of {counts[0]}"
+        if problem:
+            raise TrialFormatError(
+                f"{problem}; the recording is corrupt, re-record it",
+                path=self.path,
+                channel=wk.GARMENT,
+            )
         vertices = np.stack([m["vertices"] for m in msgs]).astype(np.float32)
         return GarmentStates(np.concatenate([cdr.stamp_ns(r) for r in runs]), vertices, triangles)
 
     def read(self) -> Trial:
-        """Every stream in memory at once."""
+        """Every stream in memory at once (a trial with no step to run on is refused)."""
+        _ = self.measurements  # refuses a file with no step
         return Trial(
             metadata=self.metadata,
             wrench=self.wrench,

@@ -37,8 +37,12 @@ class TrialSummary(BaseModel):
 
 
 def summarize(path: str | Path) -> TrialSummary:
-    """Open a trial and describe it; raises `TrialFormatError` for anything not a trial."""
+    """Open a trial and describe it; raises `TrialFormatError` for anything not a trial.
+
+    Every stream is decoded and checked, so a file `info` passes is one `infer` runs on.
+    """
     with TrialReader(path) as reader:
+        reader.read()
         t_ns = reader.measurements.t_ns
         steps = len(t_ns)
         duration = (t_ns[-1] - t_ns[0]) / 1e9 if steps > 1 else 0.0
