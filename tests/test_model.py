@@ -257,6 +257,36 @@ def test_training_rejects_mismatched_data_in_one_line():
         train([np.zeros((5, 9), np.float32)], [np.zeros((4, 3), np.float32)], progress=False)
 
 
+def test_a_diverging_run_stops_with_one_line_and_leaves_no_checkpoint(tmp_path: Path):
+    phis, forces = synthetic(8, seed=2, n_points=4)
+    kwargs = {"epochs": 3, "hidden": 4, "layers": 1, "progress": False}
+    ckpt = tmp_path / "run.ckpt"
+    with pytest.raises(ModelError, match=r"training diverged in epoch .*lower the learning rate"):
+        train(phis, forces, lr=1e30, checkpoint=ckpt, **kwargs)
+    assert not ckpt.exists()
+    for lr in (float("inf"), float("nan"), 0.0):
+        with pytest.raises(ModelError, match="learning rate must be a positive number"):
+            train(phis, forces, lr=lr, **kwargs)
+
+
+@pytest.mark.parametrize("content", ["garbage", "list", "key not a dict", "other weights"])
+def test_a_checkpoint_not_our_own_is_one_line(tmp_path: Path, content: str) -> None:
+    ckpt = tmp_path / "run.ckpt"
+    phis, forces = synthetic(4, seed=2, n_points=4)
+    kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "checkpoint": ckpt, "progress": False}
+    if content == "garbage":
+        ckpt.write_bytes(b"garbage\n")
+    elif content == "other weights":  # our run's key, weights of another shape
+        train(phis, forces, **kwargs)
+        state = torch.load(ckpt, weights_only=True)
+        torch.save({**state, "model": {"junk": torch.zeros(2)}}, ckpt)
+    else:
+        torch.save({"list": [1, 2], "key not a dict": {"key": 3}}[content], ckpt)
+    with pytest.raises(ModelError, match=r"not a checkpoint dresslog can read.*--overwrite") as err:
+        train(phis, forces, **kwargs)
+    assert "\n" not in str(err.value)
+
+
 def test_options_the_data_make_meaningless_are_refused_not_recorded():
     phis, forces = synthetic(4, seed=2, n_points=4)  # 10% of 4 rounds to no validation
     kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "progress": False}

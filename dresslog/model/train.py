@@ -225,11 +225,14 @@ def _resume(
     key: dict[str, Any],
 ) -> None:
     """Continue from a checkpoint of the same settings and data; refuse one from another run."""
+    unreadable = "is not a checkpoint dresslog can read; pass --overwrite to start afresh"
     try:
         state = torch.load(path, weights_only=True)
-    except Exception as err:  # any unreadable file is a user-facing error here
-        raise ModelError(f"unreadable checkpoint: {err}", path=path) from None
-    if state.get("key", {}).get("data") not in (None, key["data"]):
+    except Exception:  # torch's several-line reasons help no one here
+        raise ModelError(unreadable, path=path) from None
+    if not isinstance(state, dict) or not isinstance(state.get("key"), dict):
+        raise ModelError(unreadable, path=path)
+    if state["key"].get("data") not in (None, key["data"]):
         raise ModelError(
             "checkpoint is from a run on other data (the dataset changed since): pass "
             "--overwrite to start afresh",
@@ -241,10 +244,13 @@ def _resume(
             "resume it, or pass --overwrite to start afresh",
             path=path,
         )
-    net.load_state_dict(state["model"])
-    optim.load_state_dict(state["optim"])
-    best.update(state.get("best", {}))
-    history.epochs = [EpochRecord.model_validate(e) for e in state["epochs"]]
+    try:
+        net.load_state_dict(state["model"])
+        optim.load_state_dict(state["optim"])
+        best.update(state.get("best", {}))
+        history.epochs = [EpochRecord.model_validate(e) for e in state["epochs"]]
+    except (KeyError, TypeError, ValueError, RuntimeError):  # a layout not our own
+        raise ModelError(unreadable, path=path) from None
 
 
 def train(
@@ -272,6 +278,8 @@ def train(
 ) -> tuple[dict[str, np.ndarray], TrainHistory]:
     """Train a ForceMapLSTM; returns (float32 weights, history). See the module docstring."""
     n_points = _check_data(sequences, forces)
+    if not (math.isfinite(lr) and lr > 0):
+        raise ModelError(f"the learning rate must be a positive number, not {lr}")
     phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in sequences]
     scale = balanced_force_scale(forces) if balance_loss else 1.0
     targets = [network_targets(f, scale) for f in forces]
@@ -396,6 +404,13 @@ def _fit(
             count += len(idx)
         net.eval()
         val_loss = _evaluate_loss(net, val_phis, val_targets, 64) if val_phis else None
+        if not math.isfinite(total + (val_loss or 0.0)):
+            if ckpt is not None:  # resuming would only diverge again
+                ckpt.unlink(missing_ok=True)
+            raise ModelError(
+                f"training diverged in epoch {epoch + 1} (its loss is not finite); "
+                "nothing was saved: lower the learning rate (--lr)"
+            )
         record = EpochRecord(
             epoch=epoch + 1,
             train_loss=total / count,
