@@ -31,7 +31,8 @@ def infer(
     """
     from dresslog.replay.pipeline import replay_file
 
-    report = replay_file(trial, model=model, rrd=output or trial.with_suffix(".rrd"), mcap=mcap_out)
+    default = trial.with_suffix(".rrd") if trial.name else trial  # `.` is refused as input first
+    report = replay_file(trial, model=model, rrd=output or default, mcap=mcap_out)
     click.echo(report.summary())
     if timings:
         click.echo("  " + ", ".join(f"{k} {v * 1e3:.0f} ms" for k, v in report.timings.items()))

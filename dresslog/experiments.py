@@ -92,7 +92,7 @@ def train_dataset(
     on_epoch: Callable[[EpochRecord], None] | None = None,
 ) -> ModelCard:
     """Train the paper's network (by default) on `data`'s training split; save to `out`."""
-    out = Path(out)
+    out = Path(out) if Path(out).name else Path(out).absolute()  # `-o .` names its folder
     check_model_folder(out, overwrite)  # say so now, not after hours of training
     checkpoint = out.with_name(f".{out.name}.checkpoint.pt")
     # a second run on the same output would share (and garble) the checkpoint

@@ -127,6 +127,17 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     assert 0 <= bounds["blur 0.5 cm"] <= bounds["blur 8 cm"] <= 1.0
 
 
+@pytest.mark.slow
+def test_train_into_the_current_folder(
+    data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (here := tmp_path / "here").mkdir()
+    monkeypatch.chdir(here)
+    code, output = invoke("train", data, "-o", ".", "--epochs", "1", "--hidden", "4", "-q")
+    assert code == 0, output
+    assert load_model(here).card.task == Task.GOWN
+
+
 def test_eval_bounds_say_so_when_the_split_has_no_force_to_place(tmp_path: Path) -> None:
     data = tmp_path / "early"  # the first 0.3 s: the gripper has not reached the hand yet
     args = ["--task", "gown", "--trials", "2", "--test-fraction", "0.5", "--duration", "0.3"]
