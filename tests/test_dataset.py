@@ -243,7 +243,9 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
         "             recorder='tests.test_dataset:slow_record')\n"
     )
     root = Path(__file__).resolve().parents[1]
-    run = subprocess.Popen([sys.executable, "-c", script], cwd=root, start_new_session=True)
+    run = subprocess.Popen(
+        [sys.executable, "-c", script], cwd=root, start_new_session=True, stderr=subprocess.PIPE
+    )
     deadline = time.monotonic() + 60
     while len(list(out.glob("*/*.mcap"))) < 2 and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -251,15 +253,21 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT are POSIX")
-@pytest.mark.parametrize("stop", ["ctrl-c", "sigterm"])
+@pytest.mark.parametrize("stop", ["ctrl-c", "sigterm", "sigterm-group"])
 def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path, stop: str) -> None:
-    """A terminal's Ctrl-C reaches the whole process group; `kill PID` the main process alone."""
+    """A terminal's Ctrl-C reaches the whole process group; `kill PID` the main process
+    alone; a batch scheduler's timeout SIGTERMs every process of the job."""
     run = _generation_under_way(tmp_path, 12)
     if stop == "ctrl-c":
         os.killpg(run.pid, signal.SIGINT)
-    else:
+    elif stop == "sigterm":
         os.kill(run.pid, signal.SIGTERM)
+    else:
+        os.killpg(run.pid, signal.SIGTERM)
     assert run.wait(timeout=60) != 0
+    assert run.stderr is not None
+    said = run.stderr.read().decode()
+    assert "KeyboardInterrupt" in said and "BrokenProcessPool" not in said, said[-3000:]
     manifest = load_manifest(tmp_path)
     on_disk = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.glob("*/*.mcap"))
     assert sorted(str(e.file) for e in manifest.trials) == on_disk
@@ -278,6 +286,38 @@ def test_workers_of_a_killed_generation_stop_and_leave_no_temporary(tmp_path: Pa
         time.sleep(0.2)
     assert not _session_alive(run.pid), "workers outlived their generation"
     assert not list(tmp_path.glob("*/.*.partial"))
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds workers in Linux's /proc")
+def test_a_worker_killed_alone_is_one_line_and_the_folder_resumable(tmp_path: Path) -> None:
+    """The out-of-memory killer takes one worker: say so, keep what is done."""
+    run = _generation_under_way(tmp_path, 12)
+    workers = [
+        int(p.parent.name)
+        for p in Path("/proc").glob("[0-9]*/cmdline")
+        if _parent(p.parent) == run.pid and b"spawn_main" in _read(p)
+    ]
+    assert workers
+    os.kill(workers[0], signal.SIGKILL)
+    assert run.wait(timeout=60) != 0
+    assert run.stderr is not None
+    said = run.stderr.read().decode()
+    assert "a worker process died" in said and "BrokenProcessPool" not in said, said[-3000:]
+    manifest = load_manifest(tmp_path)
+    assert manifest.trials and not list(tmp_path.glob("*/.*.partial"))
+    check_files(tmp_path, manifest, checksums=True)
+
+
+def _read(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError:
+        return b""
+
+
+def _parent(proc: Path) -> int:
+    stat = _read(proc / "stat").decode()
+    return int(stat.rsplit(")", 1)[1].split()[1]) if ")" in stat else -1
 
 
 def _session_alive(session: int) -> bool:

@@ -19,6 +19,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -477,7 +478,17 @@ def _run(
             recorder = jobs[0].recorder
             factory = _spec_factory(recorder)
             while executor.pending() and not stop.is_set():
-                for entry in executor.done(timeout=POLL_S):
+                try:
+                    finished = executor.done(timeout=POLL_S)
+                except BrokenProcessPool:
+                    if stop.wait(timeout=1.0):  # the whole group was stopped: an interrupt
+                        break
+                    raise DatasetError(
+                        "a worker process died (killed, or out of memory?); run the same "
+                        "command again to resume",
+                        path=root,
+                    ) from None
+                for entry in finished:
                     if entry.status == Status.OK:
                         manifest.trials.append(entry)
                         bar.update()
