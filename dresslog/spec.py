@@ -51,7 +51,7 @@ class LimbRotation(BaseModel):
     The axes are ours (z up); `PAPER_AXES` names the paper's axis for each.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     axis: Literal["x", "y", "z"] = "z"
     # a joint's range, not a full turn: 999 degrees is a typo, not a pose
@@ -61,7 +61,7 @@ class LimbRotation(BaseModel):
 class SimParams(BaseModel):
     """Physics settings of the pybullet simulation (SI units)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     physics_hz: int = Field(300, description="physics steps per second")
     record_hz: int = Field(100, description="recorded measurements per second")
@@ -101,7 +101,7 @@ class SimParams(BaseModel):
 class TrialSpec(BaseModel):
     """Everything that determines one simulated dressing trial."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     task: Task
     seed: int = 0

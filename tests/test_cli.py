@@ -164,7 +164,10 @@ def test_record_connect_streams_to_a_viewer_elsewhere_without_a_display(
     [
         ("rerun+http://127.0.0.1:{port}/proxy", "no Rerun viewer answers at rerun+http"),
         ("127.0.0.1:{port}", "is not a Rerun address; give rerun+http://HOST:9876/proxy"),
+        ("rerun+http://127.0.0.1:port/proxy", "is not a Rerun address"),
+        ("rerun+http://127.0.0.1:99999/proxy", "is not a Rerun address"),
     ],
+    ids=["nobody-listens", "no-scheme", "port-not-a-number", "port-too-large"],
 )
 def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
     tmp_path: Path, url: str, message: str
@@ -183,7 +186,9 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
     ("option", "message"),
     [
         (["--speed", "5"], "invalid speed"),
-        (["--duration", "inf"], "invalid duration: Input should be less than or equal to 3600"),
+        (["--duration", "inf"], "invalid duration: Input should be a finite number"),
+        (["--duration", "nan"], "invalid duration: Input should be a finite number"),
+        (["--speed", "nan"], "invalid speed: Input should be a finite number"),
         (["--duration", "1e9"], "invalid duration: Input should be less than or equal to 3600"),
         (["--duration", "0.004"], "invalid duration: at least two recorded steps, 0.02 s"),
         (["--offset", "nan", "0", "0"], "invalid limb_offset.0: Input should be a finite number"),
@@ -192,7 +197,16 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
             "invalid limb_rotation.degrees: Input should be less than or equal to 90",
         ),
     ],
-    ids=["speed", "duration-inf", "duration-huge", "duration-tiny", "offset-nan", "rotation"],
+    ids=[
+        "speed",
+        "duration-inf",
+        "duration-nan",
+        "speed-nan",
+        "duration-huge",
+        "duration-tiny",
+        "offset-nan",
+        "rotation",
+    ],
 )
 def test_record_refuses_a_setting_out_of_range_before_simulating(
     tmp_path: Path, option: list[str], message: str

@@ -119,9 +119,12 @@ def check_reachable(url: str, timeout: float = 2.0) -> None:
     Rerun itself would block for seconds on every call and then raise from a flush.
     """
     parts = urlsplit(url.removeprefix("rerun+"))
-    if parts.scheme not in ("http", "https") or not parts.hostname:
+    try:
+        port = parts.port or 9876  # raises for a port that is not a number in 0-65535
+    except ValueError:
+        port = None
+    if parts.scheme not in ("http", "https") or not parts.hostname or port is None:
         raise DresslogError(f"{url!r} is not a Rerun address; give rerun+http://HOST:9876/proxy")
-    port = parts.port or 9876
     try:
         socket.create_connection((parts.hostname, port), timeout=timeout).close()
     except OSError as err:
