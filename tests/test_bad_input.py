@@ -132,6 +132,18 @@ def nan_wrench(tmp: Path, good: Path) -> Path:
     return path
 
 
+def robot_bag(tmp: Path, good: Path) -> Path:
+    """A ROS 2 bag whose pose topic happens to share our name: a log to convert."""
+    path = tmp / "robot.mcap"
+    poses = cdr.new_messages(wk.SCHEMAS[wk.POSE], {"header.frame_id": 4}, 3)
+    channels = {
+        wk.POSE: (wk.SCHEMAS[wk.POSE], cdr.to_payloads(poses)),
+        "/ft/wrench": (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
+    }
+    _raw_mcap(path, channels, False)
+    return path
+
+
 def no_metadata(tmp: Path, good: Path) -> Path:
     path = tmp / "bare.mcap"
     channels = {
@@ -219,6 +231,7 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (foreign, "not a dresslog trial.*/joint_states.*dresslog convert"),
     (wrong_schema, "channel /ee/wrench: has schema geometry_msgs/msg/TwistStamped"),
     (missing_twist, "missing channel /ee/twist"),
+    (robot_bag, "not a dresslog trial.*/ee/pose, /ft/wrench.*dresslog convert"),
     (nan_wrench, "channel /ee/wrench: NaN"),
     (no_metadata, "no `dresslog` metadata record"),
     (no_wrench_messages, "channel /ee/wrench has no messages, so there is no step"),

@@ -155,7 +155,7 @@ class TrialReader:
     def _check(self, metadata: dict[str, str] | None) -> None:
         assert self._raw is not None
         missing = [t for t in wk.REQUIRED if t not in self._raw]
-        if missing and not any(t in self._raw for t in wk.SCHEMAS):
+        if missing and (metadata is None or not any(t in self._raw for t in wk.SCHEMAS)):
             topics = ", ".join(sorted(self._raw)) or "none"
             raise TrialFormatError(
                 f"not a dresslog trial (channels: {topics}); {CONVERT_HINT}", path=self.path
