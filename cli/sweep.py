@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from .common import reports_errors
+from .generate import MAX_TRIALS
 
 
 def _items(values: tuple[str, ...]) -> list[str]:
@@ -18,7 +19,9 @@ def _items(values: tuple[str, ...]) -> list[str]:
 @click.option("--speeds", multiple=True, help="End-effector speeds, m/s (comma-separated).")
 @click.option("--rotations", multiple=True, help="Limb rotations AXIS:DEGREES, e.g. y:-15,z:10.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), help="[./MODEL-sweep]")
-@click.option("--sequences", "-n", type=click.IntRange(min=1), default=128, show_default=True)
+@click.option(
+    "--sequences", "-n", type=click.IntRange(1, MAX_TRIALS), default=128, show_default=True
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--duration", type=click.FloatRange(min=0, min_open=True), help="Seconds/trial.")
 @click.option("--workers", type=click.IntRange(min=1), help="Parallel trials [all cores].")

@@ -181,6 +181,8 @@ def test_sweep_writes_a_table_and_a_plot(
         for f in ("in-range", "speed_0.2", "rot_z_10")
     ]
     assert paths[0] == paths[1] == paths[2] and len(paths[0]) == 2
+    code, output = invoke("sweep", model, "--speeds", "0.2", "-n", "1", "--duration", "0.3")
+    assert code == 1 and "has 2 sweep trials, more than the 1 asked for (-n sets it)" in output
 
 
 def test_sweep_never_writes_into_a_dataset_or_a_model_folder(model: Path, data: Path) -> None:

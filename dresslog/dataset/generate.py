@@ -300,9 +300,10 @@ def _open_manifest(
             )
     for split, wanted in counts.items():
         if wanted < len(manifest.split(split)):
+            options = "-n sets it" if split == Split.SWEEP else "--trials, --test-fraction set both"
             raise DatasetError(
                 f"folder already has {len(manifest.split(split))} {split} trials, more than "
-                f"the {wanted} asked for (--trials and --test-fraction set both splits); "
+                f"the {wanted} asked for ({options}); "
                 "ask for at least as many or use another folder",
                 path=root,
             )
