@@ -310,6 +310,17 @@ def test_the_command_converts_and_reports_errors_in_one_line(
     assert "Traceback" not in wrong.output
 
 
+def test_an_output_inside_the_bag_folder_being_read_is_refused(bags: dict[str, Path]) -> None:
+    folder = bags["mcap"]
+    before = {p: p.read_bytes() for p in folder.iterdir()}
+    (inside,) = [p for p in before if p.suffix == ".mcap"]  # the bag's own data file
+    for out in (inside, folder / "trial.mcap"):
+        args = ["convert", str(folder), "-o", str(out), "--task", "gown", "--overwrite"]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 1 and "is inside log, the folder being read" in result.output
+    assert {p: p.read_bytes() for p in folder.iterdir()} == before
+
+
 def test_the_command_prints_gap_warnings(tmp_path: Path) -> None:
     topics = standard_topics(1.0)
     kind, stamps, values = topics["/arm/ee_pose"]

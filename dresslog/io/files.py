@@ -35,6 +35,10 @@ def check_output(
     check_writable(path.parent)
     if source is not None and path.resolve() == source.resolve():
         raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
+    if source is not None and source.is_dir() and path.resolve().is_relative_to(source.resolve()):
+        raise TrialWriteError(
+            f"is inside {source.name}, the folder being read; write it elsewhere", path=path
+        )
     if suffix is not None and path.suffix.lower() != suffix:
         raise TrialWriteError(_NAMES[suffix], path=path)
     if not overwrite and path.exists():
