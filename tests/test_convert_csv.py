@@ -318,6 +318,21 @@ def test_a_time_unit_written_in_the_header_is_read(header: str, unit: str | None
     assert _unit_in(header) == unit
 
 
+def test_decimal_commas_and_a_missing_header_are_named(tmp_path: Path) -> None:
+    """What a spreadsheet in a German locale exports, and a logger that writes no header."""
+    path = _with_velocity(tmp_path / "ft.csv", np.arange(500) / 1000.0)
+    lines = path.read_text().splitlines()
+    euro = tmp_path / "euro.csv"
+    euro.write_text("\n".join(line.replace(",", ";").replace(".", ",") for line in lines))
+    with pytest.raises(ConversionError, match=r"decimal commas \(line 2: .*decimal points"):
+        convert(euro, tmp_path / "t.mcap", "gown")
+    bare = tmp_path / "bare.csv"
+    bare.write_text("\n".join(lines[1:]))
+    with pytest.raises(ConversionError, match=r"has no header row \(line 1 is numbers\)"):
+        convert(bare, tmp_path / "t.mcap", "gown")
+    assert not (tmp_path / "t.mcap").exists()
+
+
 def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:
     """ATI's logger writes the sensor's serial number and calibration above the columns."""
     path = _with_velocity(tmp_path / "ati.csv", np.arange(500) / 1000.0)
@@ -339,11 +354,19 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
     [
         (["--rotate", "0", "0", "0", "0"], 1, "rotation quaternion must be finite and not zero"),
         (["--tare", "10"], 1, "tare of 10.0 s is longer than the log"),
+        (["--tare", "1e-10"], 1, "tare of 1e-10 s is shorter than one 0.01 s step"),
         (["--column", "fq=Fx (N)"], 1, "unknown column role 'fq'"),
         (["--tare", "-1"], 2, "Invalid value for '--tare': -1.0 is not in the range x>=0"),
         (["--column", "fx"], 2, "Invalid value for '--column': 'fx' is not ROLE=HEADER"),
     ],
-    ids=["rotate", "long-tare", "unknown-role", "negative-tare", "column-without-header"],
+    ids=[
+        "rotate",
+        "long-tare",
+        "tiny-tare",
+        "unknown-role",
+        "negative-tare",
+        "column-without-header",
+    ],
 )
 def test_bad_convert_options_are_one_line_or_usage_and_write_nothing(
     tmp_path: Path, options: list[str], code: int, message: str

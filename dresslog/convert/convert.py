@@ -319,6 +319,13 @@ def _resample_all(
     if tare_s > 0:
         if (grid[-1] - grid[0]) / 1e9 < tare_s:
             raise ConversionError(f"tare of {tare_s} s is longer than the log", path=source.path)
+        step_s = (grid[1] - grid[0]) / 1e9
+        if tare_s < step_s:  # its window would hold no sample to average
+            raise ConversionError(
+                f"tare of {tare_s:g} s is shorter than one {step_s:g} s step; give 0 for none "
+                f"or at least {step_s:g} s",
+                path=source.path,
+            )
         wrench = rs.tare(grid, wrench, tare_s)
         processing["tare_s"] = tare_s
     if rotate is not None:

@@ -141,11 +141,25 @@ def _header(path: Path) -> tuple[int, list[str], str | None]:
             for number, line in enumerate(stream):
                 if not line.strip() or line.lstrip().startswith("#"):
                     continue
-                delimiter = next((d for d in ",;\t" if d in line), None)
+                # a `;` or tab separates where commas may be decimal commas
+                delimiter = next((d for d in "\t;," if d in line), None)
                 cells = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
                 cells = [c.strip() for c in cells]
                 filled = [c for c in cells if c]
                 numbers = sum(_is_number(c) for c in filled)
+                commas = [c for c in filled if _DECIMAL_COMMA.match(c)]
+                if header is not None and 2 * len(commas) > len(filled):
+                    raise ConversionError(
+                        f"numbers are written with decimal commas (line {number + 1}: "
+                        f"{commas[0]!r}); export the CSV with decimal points",
+                        path=path,
+                    )
+                if header is None and filled and numbers == len(filled):
+                    raise ConversionError(
+                        f"has no header row (line {number + 1} is numbers); add a first line "
+                        "naming the columns, such as time,fx,fy,fz,tx,ty,tz,vx,vy,vz",
+                        path=path,
+                    )
                 if header is not None and 2 * numbers > len(filled):  # mostly numbers: data
                     return header
                 header = number, cells, delimiter
@@ -245,6 +259,10 @@ def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.
             "number (empty cells and decimal commas are not read)",
             path=path,
         ) from None
+
+
+#: A number written with a decimal comma, as spreadsheets in many locales export them.
+_DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+([eE][-+]?\d+)?$")
 
 
 def _is_number(text: str) -> bool:
