@@ -42,8 +42,8 @@ from .common import reports_errors
 @click.option(
     "--overwrite",
     is_flag=True,
-    help="Replace an existing model folder, and start afresh rather than resume an "
-    "interrupted run.",
+    help="Replace an existing model folder (an interrupted run of these options resumes; "
+    "one of other options is discarded).",
 )
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors

@@ -104,8 +104,6 @@ def train_dataset(
         from dresslog.model.files import save_model
         from dresslog.model.train import make_card, train  # torch once the data checks out
 
-        if overwrite:  # start afresh: an interrupted earlier run is replaced, not resumed
-            checkpoint.unlink(missing_ok=True)
         weights, history = train(
             arrays.sequences(rows),
             arrays.force_maps(rows),
@@ -123,6 +121,7 @@ def train_dataset(
             input_differences=input_differences,
             progress=progress,
             checkpoint=checkpoint,
+            restart_other=overwrite,  # an interrupted run of these options still resumes
             on_epoch=on_epoch,
         )
         metrics: dict[str, float] = {}

@@ -99,6 +99,28 @@ def test_overwrite_replaces_an_interrupted_run_of_other_settings(data: Path) -> 
 
 
 @pytest.mark.slow
+def test_an_interrupted_overwrite_resumes_when_its_command_is_repeated(data: Path) -> None:
+    """Retraining over a model: the repeated command picks up the epochs done."""
+    out = data.parent / "retrained"
+    options = {"epochs": 3, "hidden": 4, "layers": 1, "progress": False}
+    train_dataset(data, out, **options)
+    before = (out / "model.safetensors").read_bytes()
+    seen: list[int] = []
+
+    def stop_after_two(epoch) -> None:
+        seen.append(epoch.epoch)
+        if epoch.epoch == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train_dataset(data, out, overwrite=True, on_epoch=stop_after_two, **options)
+    assert (out / "model.safetensors").read_bytes() == before  # kept until the run ends
+    train_dataset(data, out, overwrite=True, on_epoch=lambda e: seen.append(e.epoch), **options)
+    assert seen == [1, 2, 3]  # epoch 3 only: resumed, not afresh
+    assert (out / "model.safetensors").read_bytes() == before  # what one run computes
+
+
+@pytest.mark.slow
 def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> None:
     code, output = invoke("eval", model, data, "--json")
     assert code == 0, output

@@ -5,7 +5,7 @@ Public API
 ``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
 seed=0, window=None, val_fraction=0.1, val=None, normalise=False, balance_loss=False,
 keep_best=False, lr_schedule="constant", input_differences=False, threads=None,
-progress=True, checkpoint=None, on_epoch=None)
+progress=True, checkpoint=None, restart_other=False, on_epoch=None)
 -> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
     maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
@@ -26,7 +26,9 @@ progress=True, checkpoint=None, on_epoch=None)
     the paper's is constant. ``input_differences``: the network reads phi's change per
     step as 9 more inputs (``dresslog.model.inputs``; not in the paper).
     Same data, seed and threads give the same weights. ``checkpoint``: a file written
-    after every epoch (torch's weights-only format) from which an interrupted run resumes.
+    after every epoch (torch's weights-only format) from which an interrupted run resumes;
+    one of other settings or data is refused, or with ``restart_other`` replaced by a
+    fresh run (resuming one of the same is what a fresh run would compute anyway).
     ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
 
 ``make_card(task, weights, history, *, data=None, metrics=None) -> ModelCard``
@@ -274,6 +276,7 @@ def train(
     threads: int | None = None,
     progress: bool = True,
     checkpoint: str | Path | None = None,
+    restart_other: bool = False,
     on_epoch: Callable[[EpochRecord], None] | None = None,
 ) -> tuple[dict[str, np.ndarray], TrainHistory]:
     """Train a ForceMapLSTM; returns (float32 weights, history). See the module docstring."""
@@ -311,19 +314,30 @@ def train(
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
     previous_threads = torch.get_num_threads()
     torch.set_num_threads(threads or min(2, os.cpu_count() or 1))
-    try:
+
+    def build() -> tuple[ForceMapLSTM, torch.optim.Optimizer]:
         torch.manual_seed(seed)
         net = ForceMapLSTM(n_points, hidden=hidden, layers=layers, input_dim=phis[0].shape[1])
         if normalise:
             steps = np.concatenate(phis)
             net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
-        optim = torch.optim.RMSprop(net.parameters(), lr=lr)
+        return net, torch.optim.RMSprop(net.parameters(), lr=lr)
+
+    try:
+        net, optim = build()
         ckpt = Path(checkpoint) if checkpoint is not None else None
         best: dict[str, torch.Tensor] = {}  # the kept epoch's weights, if keep_best
         data = _fingerprint(phis, targets, val_phis, val_targets)
         key = _run_key(net, history, normalise, data)
         if ckpt is not None and ckpt.exists():
-            _resume(ckpt, net, optim, history, best, key)
+            try:
+                _resume(ckpt, net, optim, history, best, key)
+            except ModelError:
+                if not restart_other:
+                    raise
+                ckpt.unlink()  # another run's (or unreadable): this one starts afresh
+                net, optim = build()
+                history.epochs, best = [], {}
         _fit(
             net, optim, phis, targets, val_phis, val_targets, history, progress, ckpt, on_epoch,
             best, key,
