@@ -28,6 +28,8 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
     from dresslog.model.files import CARD_FILE
 
     path = Path(path)
+    if path.name in (MANIFEST_FILE, CARD_FILE) and path.is_file():
+        path = path.parent  # `info data/manifest.json` means the folder it describes
     if (path / MANIFEST_FILE).is_file():
         return _dataset(path, as_json)
     if (path / CARD_FILE).is_file():

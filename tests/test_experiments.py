@@ -150,6 +150,19 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
 
 
 @pytest.mark.slow
+def test_a_file_inside_a_model_or_dataset_folder_points_to_the_folder(
+    model: Path, data: Path
+) -> None:
+    code, output = invoke("eval", model / "card.json", data)
+    assert code == 1 and f"give {model}" in output, output
+    code, output = invoke("eval", model, data / "manifest.json")
+    assert code == 1 and f"give its folder, {data}" in output, output
+    for inside, kind in ((model / "card.json", "dresslog model"), (data / "manifest.json", "")):
+        code, output = invoke("info", inside)
+        assert code == 0 and kind in output and "Traceback" not in output, output
+
+
+@pytest.mark.slow
 def test_train_into_the_current_folder(
     data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

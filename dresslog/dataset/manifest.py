@@ -200,6 +200,9 @@ def load_manifest(root: str | Path) -> Manifest:
     """Read `root/manifest.json`; a missing or foreign one is one `DatasetError` line."""
     root = Path(root)
     path = root / MANIFEST_FILE
+    if root.is_file():
+        hint = f"give its folder, {root.parent}" if root.name == MANIFEST_FILE else "give a folder"
+        raise DatasetError(f"is a file; a dataset is a folder: {hint}", path=root)
     if not root.is_dir():
         raise DatasetError("no such dataset folder", path=root)
     if not path.is_file():

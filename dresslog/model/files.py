@@ -255,7 +255,10 @@ def load_model(path: str | Path) -> LoadedModel:
     if not path.exists():
         raise ModelError("no such model folder", path=path)
     if not path.is_dir():
-        raise ModelError("a model is a folder with model.safetensors and card.json", path=path)
+        hint = f": give {path.parent}" if path.name in (CARD_FILE, WEIGHTS_FILE) else ""
+        raise ModelError(
+            f"a model is a folder with {WEIGHTS_FILE} and {CARD_FILE}{hint}", path=path
+        )
     card = read_card(path)
     weights_path = path / WEIGHTS_FILE
     if not weights_path.is_file():
