@@ -306,7 +306,7 @@ def parse_rotation(text: str) -> tuple[str, float]:
     try:
         if not sep or axis not in ("x", "y", "z"):
             raise ValueError
-        return axis, float(degrees)
+        return axis, float(degrees) + 0.0  # -0 is 0: one setting, one folder
     except ValueError:
         raise DatasetError(f"rotation {text!r} is not AXIS:DEGREES, e.g. y:-15") from None
 
@@ -342,6 +342,10 @@ def sweep_settings(
             **extra,
         }
         settings.append(Setting(f"rot:{axis}:{degrees:g}", "rotation", degrees, axis, fields))
+    unique: dict[str, Setting] = {}  # a value given twice (0.1 and 0.10) is swept once
+    for setting in settings:
+        unique.setdefault(setting.name, setting)
+    settings = list(unique.values())
     for setting in settings:
         try:
             TrialSpec.model_validate({"task": task, **setting.overrides})
@@ -381,8 +385,12 @@ def sweep(
     check_executor(executor)
     out = Path(out)
     for name, what in ((MANIFEST_FILE, "a dataset"), (CARD_FILE, "a model")):
-        if (out / name).is_file():
-            raise DatasetError(f"is {what} folder; give the sweep a folder of its own", path=out)
+        for folder in (out.absolute(), *out.absolute().parents):  # nor anywhere inside one
+            if (folder / name).is_file():
+                where = "is" if folder == out.absolute() else f"is inside {folder},"
+                raise DatasetError(
+                    f"{where} {what} folder; give the sweep a folder of its own", path=out
+                )
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []
     for setting in settings:

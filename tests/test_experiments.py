@@ -221,11 +221,16 @@ def test_sweep_writes_a_table_and_a_plot(
 
 
 def test_sweep_never_writes_into_a_dataset_or_a_model_folder(model: Path, data: Path) -> None:
-    for folder in (data, model):
+    for folder, out in ((data, data), (model, model), (data, data / "train" / "sweep")):
         before = sorted(folder.rglob("*"))
-        code, output = invoke("sweep", model, "--speeds", "0.2", "-n", "1", "-o", folder)
+        code, output = invoke("sweep", model, "--speeds", "0.2", "-n", "1", "-o", out)
         assert code == 1 and "give the sweep a folder of its own" in output
         assert sorted(folder.rglob("*")) == before
+
+
+def test_a_sweep_value_given_twice_is_one_setting() -> None:
+    settings = sweep_settings(Task.GOWN, ["0.2", "0.20", "0.25"], ["z:-0", "z:0", "z:0.0"])
+    assert [s.name for s in settings] == ["in-range", "speed:0.2", "speed:0.25", "rot:z:0"]
 
 
 @pytest.mark.parametrize(
