@@ -51,6 +51,11 @@ class DatasetError(DresslogError):
     """A dataset folder has no manifest, or missing or corrupt trials."""
 
 
+class DresslogWarning(UserWarning):
+    """Something the user should know that does not stop the command; the CLI prints
+    `Warning: <message>`."""
+
+
 def first_problem(err: ValidationError, whole: str = "value") -> str:
     """The first problem pydantic found, as `field.path: message`, for a one-line error."""
     first = err.errors()[0]

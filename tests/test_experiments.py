@@ -150,6 +150,27 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
 
 
 @pytest.mark.slow
+def test_an_incomplete_dataset_is_used_with_a_warning(
+    model: Path, data: Path, tmp_path: Path
+) -> None:
+    """What an interrupted `generate` leaves: usable, but the user is told."""
+    import shutil
+
+    part = tmp_path / "part"
+    shutil.copytree(data, part)
+    raw = json.loads((part / "manifest.json").read_text())
+    raw["trials"] = [e for e in raw["trials"] if e["file"] != "train/000002.mcap"]
+    (part / "manifest.json").write_text(json.dumps(raw))
+    (part / "train" / "000002.mcap").unlink()
+    result = CliRunner().invoke(main, ["eval", str(model), str(part), "-q"])
+    assert result.exit_code == 0, result.output
+    warning = "Warning: " + str(part) + ": the dataset is incomplete (2/3 train, 1/1 test)"
+    assert warning in result.output and "Traceback" not in result.output
+    code, output = invoke("eval", model, data, "-q")
+    assert code == 0 and "Warning" not in output
+
+
+@pytest.mark.slow
 def test_a_file_inside_a_model_or_dataset_folder_points_to_the_folder(
     model: Path, data: Path
 ) -> None:

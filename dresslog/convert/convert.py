@@ -23,7 +23,7 @@ from pydantic import BaseModel
 
 from dresslog.convert import resample as rs
 from dresslog.convert.source import COMPONENTS, MESSAGE_TYPES, Source, SourceStream
-from dresslog.errors import ConversionError
+from dresslog.errors import ConversionError, DresslogWarning
 from dresslog.io.files import check_output
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
@@ -33,7 +33,7 @@ CSV_SUFFIXES = (".csv", ".tsv", ".txt")
 Quaternion = tuple[float, float, float, float]
 
 
-class ConversionWarning(UserWarning):
+class ConversionWarning(DresslogWarning):
     """Something in the log deserves a look but does not stop the conversion (e.g. a gap)."""
 
 

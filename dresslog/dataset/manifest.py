@@ -151,11 +151,15 @@ class Manifest(BaseModel):
     def complete(self) -> bool:
         return all(len(self.split(s)) >= self.wanted(s) for s in Split)
 
-    def describe(self) -> str:
-        """One line for people: trials per split, outcomes, failures replaced."""
-        counts = ", ".join(
+    def counts(self) -> str:
+        """Trials done per split out of those asked for: `900/1000 train, 200/200 test`."""
+        return ", ".join(
             f"{len(self.split(s))}/{self.wanted(s)} {s}" for s in Split if self.wanted(s)
         )
+
+    def describe(self) -> str:
+        """One line for people: trials per split, outcomes, failures replaced."""
+        counts = self.counts()
         outcomes: dict[str, int] = {}
         for entry in self.trials:
             outcomes[entry.outcome.value] = outcomes.get(entry.outcome.value, 0) + 1
