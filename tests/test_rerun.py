@@ -294,6 +294,7 @@ def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferr
     A second one beside it takes other ports; Ctrl-C or a kill (a closed terminal) of
     dresslog alone stops its viewer too.
     """
+    import contextlib
     import re
     import signal
     import time
@@ -303,14 +304,17 @@ def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferr
     command = [sys.executable, "-c", "from dresslog.cli.main import main; main()"]
     runs: list[subprocess.Popen] = []
     pages = []
+    logs = [rrd.with_name(f"view{i}.log") for i in range(2)]
+    env = {**os.environ, "PYTHONFAULTHANDLER": "1"}  # SIGABRT dumps where it is stuck
     try:
-        for _ in range(2):  # the second once the first serves
+        for log in logs:  # the second once the first serves
             run = subprocess.Popen(
                 [*command, "view", str(rrd), "--web"],
                 stdout=subprocess.PIPE,
-                stderr=subprocess.DEVNULL,
+                stderr=log.open("w"),
                 text=True,
                 start_new_session=True,
+                env=env,
             )
             runs.append(run)
             assert run.stdout is not None
@@ -328,9 +332,18 @@ def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferr
             assert status == 200, page
         assert pages[0] != pages[1]
     finally:
-        for run, sent in zip(runs, (signal.SIGINT, signal.SIGTERM), strict=False):
+        stuck = []
+        for run, sent, log in zip(runs, (signal.SIGINT, signal.SIGTERM), logs, strict=False):
             run.send_signal(sent)  # to dresslog alone: it must stop its viewer
-            run.wait(timeout=30)
+            try:
+                run.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.kill(run.pid, signal.SIGABRT)
+                run.wait(timeout=30)
+                stuck.append(f"{sent.name} did not stop it:\n{log.read_text()[-4000:]}")
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(run.pid, signal.SIGKILL)
+        assert not stuck, "\n".join(stuck)
     assert [run.returncode for run in runs] == [1, 1]  # click's "Aborted!"
     time.sleep(1)
     for page in pages:
