@@ -192,6 +192,18 @@ def test_infer_finds_the_bundled_model_for_the_trials_task(gown, tmp_path, monke
     assert report.rmse is not None
 
 
+def test_a_bundled_model_of_the_other_task_is_not_blamed_on_an_option_never_given(
+    gown, tmp_path, monkeypatch
+) -> None:
+    trial_path, _ = gown
+    (tmp_path / "bundled").mkdir()
+    save_random_model(tmp_path, Task.SHORTS).rename(tmp_path / "bundled" / "gown")
+    monkeypatch.setenv(MODELS_ENV, str(tmp_path / "bundled"))
+    result = CliRunner().invoke(main, ["infer", str(trial_path), "-o", str(tmp_path / "x.rrd")])
+    assert result.exit_code == 1 and "shorts" in result.output, result.output
+    assert "leave out --model" not in result.output and "pass --model" in result.output
+
+
 @pytest.mark.parametrize("task", list(Task))
 def test_bundled_model_beats_all_zero_on_the_bundled_trial(
     task: Task, tmp_path: Path, monkeypatch

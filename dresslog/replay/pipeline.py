@@ -56,6 +56,7 @@ def resolve_model(
     """
     from dresslog.model.files import check_task, load_model
 
+    given = model is not None
     if model is None:
         model = bundled_model(task)
         if model is None and not required:
@@ -69,7 +70,7 @@ def resolve_model(
     loaded = load_model(model)
     bundled = bundled_model(task)
     hint = "pass --model with a {task} model folder"
-    if bundled is not None:
+    if given and bundled is not None:
         hint = f"leave out --model to use the bundled one ({bundled})"
     check_task(loaded, task, n_points, hint=hint)
     return loaded
