@@ -15,7 +15,7 @@ on_epoch=None) -> ModelCard``
     ``val_fraction``, for the per-epoch validation loss), scores the test split, and
     saves a model folder whose card names the data by its manifest hash and keeps the
     per-epoch losses, with their plot (``training.png``). Resumes from
-    ``.<out>.checkpoint.pt`` beside `out`.
+    ``.<out>.checkpoint.safetensors`` beside `out`.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
 -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome,
@@ -94,7 +94,7 @@ def train_dataset(
     """Train the paper's network (by default) on `data`'s training split; save to `out`."""
     out = Path(out) if Path(out).name else Path(out).absolute()  # `-o .` names its folder
     check_model_folder(out, overwrite)  # say so now, not after hours of training
-    checkpoint = out.with_name(f".{out.name}.checkpoint.pt")
+    checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
     # a second run on the same output would share (and garble) the checkpoint
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
         arrays = load_dataset(data, workers=workers, progress=progress)

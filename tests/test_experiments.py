@@ -60,7 +60,7 @@ def test_trained_model_card_names_its_data_and_test_scores(model: Path, data: Pa
     assert card["data"]["manifest_sha256"] == load_manifest(data).content_hash()
     assert card["hidden"] == 4 and card["layers"] == 1 and card["hyperparameters"]["epochs"] == 2
     assert card["metrics"]["test_n_sequences"] == 1.0
-    assert not list(data.parent.glob(".model.checkpoint.pt"))
+    assert not list(data.parent.glob(".model.checkpoint.safetensors"))
 
 
 @pytest.mark.slow
@@ -86,7 +86,7 @@ def test_overwrite_replaces_an_interrupted_run_of_other_settings(data: Path) -> 
 
     with pytest.raises(KeyboardInterrupt):
         train_dataset(data, out, epochs=3, hidden=4, layers=1, progress=False, on_epoch=stop)
-    checkpoint = data.parent / ".interrupted.checkpoint.pt"
+    checkpoint = data.parent / ".interrupted.checkpoint.safetensors"
     assert checkpoint.exists() and not out.exists()
     args = ["train", data, "-o", out, "--epochs", "2", "--hidden", "4", "--layers", "1", "-q"]
     code, output = invoke(*args)

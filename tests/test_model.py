@@ -269,19 +269,25 @@ def test_a_diverging_run_stops_with_one_line_and_leaves_no_checkpoint(tmp_path: 
             train(phis, forces, lr=lr, **kwargs)
 
 
-@pytest.mark.parametrize("content", ["garbage", "list", "key not a dict", "other weights"])
+@pytest.mark.parametrize("content", ["garbage", "pickle", "other format", "other weights"])
 def test_a_checkpoint_not_our_own_is_one_line(tmp_path: Path, content: str) -> None:
+    from safetensors import safe_open
+    from safetensors.torch import save_file
+
     ckpt = tmp_path / "run.ckpt"
     phis, forces = synthetic(4, seed=2, n_points=4)
     kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "checkpoint": ckpt, "progress": False}
     if content == "garbage":
         ckpt.write_bytes(b"garbage\n")
-    elif content == "other weights":  # our run's key, weights of another shape
+    elif content == "pickle":  # what torch.save writes: never unpickled
+        torch.save({"key": {}}, ckpt)
+    elif content == "other format":
+        save_file({"x": torch.zeros(2)}, ckpt, {"format": "something else"})
+    else:  # our run's key and metadata, weights of another shape
         train(phis, forces, **kwargs)
-        state = torch.load(ckpt, weights_only=True)
-        torch.save({**state, "model": {"junk": torch.zeros(2)}}, ckpt)
-    else:
-        torch.save({"list": [1, 2], "key not a dict": {"key": 3}}[content], ckpt)
+        with safe_open(str(ckpt), framework="pt") as stream:
+            metadata = stream.metadata()
+        save_file({"model.junk": torch.zeros(2)}, ckpt, metadata)
     with pytest.raises(ModelError, match=r"not a checkpoint dresslog can read.*--overwrite") as err:
         train(phis, forces, **kwargs)
     assert "\n" not in str(err.value)

@@ -26,7 +26,8 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
     the paper's is constant. ``input_differences``: the network reads phi's change per
     step as 9 more inputs (``dresslog.model.inputs``; not in the paper).
     Same data, seed and threads give the same weights. ``checkpoint``: a file written
-    after every epoch (torch's weights-only format) from which an interrupted run resumes;
+    after every epoch (safetensors, its settings as JSON metadata: nothing is unpickled)
+    from which an interrupted run resumes;
     one of other settings or data is refused, or with ``restart_other`` replaced by a
     fresh run (resuming one of the same is what a fresh run would compute anyway).
     ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
@@ -44,6 +45,7 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import os
 import time
@@ -199,6 +201,10 @@ def _fingerprint(*arrays: Sequence[np.ndarray]) -> str:
     return digest.hexdigest()
 
 
+#: What a checkpoint's metadata says it is; another value is not read.
+CHECKPOINT_FORMAT = "dresslog-checkpoint/1"
+
+
 def _save_checkpoint(
     path: Path,
     net: ForceMapLSTM,
@@ -207,15 +213,34 @@ def _save_checkpoint(
     best: dict[str, Any],
     key: dict[str, Any],
 ) -> None:
-    state = {
-        "model": net.state_dict(),
-        "best": best,
-        "optim": optim.state_dict(),
-        "key": key,
-        "epochs": [e.model_dump() for e in history.epochs],
+    """Tensors in safetensors, everything else as JSON in its metadata: nothing to unpickle."""
+    from safetensors.torch import save_file
+
+    optim_state = optim.state_dict()
+    tensors = {f"model.{k}": v for k, v in net.state_dict().items()}
+    tensors |= {f"best.{k}": v for k, v in best.items()}
+    for index, slots in optim_state["state"].items():
+        tensors |= {f"optim.{index}.{name}": v for name, v in slots.items()}
+    metadata = {
+        "format": CHECKPOINT_FORMAT,
+        "key": json.dumps(key),
+        "epochs": json.dumps([e.model_dump() for e in history.epochs]),
+        "param_groups": json.dumps(optim_state["param_groups"]),
     }
     with atomic_path(path) as tmp:
-        torch.save(state, tmp)
+        save_file({k: v.detach().contiguous() for k, v in tensors.items()}, tmp, metadata)
+
+
+def _read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+    """The metadata (decoded) and tensors of a checkpoint `_save_checkpoint` wrote."""
+    from safetensors import safe_open
+
+    with safe_open(str(path), framework="pt") as stream:
+        metadata = stream.metadata() or {}
+        tensors = {name: stream.get_tensor(name) for name in stream.keys()}  # noqa: SIM118
+    if metadata.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError("not a dresslog checkpoint")
+    return {k: json.loads(metadata[k]) for k in ("key", "epochs", "param_groups")}, tensors
 
 
 def _resume(
@@ -229,30 +254,40 @@ def _resume(
     """Continue from a checkpoint of the same settings and data; refuse one from another run."""
     unreadable = "is not a checkpoint dresslog can read; pass --overwrite to start afresh"
     try:
-        state = torch.load(path, weights_only=True)
-    except Exception:  # torch's several-line reasons help no one here
+        metadata, tensors = _read_checkpoint(path)
+    except Exception:  # safetensors' and json's reasons help no one here
         raise ModelError(unreadable, path=path) from None
-    if not isinstance(state, dict) or not isinstance(state.get("key"), dict):
+    saved, key = metadata["key"], json.loads(json.dumps(key))  # compared as stored
+    if not isinstance(saved, dict):
         raise ModelError(unreadable, path=path)
-    if state["key"].get("data") not in (None, key["data"]):
+    if saved.get("data") not in (None, key["data"]):
         raise ModelError(
             "checkpoint is from a run on other data (the dataset changed since): pass "
             "--overwrite to start afresh",
             path=path,
         )
-    if state.get("key") != key:
+    if saved != key:
         raise ModelError(
             "checkpoint is from a run with other settings: repeat that run's options to "
             "resume it, or pass --overwrite to start afresh",
             path=path,
         )
+    slots: dict[int, dict[str, torch.Tensor]] = {}
+    for name, value in tensors.items():
+        if name.startswith("optim."):
+            index, slot = name.removeprefix("optim.").split(".", 1)
+            slots.setdefault(int(index), {})[slot] = value
     try:
-        net.load_state_dict(state["model"])
-        optim.load_state_dict(state["optim"])
-        best.update(state.get("best", {}))
-        history.epochs = [EpochRecord.model_validate(e) for e in state["epochs"]]
+        net.load_state_dict(_under(tensors, "model."))
+        optim.load_state_dict({"state": slots, "param_groups": metadata["param_groups"]})
+        best.update(_under(tensors, "best."))
+        history.epochs = [EpochRecord.model_validate(e) for e in metadata["epochs"]]
     except (KeyError, TypeError, ValueError, RuntimeError):  # a layout not our own
         raise ModelError(unreadable, path=path) from None
+
+
+def _under(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
+    return {k.removeprefix(prefix): v for k, v in tensors.items() if k.startswith(prefix)}
 
 
 def train(
