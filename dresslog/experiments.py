@@ -354,6 +354,19 @@ def sweep_settings(
     return settings
 
 
+def _dresslog_folder(folder: Path) -> str | None:
+    """ "a dataset" or "a model" if `folder` is one of ours (another tool's manifest.json
+    does not count), else None."""
+    for name, what, kind in ((MANIFEST_FILE, "a dataset", "dresslog-dataset"),
+                             (CARD_FILE, "a model", "dresslog-model")):  # fmt: skip
+        try:
+            if json.loads((folder / name).read_text(encoding="utf-8")).get("format") == kind:
+                return what
+        except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+            continue
+    return None
+
+
 def default_sweep_folder(model: str | Path) -> Path:
     """`MODEL-sweep` in the current folder: never beside a bundled model, in the package."""
     return Path(f"{Path(model).resolve().name}-sweep")
@@ -384,13 +397,12 @@ def sweep(
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     check_executor(executor)
     out = Path(out)
-    for name, what in ((MANIFEST_FILE, "a dataset"), (CARD_FILE, "a model")):
-        for folder in (out.absolute(), *out.absolute().parents):  # nor anywhere inside one
-            if (folder / name).is_file():
-                where = "is" if folder == out.absolute() else f"is inside {folder},"
-                raise DatasetError(
-                    f"{where} {what} folder; give the sweep a folder of its own", path=out
-                )
+    for folder in (out.resolve(), *out.resolve().parents):  # nor anywhere inside one
+        what = _dresslog_folder(folder)
+        if what is not None:
+            where = "is" if folder == out.resolve() else f"is inside {folder},"
+            message = f"{where} {what} folder; give the sweep a folder of its own"
+            raise DatasetError(message, path=out)
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []
     for setting in settings:

@@ -241,12 +241,19 @@ def test_sweep_writes_a_table_and_a_plot(
     assert code == 1 and "has 2 sweep trials, more than the 1 asked for (-n sets it)" in output
 
 
-def test_sweep_never_writes_into_a_dataset_or_a_model_folder(model: Path, data: Path) -> None:
+def test_sweep_never_writes_into_a_dataset_or_a_model_folder(
+    model: Path, data: Path, tmp_path: Path
+) -> None:
     for folder, out in ((data, data), (model, model), (data, data / "train" / "sweep")):
         before = sorted(folder.rglob("*"))
         code, output = invoke("sweep", model, "--speeds", "0.2", "-n", "1", "-o", out)
         assert code == 1 and "give the sweep a folder of its own" in output
         assert sorted(folder.rglob("*")) == before
+    (web := tmp_path / "webapp").mkdir()  # another tool's manifest.json is no dataset
+    (web / "manifest.json").write_text('{"name": "webapp", "version": "1.0"}')
+    args = ["-n", "1", "--duration", "0.2", "--workers", "1", "-q", "-o", web / "sweep"]
+    code, output = invoke("sweep", model, "--speeds", "0.2", *args)
+    assert code == 0, output
 
 
 def test_a_sweep_value_given_twice_is_one_setting() -> None:
