@@ -365,8 +365,12 @@ def test_view_web_on_a_port_in_use_says_so_before_starting(inferred) -> None:
 
 
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="process groups are POSIX's")
-def test_a_viewer_that_ignores_sigterm_is_killed(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Ctrl-C on `view` always ends its viewer, even one slow to or refusing to stop."""
+@pytest.mark.parametrize("wrapped", [False, True], ids=["viewer", "viewer-under-a-wrapper"])
+def test_a_viewer_that_ignores_sigterm_is_killed(
+    monkeypatch: pytest.MonkeyPatch, wrapped: bool
+) -> None:
+    """Ctrl-C on `view` always ends its viewer, even one slow to or refusing to stop, and
+    even when, as with `python -m rerun`, a wrapper that dies at once started it."""
     import signal
     import time
 
@@ -374,8 +378,30 @@ def test_a_viewer_that_ignores_sigterm_is_killed(monkeypatch: pytest.MonkeyPatch
 
     monkeypatch.setattr(viewer, "VIEWER_STOP_S", 0.5)
     stubborn = "import signal, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); time.sleep(60)"
-    process = subprocess.Popen([sys.executable, "-c", stubborn], start_new_session=True)
-    time.sleep(0.5)  # its handler in place
+    wrapper = (
+        "import subprocess, sys, time; "
+        f"child = subprocess.Popen([sys.executable, '-c', {stubborn!r}]); "
+        "print(child.pid, flush=True); child.wait()"
+    )
+    code = wrapper if wrapped else f"print(0, flush=True); {stubborn}"
+    process = subprocess.Popen(
+        [sys.executable, "-c", code], start_new_session=True, stdout=subprocess.PIPE, text=True
+    )
+    assert process.stdout is not None
+    child = int(process.stdout.readline())
+    time.sleep(0.5)  # the handlers in place
     started = time.monotonic()
     viewer._stop(process, group=True)
-    assert process.returncode == -signal.SIGKILL and time.monotonic() - started < 5
+    assert time.monotonic() - started < 5
+    if wrapped:
+        time.sleep(0.2)
+        assert not Path(f"/proc/{child}").exists() or "Z" in _state(child), "viewer left running"
+    else:
+        assert process.returncode == -signal.SIGKILL
+
+
+def _state(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return "gone"

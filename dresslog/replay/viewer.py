@@ -15,6 +15,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from urllib.parse import quote
@@ -100,19 +101,44 @@ def verify_rrd(path: Path) -> None:
 
 
 def _stop(process: subprocess.Popen, group: bool) -> None:
-    """Terminate the viewer (its whole group), and kill it if it has not gone in 5 s."""
-    for sig in (signal.SIGTERM, getattr(signal, "SIGKILL", signal.SIGTERM)):
-        with contextlib.suppress(ProcessLookupError):  # it may be gone already
+    """Terminate the viewer's whole group; kill what is left after 5 s, or at a second Ctrl-C.
+
+    `python -m rerun` is a wrapper that dies at once: what must be waited for is the
+    viewer binary it started, which only the group still names.
+    """
+
+    def send(sig: int) -> None:
+        with contextlib.suppress(ProcessLookupError):  # all gone already
             if group:
                 os.killpg(process.pid, sig)
             else:
                 process.send_signal(sig)
-        try:
-            process.wait(timeout=VIEWER_STOP_S)
-            return
-        except subprocess.TimeoutExpired:
-            continue  # a viewer that ignores SIGTERM (or is slow to) is killed
+
+    send(signal.SIGTERM)
+    try:
+        deadline = time.monotonic() + VIEWER_STOP_S
+        while _running(process, group) and time.monotonic() < deadline:
+            time.sleep(0.05)
+    except KeyboardInterrupt:
+        pass  # asked twice: kill it now
+    if _running(process, group):
+        send(getattr(signal, "SIGKILL", signal.SIGTERM))
     process.wait()
+
+
+def _running(process: subprocess.Popen, group: bool) -> bool:
+    """Whether the viewer, or with `group` anything of its process group, is still there."""
+    if process.poll() is None:
+        return True
+    if not group:
+        return False
+    try:
+        os.killpg(process.pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _free_port(preferred: int = 0) -> int:
