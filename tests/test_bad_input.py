@@ -193,6 +193,11 @@ def triangle_past_the_vertices(tmp: Path, good: Path) -> Path:
     return _rewritten(tmp, good, "tri.mcap", triangles=triangles)
 
 
+def triangles_cut_short(tmp: Path, good: Path) -> Path:
+    corners = read_trial(good).garment.triangles.reshape(-1)[:4]
+    return _rewritten(tmp, good, "cut_tri.mcap", triangles=corners)
+
+
 def no_wrench_messages(tmp: Path, good: Path) -> Path:
     path = tmp / "silent.mcap"
     channels = {
@@ -240,6 +245,7 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (force_map_too_narrow, "force maps have 200 values but /limb/points has 300 points"),
     (garment_changing_size, r"the garment changes size \(\[4, 6\] vertices\)"),
     (triangle_past_the_vertices, "a triangle names vertex 99 of 6"),
+    (triangles_cut_short, "4 triangle corners, not a multiple of 3"),
 ]
 
 

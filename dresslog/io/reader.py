@@ -341,11 +341,13 @@ class TrialReader:
             return None
         runs = self._decode(wk.GARMENT)
         msgs = [m for run in runs for m in run]
-        triangles = msgs[0]["triangles"].reshape(-1, 3).astype(np.int64)
+        corners = msgs[0]["triangles"].astype(np.int64)
         counts = sorted({len(m["vertices"]) for m in msgs})
         problem = f"the garment changes size ({counts} vertices)" if len(counts) > 1 else ""
-        if not problem and len(triangles) and (triangles.min() < 0 or triangles.max() >= counts[0]):
-            problem = f"a triangle names vertex {triangles.max()} of {counts[0]}"
+        if not problem and len(corners) % 3:
+            problem = f"{len(corners)} triangle corners, not a multiple of 3"
+        if not problem and len(corners) and corners.max() >= counts[0]:
+            problem = f"a triangle names vertex {corners.max()} of {counts[0]}"
         if problem:
             raise TrialFormatError(
                 f"{problem}; the recording is corrupt, re-record it",
@@ -353,6 +355,7 @@ class TrialReader:
                 channel=wk.GARMENT,
             )
         vertices = np.stack([m["vertices"] for m in msgs]).astype(np.float32)
+        triangles = corners.reshape(-1, 3)
         return GarmentStates(np.concatenate([cdr.stamp_ns(r) for r in runs]), vertices, triangles)
 
     def read(self) -> Trial:
