@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from dresslog.cli.main import main
 from dresslog.convert import ConversionWarning, convert
 from dresslog.convert import resample as rs
-from dresslog.convert.csv import role_of
+from dresslog.convert.csv import _value_scale, role_of
 from dresslog.errors import ConversionError
 from dresslog.io.reader import TrialReader
 from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
@@ -130,7 +130,7 @@ def test_units_in_the_header_are_scaled_to_si_and_unknown_ones_refused(tmp_path:
     other = write_csv(tmp_path / "milli.csv", ["Time (s)", *HEADER_MILLI], milli)
     convert(si, tmp_path / "si.mcap", "gown")
     report = convert(other, tmp_path / "milli.mcap", "gown")
-    assert any("scaled to SI units: 'Fx (kN)'" in n for n in report.source["notes"])
+    assert any("scaled to SI units: 'Fx [sensor 1] (kN)'" in n for n in report.source["notes"])
     _, si_wrench, si_twist, _ = converted(tmp_path / "si.mcap", 0)
     _, milli_wrench, milli_twist, _ = converted(tmp_path / "milli.mcap", 0)
     np.testing.assert_allclose(milli_wrench, si_wrench, rtol=1e-6, atol=1e-9)
@@ -144,8 +144,20 @@ def test_units_in_the_header_are_scaled_to_si_and_unknown_ones_refused(tmp_path:
 
 HEADER_SI = ["Fx (N)", "Fy (N)", "Fz (N)", "Tx (N·m)", "Ty (N m)", "Tz (Nm)",
              "vx (m/s)", "vy (m/s)", "vz (m/s)"]  # fmt: skip
-HEADER_MILLI = ["Fx (kN)", "Fy [kN]", "Fz (kN)", "Tx (N-mm)", "Ty (N.mm)", "Tz [Nmm]",
+HEADER_MILLI = ["Fx [sensor 1] (kN)", "Fy [kN]", "Fz (kN)", "Tx (N-mm)", "Ty (N.mm)", "Tz [Nmm]",
                 "vx (mm/s)", "vy (mm/s)", "vz [mm/s]"]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("header", "unit"),
+    [("Fx (tool)", None), ("Fx [sensor 2]", None), ("Fx (-)", None), ("Fx (N)", "N"),
+     ("Fx [sensor 1] (kN)", "kN"), ("Tx (lbf-in)", "lbf-in"), ("wx (°/s)", "°/s")],
+)  # fmt: skip
+def test_a_bracket_is_a_unit_only_when_it_reads_as_one(header: str, unit: str | None) -> None:
+    role = role_of(header)
+    assert role is not None
+    found = _value_scale(header, role, Path("x.csv"))
+    assert (found[0] if found else None) == unit
 
 
 def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:
@@ -331,6 +343,9 @@ def test_decimal_commas_and_a_missing_header_are_named(tmp_path: Path) -> None:
     with pytest.raises(ConversionError, match=r"has no header row \(line 1 is numbers\)"):
         convert(bare, tmp_path / "t.mcap", "gown")
     assert not (tmp_path / "t.mcap").exists()
+    versioned = tmp_path / "versioned.csv"  # a number above the header is a preamble
+    versioned.write_text("2\n" + "\n".join(lines))
+    assert convert(versioned, tmp_path / "t.mcap", "gown").steps > 0
 
 
 def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:

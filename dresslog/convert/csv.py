@@ -65,8 +65,13 @@ _VALUE_UNITS: dict[str, dict[str, float]] = {
     "": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
     "q": {},
 }  # fmt: skip
-#: A bracketed header part that reads as a unit (not, say, `Fx (sensor 2)`).
-_UNIT_LIKE = re.compile(r"^[a-z\u00b0\u00b5\u03bc/·*.\-\s]{1,12}$")
+#: What a unit is written with: a bracket made only of these (and `/`) names a unit,
+#: anything else (`Fx (tool)`, `Fx [sensor 2]`) is a label.
+_UNIT_ATOMS = re.compile(
+    r"^(lbf|lb|kgf|gf|ozf|oz|ft|in|deg|rad|rpm|sec|kn|mn|n|km|cm|mm|um|µm|μm|m|ms|us|s|kg|g)+$"
+)
+#: Brackets that say a column has no unit.
+_NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
 
 
 def _unit_key(unit: str) -> str:
@@ -75,21 +80,27 @@ def _unit_key(unit: str) -> str:
     return key.replace("/sec", "/s").replace("degrees", "deg")
 
 
+def _is_unit(written: str) -> bool:
+    parts = re.sub(r"\^-?\d", "", _unit_key(written)).split("/")
+    return all(_UNIT_ATOMS.match(part) for part in parts)
+
+
 def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
     """The unit a value column's header gives and its SI factor; a unit not known is refused.
 
     Values are stored in SI (N, N m, m/s, rad/s, m); a header that says `Fx (kN)` or
     `Tz [N-mm]` is scaled, since reading its numbers as SI would be silently wrong.
+    Brackets holding a label rather than a unit are passed over.
     """
-    bracket = re.search(r"[\(\[]([^\)\]]*)[\)\]]", name)
-    written = bracket.group(1).strip() if bracket else ""
-    if not _UNIT_LIKE.match(written.lower()):
+    brackets = [b.strip() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
+    units = [b for b in brackets if b.lower() not in _NO_UNIT and _is_unit(b)]
+    if not units:
         return None
-    units = _VALUE_UNITS[role[:-1]]
-    scale = {_unit_key(unit): factor for unit, factor in units.items()}.get(_unit_key(written))
+    written, known = units[0], _VALUE_UNITS[role[:-1]]
+    scale = {_unit_key(unit): factor for unit, factor in known.items()}.get(_unit_key(written))
     if scale is not None:
         return written, scale
-    hint = f"give the values in one of {', '.join(units)}" if units else "a quaternion has none"
+    hint = f"give the values in one of {', '.join(known)}" if known else "a quaternion has none"
     raise ConversionError(
         f"column {name!r} is in {written!r}, a unit dresslog does not convert; {hint}",
         path=path,
@@ -154,13 +165,13 @@ def _header(path: Path) -> tuple[int, list[str], str | None]:
                         f"{commas[0]!r}); export the CSV with decimal points",
                         path=path,
                     )
-                if header is None and filled and numbers == len(filled):
-                    raise ConversionError(
-                        f"has no header row (line {number + 1} is numbers); add a first line "
-                        "naming the columns, such as time,fx,fy,fz,tx,ty,tz,vx,vy,vz",
-                        path=path,
-                    )
                 if header is not None and 2 * numbers > len(filled):  # mostly numbers: data
+                    if all(_is_number(c) for c in header[1] if c):  # numbers above numbers
+                        raise ConversionError(
+                            f"has no header row (line {header[0] + 1} is numbers); add a line "
+                            "naming the columns, such as time,fx,fy,fz,tx,ty,tz,vx,vy,vz",
+                            path=path,
+                        )
                     return header
                 header = number, cells, delimiter
     except (OSError, UnicodeDecodeError) as err:
