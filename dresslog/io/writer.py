@@ -71,9 +71,15 @@ class TrialWriter:
 
     def close(self) -> None:
         """Write the metadata and summary, then move the file into place."""
+        if self._writer is not None:
+            self.finish().replace(self.path)
+
+    def finish(self) -> Path:
+        """Write the metadata and summary; the file stays under the temporary name returned
+        (for a caller that puts several outputs in place together)."""
         writer, stream = self._writer, self._stream
         if writer is None or stream is None:
-            return
+            raise TrialWriteError("writer is not open", path=self.path)
         metadata = self.metadata.model_copy(
             update={"software": self.metadata.software or software_versions()}
         )
@@ -83,7 +89,7 @@ class TrialWriter:
         writer.finish()
         stream.close()
         self._writer = self._stream = None
-        self._tmp.replace(self.path)
+        return self._tmp
 
     def abort(self) -> None:
         """Drop everything written so far; nothing appears under the final name."""

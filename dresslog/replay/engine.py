@@ -76,9 +76,10 @@ class StepResult:
 class Sink(Protocol):
     """Receives every step result, then writes its output in two phases.
 
-    `close` writes everything under a temporary name (where most failures happen),
-    `commit` only moves it into place, and `abort` leaves nothing behind: so a replay
-    whose second output fails never replaces the first one's earlier file.
+    `close` writes everything under a temporary name (where failures happen: a full
+    disk, a bad value), `commit` only renames it into place, and `abort` leaves nothing
+    behind: so a replay whose second output fails never replaces the first one's
+    earlier file (only a rename failing between two commits could).
     """
 
     def open(self, context: TrialContext) -> None: ...

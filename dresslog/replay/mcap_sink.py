@@ -7,7 +7,6 @@ replacing any old one) and appears under its name only when complete.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -60,8 +59,9 @@ class McapSink:
     def close(self) -> None:
         trial = self._trial
         assert trial is not None
-        self._staged = self.path.with_name(f".{self.path.stem}.{os.getpid()}.staged.mcap")
-        with TrialWriter(self._staged, trial.metadata, overwrite=True) as writer:
+        writer = TrialWriter(self.path, trial.metadata, overwrite=True)
+        try:
+            writer.open()
             copy_trial(writer, trial, self._limb)
             if self._t_ns:
                 writer.write_force_map(
@@ -70,6 +70,10 @@ class McapSink:
                     np.stack(self._contact),
                     estimate=True,
                 )
+            self._staged = writer.finish()  # named by `commit`, beside the other outputs
+        except BaseException:  # an interrupt while finishing included
+            writer.abort()
+            raise
 
     def commit(self) -> None:
         if self._staged is not None:
@@ -77,7 +81,7 @@ class McapSink:
             self._staged = None
 
     def abort(self) -> None:
-        """Drop the staged copy; `TrialWriter` cleans up its own temporary."""
+        """Drop the finished copy not yet named; `close` removes a half-written one itself."""
         if self._staged is not None:
             discard(self._staged)
             self._staged = None
