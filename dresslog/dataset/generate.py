@@ -479,17 +479,7 @@ def _run(
             recorder = jobs[0].recorder
             factory = _spec_factory(recorder)
             while executor.pending() and not stop.is_set():
-                try:
-                    finished = executor.done(timeout=POLL_S)
-                except BrokenProcessPool:
-                    if stop.wait(timeout=1.0):  # the whole group was stopped: an interrupt
-                        break
-                    raise DatasetError(
-                        "a worker process died (killed, or out of memory?); run the same "
-                        "command again to resume",
-                        path=root,
-                    ) from None
-                for entry in finished:
+                for entry in executor.done(timeout=POLL_S):
                     if entry.status == Status.OK:
                         manifest.trials.append(entry)
                         bar.update()
@@ -507,6 +497,13 @@ def _run(
                 if time.monotonic() - saved > SAVE_EVERY_S:
                     manifest.save(root)
                     saved = time.monotonic()
+        except BrokenProcessPool:  # a worker was killed: by the same signal as us, or alone
+            if not stop.wait(timeout=1.0):
+                raise DatasetError(
+                    "a worker process died (killed, or out of memory?); run the same "
+                    "command again to resume",
+                    path=root,
+                ) from None
         finally:
             bar.close()
             try:  # trials finished while stopping (after an interrupt) are kept, not redone
