@@ -92,7 +92,9 @@ def train_dataset(
     on_epoch: Callable[[EpochRecord], None] | None = None,
 ) -> ModelCard:
     """Train the paper's network (by default) on `data`'s training split; save to `out`."""
-    out = Path(out) if Path(out).name else Path(out).absolute()  # `-o .` names its folder
+    out = Path(out)
+    if out.name in ("", ".."):  # `-o .` or `-o ..`: name the folder, for the files beside it
+        out = out.resolve()
     check_model_folder(out, overwrite)  # say so now, not after hours of training
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
     # a second run on the same output would share (and garble) the checkpoint
