@@ -405,3 +405,38 @@ def _state(pid: int) -> str:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
     except OSError:
         return "gone"
+
+
+#: tgkill(2)'s number, to signal one thread of another process (no Python wrapper exists).
+TGKILL = {"x86_64": 234, "aarch64": 131}.get(__import__("platform").machine())
+
+
+@pytest.mark.skipif(TGKILL is None or not sys.platform.startswith("linux"), reason="tgkill")
+def test_ctrl_c_stops_view_whichever_thread_the_kernel_hands_it_to(inferred) -> None:
+    """A process-wide SIGINT goes to any thread; one that lands on numpy's BLAS thread must
+    stop `view` as surely as one that lands on the main thread (it used to hang)."""
+    import ctypes
+    import signal
+    import time
+
+    _, _, rrd = inferred
+    command = [sys.executable, "-c", "from dresslog.cli.main import main; main()"]
+    run = subprocess.Popen(
+        [*command, "view", str(rrd), "--web"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        assert run.stdout is not None and "Web viewer" in run.stdout.readline()
+        time.sleep(1)
+        tasks = Path(f"/proc/{run.pid}/task").iterdir()
+        others = [int(t.name) for t in tasks if int(t.name) != run.pid]
+        assert others, "no thread but the main one"
+        ctypes.CDLL(None, use_errno=True).syscall(TGKILL, run.pid, others[0], signal.SIGINT)
+        assert run.wait(timeout=20) == 1  # click's "Aborted!"
+    finally:
+        if run.poll() is None:
+            os.killpg(run.pid, signal.SIGKILL)
+            run.wait()

@@ -28,6 +28,8 @@ from dresslog.replay.pipeline import InferenceReport, replay_file
 
 #: How long a viewer may take to stop on SIGTERM before it is killed.
 VIEWER_STOP_S = 5.0
+#: How often waiting for the viewer returns to Python, where Ctrl-C is noticed.
+POLL_S = 0.2
 
 
 def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = None) -> str:
@@ -124,6 +126,19 @@ def _stop(process: subprocess.Popen, group: bool) -> None:
     if _running(process, group):
         send(getattr(signal, "SIGKILL", signal.SIGTERM))
     process.wait()
+
+
+def _wait_interruptibly(process: subprocess.Popen) -> str:
+    """The viewer's stderr once it exits; Ctrl-C raises within a poll however it arrives.
+
+    A signal the kernel delivers to another thread (numpy's BLAS threads) leaves a
+    read without timeout blocked: only a return to Python runs the signal's handler.
+    """
+    while True:
+        try:
+            return process.communicate(timeout=POLL_S)[1] or ""
+        except subprocess.TimeoutExpired:
+            continue
 
 
 def _running(process: subprocess.Popen, group: bool) -> bool:
@@ -229,7 +244,7 @@ def view_file(
                 cmd, stderr=subprocess.PIPE, text=True, start_new_session=group
             )
             try:
-                _, err = process.communicate()
+                err = _wait_interruptibly(process)
             except KeyboardInterrupt:
                 _stop(process, group)
                 raise
