@@ -98,6 +98,25 @@ def test_one_step_at_a_time_equals_the_whole_sequence_and_reset_starts_over():
     np.testing.assert_allclose(est.step_raw(phi[0]).shape, (2 * N,))
 
 
+def test_a_nan_step_is_refused_and_leaves_the_state_as_it_was(trained):
+    """A robot's estimator meets a NaN sample: refused, and the next steps are unharmed."""
+    weights, _ = trained
+    phi = synthetic(1, seed=4)[0][0]
+    clean, bad = NumpyEstimator(weights), NumpyEstimator(weights)
+    expected = [clean.step(p)[0] for p in phi[:5]]
+    got = []
+    for k, p in enumerate(phi[:5]):
+        if k == 2:
+            with pytest.raises(ModelError, match="finite"):
+                bad.step(np.full(9, np.nan, np.float32))
+            with pytest.raises(ModelError, match="9 finite numbers"):
+                bad.step(np.zeros(8, np.float32))
+        got.append(bad.step(p)[0])
+    np.testing.assert_array_equal(np.stack(got), np.stack(expected))
+    with pytest.raises(ModelError, match="NaN or infinite"):
+        NumpyEstimator(weights).run(np.full((4, 9), np.nan, np.float32))
+
+
 def test_run_applies_eq2_to_the_raw_output():
     net = random_network()
     phi = np.random.default_rng(2).normal(size=(30, 9)).astype(np.float32)
@@ -255,6 +274,12 @@ def test_balanced_loss_makes_training_invariant_to_the_force_unit():
 def test_training_rejects_mismatched_data_in_one_line():
     with pytest.raises(ModelError, match="sequence 0"):
         train([np.zeros((5, 9), np.float32)], [np.zeros((4, 3), np.float32)], progress=False)
+    phis, forces = synthetic(3, seed=2, n_points=4)
+    phis[1][3, 2] = np.nan
+    with pytest.raises(ModelError, match="sequence 1 has NaN"):
+        train(phis, forces, progress=False)
+    with pytest.raises(ModelError, match="epochs, batch size"):
+        train(synthetic(3, seed=2)[0], synthetic(3, seed=2)[1], epochs=0, progress=False)
 
 
 def test_a_diverging_run_stops_with_one_line_and_leaves_no_checkpoint(tmp_path: Path):

@@ -32,6 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from dresslog.errors import ModelError
 from dresslog.model.inputs import PHI_DIM, network_inputs, reads_differences
 from dresslog.model.postprocess import apply_contact, split_output
 
@@ -148,6 +149,9 @@ class NumpyEstimator:
 
     def step_raw(self, phi: np.ndarray) -> np.ndarray:
         """Advance one step; the unprocessed (2N,) output in a reused buffer."""
+        if np.shape(phi) != (PHI_DIM,) or not np.isfinite(phi).all():
+            # checked before the state moves: one bad step must not poison the ones after
+            raise ModelError(f"phi must be {PHI_DIM} finite numbers, got {np.asarray(phi)!r}")
         h, d = self.hidden, self.input_dim
         x = self._state[:d]
         if self.differences:  # [phi, its change since the last step], as network_inputs
@@ -197,7 +201,9 @@ class NumpyEstimator:
         if single:
             phi = phi[None]
         if phi.ndim != 3 or phi.shape[-1] != PHI_DIM:
-            raise ValueError(f"phi must be (T, {PHI_DIM}) or (B, T, {PHI_DIM})")
+            raise ModelError(f"phi must be (T, {PHI_DIM}) or (B, T, {PHI_DIM})")
+        if not np.isfinite(phi).all():
+            raise ModelError("phi has NaN or infinite values; the model cannot run on them")
         batch, steps, _ = phi.shape
         h = self.hidden
         seq = (network_inputs(phi, self.differences) - self.mean) / self.std

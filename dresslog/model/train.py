@@ -111,6 +111,8 @@ def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -
             raise ModelError(
                 f"sequence {k}: force map has shape {f.shape}, expected ({len(phi)}, {n_points})"
             )
+        if not (np.isfinite(phi).all() and np.isfinite(f).all()):
+            raise ModelError(f"sequence {k} has NaN or infinite values")
     return n_points
 
 
@@ -316,6 +318,8 @@ def train(
 ) -> tuple[dict[str, np.ndarray], TrainHistory]:
     """Train a ForceMapLSTM; returns (float32 weights, history). See the module docstring."""
     n_points = _check_data(sequences, forces)
+    if epochs < 1 or batch_size < 1 or hidden < 1 or layers < 1:
+        raise ModelError("epochs, batch size, hidden size and layers must all be 1 or more")
     if not (math.isfinite(lr) and lr > 0):
         raise ModelError(f"the learning rate must be a positive number, not {lr}")
     phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in sequences]
