@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dresslog.errors import TrialWriteError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
 from dresslog.io.files import temporary_path
@@ -330,3 +331,55 @@ def test_dresslog_msgs_is_a_ros2_interface_package_of_exactly_its_msg_files() ->
     }
     assert used - {folder.name} <= depends, used
     assert f"DEPENDENCIES {' '.join(sorted(depends))}" in cmake
+
+
+def _nan_contacts() -> np.ndarray:
+    contacts = np.zeros(2, CONTACT_DTYPE)
+    contacts["normal_force"] = np.nan
+    return contacts
+
+
+META = TrialMetadata(task=Task.GOWN)
+T10 = np.arange(10, dtype=np.int64) * 10_000_000
+BAD_WRITES = {
+    "float times": (lambda w: w.write_wrench(T10 * 1e-9, np.zeros((10, 6))), "integer nanosec"),
+    "times repeated": (
+        lambda w: w.write_wrench(np.zeros(10, np.int64), np.zeros((10, 6))),
+        "increase",
+    ),
+    "times going back": (
+        lambda w: (w.write_wrench(T10[5], np.zeros(6)), w.write_wrench(T10[2], np.zeros(6))),
+        "increase",
+    ),
+    "fewer times than rows": (
+        lambda w: w.write_twist(T10[:5], np.zeros((10, 6))),
+        "5 times for 10",
+    ),
+    "contacts not CONTACT_DTYPE": (lambda w: w.write_contacts(0, np.ones((3, 4))), "CONTACT_DTYPE"),
+    "NaN contact force": (lambda w: w.write_contacts(0, _nan_contacts()), "NaN or infinite"),
+    "NaN contact map": (
+        lambda w: w.write_force_map(T10, np.zeros((10, 4)), np.full((10, 4), np.nan)),
+        "NaN or infinite",
+    ),
+    "force maps changing width": (
+        lambda w: (w.write_force_map(T10[0], np.zeros(4)), w.write_force_map(T10[1], np.zeros(3))),
+        "maps of 3 points after maps of 4",
+    ),
+    "NaN garment": (lambda w: w.write_garment(0, np.full((3, 3), np.nan)), "finite"),
+    "triangle past the vertices": (
+        lambda w: w.write_garment(0, np.zeros((3, 3)), [[0, 1, 5]]),
+        "index its vertices",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", BAD_WRITES)
+def test_the_writer_refuses_what_its_reader_would_refuse_and_writes_nothing(
+    tmp_path: Path, case: str
+) -> None:
+    """Every file TrialWriter lets through is one TrialReader reads back the same."""
+    write, message = BAD_WRITES[case]
+    path = tmp_path / "t.mcap"
+    with pytest.raises(TrialWriteError, match=message), TrialWriter(path, META) as writer:
+        write(writer)
+    assert list(tmp_path.iterdir()) == []

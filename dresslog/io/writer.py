@@ -59,6 +59,8 @@ class TrialWriter:
         self._channels: dict[str, int] = {}
         self._sequence: dict[str, int] = {}
         self._contact_head: bytes | None = None
+        self._last_stamp: dict[str, int] = {}  # per topic: stamps must increase
+        self._widths: dict[str, int] = {}  # per force-map topic: one width throughout
         self._contact_stamp_at = self._contact_len_at = 0
 
     # -- lifecycle -------------------------------------------------------------
@@ -148,13 +150,31 @@ class TrialWriter:
             seq += 1
         self._sequence[topic] = seq
 
+    def _times(self, topic: str, t_ns: int | np.ndarray, count: int) -> np.ndarray:
+        """`count` integer-nanosecond stamps, increasing on `topic` from call to call."""
+        raw = np.atleast_1d(np.asarray(t_ns))
+        problem = ""
+        if raw.dtype.kind not in "iu":
+            problem = f"times must be integer nanoseconds, not {raw.dtype}"
+        elif len(raw) != count:
+            problem = f"{len(raw)} times for {count} messages"
+        times = raw.astype(np.int64)
+        if not problem and len(times):
+            after = self._last_stamp.get(topic, -1)
+            if times[0] <= after or (np.diff(times) <= 0).any():
+                problem = "times must increase from message to message, and not be negative"
+            self._last_stamp[topic] = int(times[-1])
+        if problem:
+            raise TrialWriteError(f"{topic}: {problem}", path=self.path)
+        return times
+
     def _stamped(
-        self, topic: str, t_ns: int | np.ndarray, sizes: dict, count: int | None = None
+        self, topic: str, t_ns: int | np.ndarray, sizes: dict, count: int = 1
     ) -> tuple[np.ndarray, np.ndarray]:
-        times = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
+        times = self._times(topic, t_ns, count)
         frame = wk.FRAMES[topic]
         messages = cdr.new_messages(
-            wk.SCHEMAS[topic], {"header.frame_id": len(frame), **sizes}, count or len(times)
+            wk.SCHEMAS[topic], {"header.frame_id": len(frame), **sizes}, count
         )
         cdr.set_stamp(messages, times, frame)
         return times, messages
@@ -172,21 +192,21 @@ class TrialWriter:
     def write_wrench(self, t_ns: int | np.ndarray, wrench: np.ndarray) -> None:
         """Force (N) and torque (N m) the garment applies at the end effector, (6,) or (T, 6)."""
         rows = self._rows(wk.WRENCH, wrench, 6)
-        times, msgs = self._stamped(wk.WRENCH, t_ns, {})
+        times, msgs = self._stamped(wk.WRENCH, t_ns, {}, len(rows))
         msgs["wrench.force"], msgs["wrench.torque"] = rows[:, :3], rows[:, 3:]
         self._write(wk.WRENCH, times, msgs)
 
     def write_twist(self, t_ns: int | np.ndarray, twist: np.ndarray) -> None:
         """End-effector linear (m/s) and angular (rad/s) velocity, (6,) or (T, 6)."""
         rows = self._rows(wk.TWIST, twist, 6)
-        times, msgs = self._stamped(wk.TWIST, t_ns, {})
+        times, msgs = self._stamped(wk.TWIST, t_ns, {}, len(rows))
         msgs["twist.linear"], msgs["twist.angular"] = rows[:, :3], rows[:, 3:]
         self._write(wk.TWIST, times, msgs)
 
     def write_pose(self, t_ns: int | np.ndarray, pose: np.ndarray) -> None:
         """End-effector position (m) and quaternion x y z w, (7,) or (T, 7)."""
         rows = self._rows(wk.POSE, pose, 7)
-        times, msgs = self._stamped(wk.POSE, t_ns, {})
+        times, msgs = self._stamped(wk.POSE, t_ns, {}, len(rows))
         msgs["pose.position"], msgs["pose.orientation"] = rows[:, :3], rows[:, 3:]
         self._write(wk.POSE, times, msgs)
 
@@ -202,13 +222,22 @@ class TrialWriter:
         topic = wk.ESTIMATE if estimate else wk.FORCE_MAP
         forces = np.asarray(forces, dtype=np.float32)
         forces = forces[None] if forces.ndim == 1 else forces
-        if not np.isfinite(forces).all():
-            raise TrialWriteError(f"{topic} has NaN or infinite values", path=self.path)
+        contact = None if contact is None else np.asarray(contact, dtype=np.float32)
+        problem = ""
+        if forces.ndim != 2 or (contact is not None and contact.size != forces.size):
+            problem = "needs (N,) or (T, N) forces, and a contact map of the same size"
+        elif not (np.isfinite(forces).all() and (contact is None or np.isfinite(contact).all())):
+            problem = "has NaN or infinite values"
+        elif self._widths.setdefault(topic, forces.shape[1]) != forces.shape[1]:
+            problem = f"maps of {forces.shape[1]} points after maps of {self._widths[topic]}"
+        if problem:
+            raise TrialWriteError(f"{topic} {problem}", path=self.path)
         n_contact = 0 if contact is None else forces.shape[1]
-        times, msgs = self._stamped(topic, t_ns, {"forces": forces.shape[1], "contact": n_contact})
+        sizes = {"forces": forces.shape[1], "contact": n_contact}
+        times, msgs = self._stamped(topic, t_ns, sizes, len(forces))
         msgs["forces"] = forces
         if contact is not None:
-            msgs["contact"] = np.asarray(contact, dtype=np.float32).reshape(forces.shape)
+            msgs["contact"] = contact.reshape(forces.shape)
         self._write(topic, times, msgs)
 
     def write_contacts(self, t_ns: int, contacts: np.ndarray) -> None:
@@ -218,7 +247,13 @@ class TrialWriter:
         message is its header laid out for zero contacts (from the .msg text),
         followed by the contacts' bytes, whose layout is the CDR element layout.
         """
+        if np.asarray(contacts).dtype.names != CONTACT_DTYPE.names or np.ndim(contacts) != 1:
+            raise TrialWriteError(f"{wk.CONTACTS} needs a 1-D CONTACT_DTYPE array", path=self.path)
         contacts = np.asarray(contacts, dtype=CONTACT_DTYPE)
+        numbers = ("position", "normal", "friction", "normal_force")
+        if not all(np.isfinite(contacts[name]).all() for name in numbers):
+            raise TrialWriteError(f"{wk.CONTACTS} has NaN or infinite values", path=self.path)
+        t_ns = int(self._times(wk.CONTACTS, t_ns, 1)[0])
         if self._contact_head is None:
             self._contact_head = self._contact_template()
         head = bytearray(self._contact_head)
@@ -234,7 +269,11 @@ class TrialWriter:
 
     def _contact_template(self) -> bytes:
         """The contacts header for zero contacts as bytes; notes where stamp and count go."""
-        _, head = self._stamped(wk.CONTACTS, 0, {"contacts": 0}, 1)
+        frame = wk.FRAMES[wk.CONTACTS]
+        head = cdr.new_messages(
+            wk.SCHEMAS[wk.CONTACTS], {"header.frame_id": len(frame), "contacts": 0}, 1
+        )
+        cdr.set_stamp(head, np.zeros(1, np.int64), frame)
         fields = head.dtype.fields
         assert fields is not None
         sec, nanosec, count = (
@@ -270,6 +309,11 @@ class TrialWriter:
     ) -> None:
         """Garment vertex positions (V, 3); the triangles (F, 3) in the first message only."""
         tris = np.zeros((0,), np.uint32) if triangles is None else np.asarray(triangles).ravel()
+        vertices = np.asarray(vertices, dtype=np.float32)
+        if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.isfinite(vertices).all():
+            raise TrialWriteError(f"{wk.GARMENT} needs finite (V, 3) vertices", path=self.path)
+        if len(tris) % 3 or (len(tris) and (tris.min() < 0 or tris.max() >= len(vertices))):
+            raise TrialWriteError(f"{wk.GARMENT} triangles must index its vertices", path=self.path)
         sizes = {"vertices": len(vertices), "triangles": len(tris)}
         times, msgs = self._stamped(wk.GARMENT, t_ns, sizes, 1)
         msgs["vertices"][0] = vertices
