@@ -10,11 +10,14 @@ from __future__ import annotations
 from enum import StrEnum
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, model_validator
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, field_validator, model_validator
 
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 #: Longest trial a spec accepts, s: an hour at 100 Hz (a typo like 1e9 would need TBs).
 MAX_DURATION = 3600.0
+#: How far (m) the limb may move from its nominal pose along each axis: the paper's
+#: range is +-0.2 m, and a metre already puts the limb far out of the gripper's path.
+MAX_OFFSET = 1.0
 
 
 class Task(StrEnum):
@@ -117,6 +120,13 @@ class TrialSpec(BaseModel):
         "empty means drawn from the seed",
     )
     sim: SimParams = SimParams()
+
+    @field_validator("limb_offset")
+    @classmethod
+    def _limb_within_reach(cls, offset: tuple[float, float, float]) -> tuple[float, float, float]:
+        if max(abs(v) for v in offset) > MAX_OFFSET:
+            raise ValueError(f"each component within +-{MAX_OFFSET} m of the nominal pose")
+        return offset
 
     @model_validator(mode="after")
     def _at_least_two_steps(self) -> TrialSpec:
