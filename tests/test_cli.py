@@ -134,6 +134,26 @@ def test_record_live_without_a_display_says_so_and_writes_nothing(
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")
+def test_record_live_with_a_display_that_does_not_open_says_so_and_writes_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A stale DISPLAY (an ssh session's, long closed): the spawned viewer exits at once."""
+    with socket.socket() as probe:
+        if probe.connect_ex(("127.0.0.1", 9876)) == 0:
+            pytest.skip("a viewer already listens on 9876, where --live would stream")
+    for name in ("WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("DISPLAY", ":97")  # no X server there
+    out = tmp_path / "live.mcap"
+    args = ["record", "--task", "gown", "--duration", "0.2", "--live", "-o", str(out)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1, result.output
+    assert "Error: the Rerun viewer did not start within 10 s (is DISPLAY=':97'" in result.output
+    assert "Traceback" not in result.output and list(tmp_path.iterdir()) == []
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

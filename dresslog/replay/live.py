@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import socket
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -89,6 +90,11 @@ class SimulationSource:
             self.abort()
 
 
+#: Where `rr.spawn` starts a viewer, and how long it may take to listen there.
+SPAWNED_URL = "rerun+http://127.0.0.1:9876/proxy"
+SPAWN_WAIT_S = 10.0
+
+
 def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
     """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
     if connect is not None:
@@ -108,9 +114,22 @@ def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
     rec = rr.RecordingStream(APPLICATION_ID)
     if connect is not None:
         rec.connect_grpc(connect, default_blueprint=default_blueprint())
-    else:
-        rec.spawn(default_blueprint=default_blueprint())
-    return rec
+        return rec
+    rec.spawn(default_blueprint=default_blueprint())
+    deadline = time.monotonic() + SPAWN_WAIT_S
+    while True:  # a viewer that cannot open its window exits; the stream would hang on it
+        try:
+            check_reachable(SPAWNED_URL, timeout=0.5)
+            return rec
+        except DresslogError:
+            if time.monotonic() > deadline:
+                rec.disconnect()
+                raise DresslogError(
+                    f"the Rerun viewer did not start within {SPAWN_WAIT_S:g} s (is DISPLAY="
+                    f"{os.environ.get('DISPLAY', '')!r} a display you can open?); stream to a "
+                    "viewer elsewhere with --connect, or record without --live"
+                ) from None
+            time.sleep(0.2)
 
 
 def check_reachable(url: str, timeout: float = 2.0) -> None:
