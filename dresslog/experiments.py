@@ -220,6 +220,8 @@ def evaluate_dataset(
     With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
     so the model's ratio can be read against what the data allow.
     """
+    if split not in set(Split):
+        raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
     loaded = load_model(model)
     _check_data_task(loaded, load_manifest(data).task)
     arrays = load_dataset(data, workers=workers, progress=progress)
@@ -392,6 +394,8 @@ def sweep(
     Each setting is a dataset folder under `out` (so an interrupted sweep resumes); the
     sweep seeds are the same in every setting, so settings differ only in what they fix.
     """
+    if n < 1:
+        raise DatasetError(f"a sweep needs at least 1 sequence per setting, not {n}")
     loaded = load_model(model)
     task = loaded.card.task
     if not speeds and not rotations:

@@ -338,3 +338,25 @@ def test_a_flipped_bit_is_an_error_never_silently_different_data(tmp_path: Path)
         np.testing.assert_array_equal(trial.twist.values, reference.twist.values)
         np.testing.assert_array_equal(trial.force_map.forces, reference.force_map.forces)
     assert errors >= 25  # the rest fell in padding, indexes or metadata strings
+
+
+def test_library_calls_with_a_bad_value_raise_the_dresslog_error_naming_it(
+    tmp_path: Path,
+) -> None:
+    """What the Python API gives a script with a typo: the error family, not a KeyError."""
+    from dresslog.convert import convert
+    from dresslog.errors import DresslogError
+    from dresslog.experiments import evaluate_dataset, sweep
+
+    model = SAMPLES / "models" / "gown"
+    with pytest.raises(DresslogError, match="split 'val' is not one of train, test, sweep"):
+        evaluate_dataset(model, tmp_path, split="val")
+    with pytest.raises(DresslogError, match="at least 1 sequence per setting, not 0"):
+        sweep(model, tmp_path / "sw", speeds=[0.2], n=0)
+    assert list(tmp_path.iterdir()) == []
+    csv = tmp_path / "ft.csv"
+    csv.write_text("time,fx,fy,fz,tx,ty,tz,vx,vy,vz\n" + "0,0,0,0,0,0,0,0,0,0\n" * 3)
+    with pytest.raises(DresslogError, match="time unit 'min' is not one of s, ms, us, ns"):
+        convert(csv, tmp_path / "t.mcap", "gown", time_unit="min")
+    with pytest.raises(TrialFormatError, match="has no channel /nope"), TrialReader(SAMPLE) as r:
+        r.messages("/nope")

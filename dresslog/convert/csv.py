@@ -308,6 +308,8 @@ def read_table(
     """Time (int64 ns) and one float column per recognised role; notes on what was assumed."""
     if not path.is_file():
         raise ConversionError("no such file", path=path)
+    if time_unit is not None and time_unit not in UNITS:
+        raise ConversionError(f"time unit {time_unit!r} is not one of {', '.join(UNITS)}")
     line, names, delimiter = _header(path)
     found, ignored = assign_columns(names, columns or {}, path)
     if "time" not in found:

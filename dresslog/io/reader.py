@@ -192,6 +192,8 @@ class TrialReader:
     def _channel(self, topic: str) -> _Raw:
         if self._raw is None:
             raise TrialFormatError("reader is not open", path=self.path)
+        if topic not in self._raw:
+            raise TrialFormatError(f"has no channel {topic}", path=self.path)
         return self._raw[topic]
 
     @property

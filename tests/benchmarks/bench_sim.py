@@ -1,6 +1,7 @@
 """Simulator speed: real-time factor per task and dresslog's own per-step work vs bare stepping.
 
-Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py`.
+Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py [--seeds N]`
+(N trials per task, 3 by default).
 Both figures come from one run per task: the simulator times its physics
 stepping and its own work (pybullet queries, contacts, force map, sensors, sink)
 separately; a second, bare run steps the same scene with no queries at all.
@@ -8,7 +9,7 @@ separately; a second, bare run steps the same scene with no queries at all.
 
 from __future__ import annotations
 
-import sys
+import argparse
 import tempfile
 import time
 from pathlib import Path
@@ -73,4 +74,6 @@ def main(seeds: int = 3) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, choices=range(1, 101), default=3, metavar="N")
+    main(parser.parse_args().seeds)
