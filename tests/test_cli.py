@@ -212,7 +212,7 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
         (["--duration", "1e9"], "invalid duration: Input should be less than or equal to 3600"),
         (["--duration", "0.004"], "invalid duration: at least two recorded steps, 0.02 s"),
         (["--offset", "nan", "0", "0"], "invalid limb_offset.0: Input should be a finite number"),
-        (["--offset", "1e16", "0", "0"], "invalid limb_offset: each component within +-1.0 m"),
+        (["--offset", "1e16", "0", "0"], "invalid limb_offset: each component within +-10.0 m"),
         (
             ["--rotation", "z", "999"],
             "invalid limb_rotation.degrees: Input should be less than or equal to 90",
