@@ -150,7 +150,7 @@ def test_record_live_with_a_display_that_does_not_open_says_so_and_writes_nothin
     args = ["record", "--task", "gown", "--duration", "0.2", "--live", "-o", str(out)]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1, result.output
-    assert "Error: the Rerun viewer did not start within 10 s (is DISPLAY=':97'" in result.output
+    assert "Error: the Rerun viewer did not start (is DISPLAY=':97'" in result.output
     assert "Traceback" not in result.output and list(tmp_path.iterdir()) == []
 
 
