@@ -42,6 +42,7 @@ from pydantic import ValidationError
 
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
 from dresslog.dataset.generate import check_executor
+from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, first_problem
 from dresslog.io.files import atomic_path, exclusive
@@ -55,6 +56,7 @@ from dresslog.model.files import (
     check_task,
     load_model,
 )
+from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.plots import plot_sweep, plot_training
 from dresslog.spec import Task, TrialSpec
 
@@ -361,8 +363,8 @@ def sweep_settings(
 def _dresslog_folder(folder: Path) -> str | None:
     """ "a dataset" or "a model" if `folder` is one of ours (another tool's manifest.json
     does not count), else None."""
-    for name, what, kind in ((MANIFEST_FILE, "a dataset", "dresslog-dataset"),
-                             (CARD_FILE, "a model", "dresslog-model")):  # fmt: skip
+    for name, what, kind in ((MANIFEST_FILE, "a dataset", DATASET_FORMAT),
+                             (CARD_FILE, "a model", MODEL_FORMAT)):  # fmt: skip
         try:
             if json.loads((folder / name).read_text(encoding="utf-8")).get("format") == kind:
                 return what
@@ -403,10 +405,11 @@ def sweep(
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     check_executor(executor)
     out = Path(out)
-    for folder in (out.resolve(), *out.resolve().parents):  # nor anywhere inside one
+    resolved = out.resolve()
+    for folder in (resolved, *resolved.parents):  # nor anywhere inside one
         what = _dresslog_folder(folder)
         if what is not None:
-            where = "is" if folder == out.resolve() else f"is inside {folder},"
+            where = "is" if folder == resolved else f"is inside {folder},"
             message = f"{where} {what} folder; give the sweep a folder of its own"
             raise DatasetError(message, path=out)
     out.mkdir(parents=True, exist_ok=True)

@@ -340,7 +340,7 @@ def read_table(
     elif given is None:
         _check_guessed_unit(t_ns, unit, time_name, path)
     values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
-    notes = [f"{path.name}: time column {names[found['time']]!r} read as {unit}"]
+    notes = [f"{path.name}: time column {time_name!r} read as {unit}"]
     scaled = []
     for role in values:
         unit_scale = _value_scale(names[found[role]], role, path)
