@@ -144,14 +144,19 @@ def robot_bag(tmp: Path, good: Path) -> Path:
     return path
 
 
-def no_metadata(tmp: Path, good: Path) -> Path:
-    path = tmp / "bare.mcap"
+def _with_steps(path: Path, extra: dict[str, tuple[str, list[bytes]]], metadata: bool) -> Path:
+    """Three zero wrench and twist steps and the `extra` channels, by mcap's own writer."""
     channels = {
         wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
         wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+        **extra,
     }
-    _raw_mcap(path, channels, False)
+    _raw_mcap(path, channels, metadata)
     return path
+
+
+def no_metadata(tmp: Path, good: Path) -> Path:
+    return _with_steps(tmp / "bare.mcap", {}, metadata=False)
 
 
 def _rewritten(tmp: Path, good: Path, name: str, **changes: np.ndarray) -> Path:
@@ -194,13 +199,7 @@ def _garment_with(tmp: Path, name: str, corners: list[int]) -> Path:
     garment = cdr.new_messages(schema, {**sizes, "triangles": len(corners)}, 1)
     cdr.set_stamp(garment, np.zeros(1, np.int64), wk.FRAMES[wk.GARMENT])
     garment["triangles"][0] = corners
-    channels = {
-        wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
-        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
-        wk.GARMENT: (schema, cdr.to_payloads(garment)),
-    }
-    _raw_mcap(path, channels, True)
-    return path
+    return _with_steps(path, {wk.GARMENT: (schema, cdr.to_payloads(garment))}, metadata=True)
 
 
 def triangle_past_the_vertices(tmp: Path, good: Path) -> Path:
@@ -228,13 +227,7 @@ def nan_force_map(tmp: Path, good: Path) -> Path:
     maps = cdr.new_messages(schema, {"header.frame_id": 4, "forces": 3, "contact": 0}, 3)
     cdr.set_stamp(maps, np.arange(3) * 10_000_000, "limb")
     maps["forces"][1, 2] = np.nan
-    channels = {
-        wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
-        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
-        wk.FORCE_MAP: (schema, cdr.to_payloads(maps)),
-    }
-    _raw_mcap(path, channels, True)
-    return path
+    return _with_steps(path, {wk.FORCE_MAP: (schema, cdr.to_payloads(maps))}, metadata=True)
 
 
 CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
