@@ -57,6 +57,7 @@ from dresslog.model.files import (
     load_model,
 )
 from dresslog.model.files import FORMAT as MODEL_FORMAT
+from dresslog.model.options import VAL_FRACTION, check_options, held_out
 from dresslog.plots import plot_sweep, plot_training
 from dresslog.spec import Task, TrialSpec
 
@@ -98,6 +99,11 @@ def train_dataset(
     if out.name in ("", ".."):  # `-o .` or `-o ..`: name the folder, for the files beside it
         out = out.resolve()
     check_model_folder(out, overwrite)  # say so now, not after hours of training
+    steps = [t.steps for t in load_manifest(data).trials if t.split is Split.TRAIN]
+    check_options(  # from the manifest: a bad option fails before minutes of decoding
+        steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
+        hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
+    )  # fmt: skip
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
     # a second run on the same output would share (and garble) the checkpoint
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):

@@ -338,6 +338,25 @@ def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) 
     assert code == 1 and "model folder exists; pass --overwrite" in output
 
 
+@pytest.mark.parametrize(
+    ("option", "problem"),
+    [
+        (["--keep-best"], "needs validation sequences"),  # 10% of 3 trials is none
+        (["--window", "150"], "the longest has 150"),  # 1.5 s at 100 Hz
+        (["--lr", "inf"], "learning rate must be a positive number"),
+    ],
+)
+def test_train_refuses_a_bad_option_before_loading_any_trial(
+    data: Path, tmp_path: Path, option: list[str], problem: str
+) -> None:
+    bare = tmp_path / "bare"  # the manifest alone: loading would fail on the first trial
+    bare.mkdir()
+    (bare / "manifest.json").write_bytes((data / "manifest.json").read_bytes())
+    code, output = invoke("train", bare, "-o", tmp_path / "m", *option)
+    assert code == 1 and problem in output and "Traceback" not in output, output
+    assert not (tmp_path / "m").exists()
+
+
 def test_train_overwrite_replaces_only_a_model_never_the_data(data: Path) -> None:
     before = sorted(p.relative_to(data) for p in data.rglob("*"))
     code, output = invoke("train", data, "-o", data, "--overwrite")

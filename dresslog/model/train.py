@@ -69,6 +69,7 @@ from dresslog.model.files import (
 from dresslog.model.inputs import network_inputs
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
+from dresslog.model.options import VAL_FRACTION, check_options, held_out
 from dresslog.model.postprocess import network_targets
 from dresslog.spec import Task
 
@@ -114,29 +115,6 @@ def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -
         if not (np.isfinite(phi).all() and np.isfinite(f).all()):
             raise ModelError(f"sequence {k} has NaN or infinite values")
     return n_points
-
-
-def _check_options(
-    phis: Sequence[np.ndarray],
-    val_phis: Sequence[np.ndarray],
-    window: int | None,
-    keep_best: bool,
-    val_fraction: float,
-) -> None:
-    """Refuse options the data make meaningless, rather than record them in the card."""
-    if keep_best and not val_phis:
-        raise ModelError(
-            "keeping the epoch of lowest validation loss needs validation sequences, "
-            f"and {val_fraction:g} of {len(phis)} sequences rounds to none: train on "
-            "more trials, or keep the last epoch"
-        )
-    longest = max(len(p) for p in phis)
-    if window is not None and window >= longest:
-        raise ModelError(
-            f"a crop window of {window} steps is not shorter than any training sequence "
-            f"(the longest has {longest}): every crop would be a whole sequence; "
-            f"give a window below {longest} or none"
-        )
 
 
 def _batch(
@@ -303,7 +281,7 @@ def train(
     layers: int = 3,
     seed: int = 0,
     window: int | None = None,
-    val_fraction: float = 0.1,
+    val_fraction: float = VAL_FRACTION,
     val: tuple[Sequence[np.ndarray], Sequence[np.ndarray]] | None = None,
     normalise: bool = False,
     balance_loss: bool = False,
@@ -318,10 +296,6 @@ def train(
 ) -> tuple[dict[str, np.ndarray], TrainHistory]:
     """Train a ForceMapLSTM; returns (float32 weights, history). See the module docstring."""
     n_points = _check_data(sequences, forces)
-    if epochs < 1 or batch_size < 1 or hidden < 1 or layers < 1:
-        raise ModelError("epochs, batch size, hidden size and layers must all be 1 or more")
-    if not (math.isfinite(lr) and lr > 0):
-        raise ModelError(f"the learning rate must be a positive number, not {lr}")
     phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in sequences]
     scale = balanced_force_scale(forces) if balance_loss else 1.0
     targets = [network_targets(f, scale) for f in forces]
@@ -331,12 +305,15 @@ def train(
         val_phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in val[0]]
         val_targets = [network_targets(f, scale) for f in val[1]]
     else:
-        n_val = min(round(val_fraction * len(phis)), len(phis) - 1)
+        n_val = held_out(len(phis), val_fraction)
         perm = rng.permutation(len(phis))
         held, kept = perm[:n_val], perm[n_val:]
         val_phis, val_targets = [phis[k] for k in held], [targets[k] for k in held]
         phis, targets = [phis[k] for k in kept], [targets[k] for k in kept]
-    _check_options(phis, val_phis, window, keep_best, val_fraction)
+    check_options(
+        [len(p) for p in phis], len(val_phis), epochs=epochs, batch_size=batch_size,
+        hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
+    )  # fmt: skip
 
     settings = Hyperparameters(
         epochs=epochs,

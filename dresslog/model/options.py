@@ -1,0 +1,52 @@
+"""Training options checked before any work: torch-free, so `train` can refuse at once."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from dresslog.errors import ModelError
+
+#: The share of training sequences held out for the per-epoch validation loss.
+VAL_FRACTION = 0.1
+
+
+def held_out(n_sequences: int, val_fraction: float) -> int:
+    """How many of `n_sequences` are held out to validate on (at least one is trained on)."""
+    return min(round(val_fraction * n_sequences), n_sequences - 1)
+
+
+def check_options(
+    lengths: Sequence[int],
+    n_val: int,
+    *,
+    epochs: int,
+    batch_size: int,
+    hidden: int,
+    layers: int,
+    lr: float,
+    window: int | None,
+    keep_best: bool,
+) -> None:
+    """Refuse settings that cannot train, or that the data make meaningless.
+
+    `lengths`: the training sequences' step counts; `n_val`: how many validate. Cheap,
+    so `train_dataset` runs it from the manifest before loading any trial.
+    """
+    if epochs < 1 or batch_size < 1 or hidden < 1 or layers < 1:
+        raise ModelError("epochs, batch size, hidden size and layers must all be 1 or more")
+    if not (math.isfinite(lr) and lr > 0):
+        raise ModelError(f"the learning rate must be a positive number, not {lr}")
+    if keep_best and not n_val:
+        raise ModelError(
+            "keeping the epoch of lowest validation loss needs validation sequences, "
+            f"and none of the {len(lengths)} training sequences is held out: train on "
+            "more trials, or keep the last epoch"
+        )
+    longest = max(lengths, default=0)
+    if window is not None and window >= longest:
+        raise ModelError(
+            f"a crop window of {window} steps is not shorter than any training sequence "
+            f"(the longest has {longest}): every crop would be a whole sequence; "
+            f"give a window below {longest} or none"
+        )
