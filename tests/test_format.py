@@ -383,3 +383,11 @@ def test_the_writer_refuses_what_its_reader_would_refuse_and_writes_nothing(
     with pytest.raises(TrialWriteError, match=message), TrialWriter(path, META) as writer:
         write(writer)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_writer_refuses_metadata_that_is_not_a_trial_metadata_before_writing(
+    tmp_path: Path,
+) -> None:
+    with pytest.raises(TrialWriteError, match="metadata must be a TrialMetadata, not dict"):
+        TrialWriter(tmp_path / "t.mcap", {"task": "gown"})  # type: ignore[arg-type]
+    assert list(tmp_path.iterdir()) == []

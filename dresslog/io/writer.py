@@ -50,6 +50,10 @@ class TrialWriter:
         self, path: str | Path, metadata: TrialMetadata, *, overwrite: bool = False
     ) -> None:
         self.path = Path(path)
+        if not isinstance(metadata, TrialMetadata):  # else it would fail only at close
+            raise TrialWriteError(
+                f"metadata must be a TrialMetadata, not {type(metadata).__name__}", path=path
+            )
         self.metadata = metadata
         self.overwrite = overwrite
         self._tmp = temporary_path(self.path)
