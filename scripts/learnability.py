@@ -46,6 +46,8 @@ def main() -> None:
     parser.add_argument("-o", "--out", type=Path, default=Path("docs/learnability.png"))
     args = parser.parse_args()
     models = dict(m.split("=", 1) for m in args.model)
+    if not set(models) <= set(PAPER_RATIO) or not all(models.values()):
+        parser.error(f"--model takes TASK=MODEL_FOLDER, TASK one of {', '.join(PAPER_RATIO)}")
 
     import matplotlib
 
@@ -55,8 +57,10 @@ def main() -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    unused = dict(models)
     for data in args.data:
         task, ratios, model_ratio = ratios_for(data, models)
+        unused.pop(task, None)
         if not ratios:
             print(f"{data}: no force anywhere in the test split, nothing to bound")
             continue
@@ -69,6 +73,8 @@ def main() -> None:
         if model_ratio is not None:
             print(f"{task:7s} {'model ' + models[task]:22s} {model_ratio:.3f}")
             ax.axhline(model_ratio, color=colour, ls="--", label=f"{task}: our LSTM")
+    for task, model in unused.items():
+        print(f"--model {task}={model} not scored: no {task} dataset was given")
     ax.set_xlabel("sigma of the misplacement along the limb (cm)")
     ax.set_ylabel("RMSE / all-zero RMSE")
     ax.set_ylim(0, 1.05)
