@@ -50,7 +50,7 @@ from .common import reports_errors
 def train(data: str, out: str, quiet: bool, **options: Any) -> None:
     """Train a force-map LSTM on DATA's training split; score it on the test split."""
     from dresslog.experiments import TRAINING_PLOT, train_dataset
-    from dresslog.model.train import EpochRecord
+    from dresslog.model.files import EpochRecord
 
     def report(epoch: EpochRecord) -> None:
         val = "n/a" if epoch.val_loss is None else f"{epoch.val_loss:.4g}"

@@ -35,7 +35,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import ValidationError
@@ -50,6 +50,7 @@ from dresslog.model.evaluate import Scores, evaluate
 from dresslog.model.files import (
     CARD_FILE,
     DataProvenance,
+    EpochRecord,
     LoadedModel,
     ModelCard,
     check_model_folder,
@@ -60,9 +61,6 @@ from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.model.options import VAL_FRACTION, check_options, held_out
 from dresslog.plots import plot_sweep, plot_training
 from dresslog.spec import Task, TrialSpec
-
-if TYPE_CHECKING:  # training needs torch, imported only when a model is trained
-    from dresslog.model.train import EpochRecord
 
 #: The learning curve `train_dataset` draws into the model folder.
 TRAINING_PLOT = "training.png"
