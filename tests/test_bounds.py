@@ -7,6 +7,7 @@ from itertools import pairwise
 import numpy as np
 import pytest
 
+from dresslog.errors import ModelError
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.bounds import error_split, oracle_ratios
 
@@ -48,7 +49,7 @@ def test_flicker_is_zero_for_a_steady_map_and_large_for_one_that_blinks() -> Non
 
 
 def test_no_force_anywhere_is_refused() -> None:
-    with pytest.raises(ValueError, match="nothing to place"):
+    with pytest.raises(ModelError, match="nothing to place"):
         oracle_ratios([np.zeros((5, len(POINTS)))], POINTS)
 
 

@@ -432,6 +432,19 @@ def test_a_model_refuses_a_trial_of_the_other_task(saved: Path, make_trial):
         check_task(model, Task.GOWN, n_points=300)
 
 
+@pytest.mark.parametrize(
+    ("weights", "problem"),
+    [({}, "not force-map LSTM weights"), ("no input_std", "weight input_std: expected shape")],
+)
+def test_the_estimator_refuses_weights_that_are_not_a_force_map_lstm(
+    trained, weights: object, problem: str
+):
+    if weights == "no input_std":
+        weights = {k: v for k, v in trained[0].items() if k != "input_std"}
+    with pytest.raises(ModelError, match=problem):
+        NumpyEstimator(weights)  # type: ignore[arg-type]
+
+
 def test_a_card_needs_its_task():
     with pytest.raises(ValueError, match="task"):
         ModelCard(n_points=3)  # type: ignore[call-arg]

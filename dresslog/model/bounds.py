@@ -29,6 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from dresslog.errors import ModelError
 from dresslog.model.postprocess import rmse, sequence_rmse, zero_baseline_rmse
 
 SIGMAS_CM = (0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
@@ -67,7 +68,7 @@ def oracle_ratios(
     truths = [np.asarray(t, np.float64) for t in truths]
     zero = zero_baseline_rmse(truths)
     if not zero:
-        raise ValueError("every force map is zero: there is nothing to place")
+        raise ModelError("every force map is zero: there is nothing to place")
     dist = np.linalg.norm(points[:, None] - points[None], axis=-1)
     out: dict[str, float] = {}
     for sigma in sigmas_cm:

@@ -63,7 +63,7 @@ def infer_sizes(weights: Mapping[str, np.ndarray]) -> tuple[int, int, int, int]:
         four_h, input_dim = weights["lstm.weight_ih_l0"].shape
         n_points = weights["head.weight"].shape[0] // 2
     except (KeyError, ValueError) as err:
-        raise ValueError(f"not force-map LSTM weights: {err}") from None
+        raise ModelError(f"not force-map LSTM weights: {err}") from None
     layers = sum(1 for k in weights if k.startswith("lstm.weight_ih_l"))
     return n_points, four_h // 4, layers, input_dim
 
@@ -93,7 +93,7 @@ class NumpyEstimator:
         for name, shape in expected.items():
             if name not in weights or tuple(weights[name].shape) != shape:
                 got = tuple(weights[name].shape) if name in weights else "missing"
-                raise ValueError(f"weight {name}: expected shape {shape}, got {got}")
+                raise ModelError(f"weight {name}: expected shape {shape}, got {got}")
         h = self.hidden
         self.mean = np.asarray(weights["input_mean"], F32).copy()
         self.std = np.asarray(weights["input_std"], F32).copy()
