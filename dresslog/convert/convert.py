@@ -188,7 +188,7 @@ def _gap_warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[st
 
 def _resampling(t_ns: np.ndarray) -> str:
     """How `rs.resample` brings a stream with these times onto the grid."""
-    if rs.median_rate(t_ns) > rs.AVERAGE_ABOVE_HZ:
+    if rs.averages(t_ns):
         return "mean over 10 ms bins"
     return "linear interpolation"
 
@@ -254,7 +254,7 @@ def convert(
     )
     for stream in source.streams:
         check_stream(stream, path)
-    averaged = rs.median_rate(source.wrench.t_ns) > rs.AVERAGE_ABOVE_HZ
+    averaged = rs.averages(source.wrench.t_ns)
     grid = common_grid(source, averaged)
 
     found = _warnings(source, grid, max_gap_s)

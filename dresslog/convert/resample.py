@@ -78,9 +78,14 @@ def bin_average(
     return np.stack([np.interp(g, mean_t, means[:, d]) for d in range(means.shape[1])], axis=1)
 
 
+def averages(t_ns: np.ndarray) -> bool:
+    """Whether `resample` bin-averages a stream with these times (else it interpolates)."""
+    return median_rate(t_ns) > AVERAGE_ABOVE_HZ
+
+
 def resample(t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray) -> np.ndarray:
     """Bin-average a stream faster than the grid, interpolate anything slower."""
-    if median_rate(t_ns) > AVERAGE_ABOVE_HZ:
+    if averages(t_ns):
         return bin_average(t_ns, values, grid_ns)
     return interpolate(t_ns, values, grid_ns)
 
