@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import warnings
-
 import click
 
 from .common import reports_errors
@@ -33,10 +31,6 @@ def convert(source: str, output: str, columns: tuple[str, ...], **options: objec
     if bad := [c for c in columns if "=" not in c]:
         raise click.BadParameter(f"{bad[0]!r} is not ROLE=HEADER", param_hint="'--column'")
     mapping = dict(c.split("=", 1) for c in columns)
-    with warnings.catch_warnings():  # warnings come back in the report, printed below
-        warnings.simplefilter("ignore")
-        report = run(source, output, columns=mapping, **options)  # type: ignore[arg-type]
-    for message in report.warnings:
-        click.echo(f"Warning: {message}", err=True)
+    report = run(source, output, columns=mapping, **options)  # type: ignore[arg-type]
     click.echo(f"{output}: {report.steps} steps ({report.duration_s:.2f} s at 100 Hz) "
                f"from {report.messages_in} messages in {report.elapsed_s:.2f} s")  # fmt: skip

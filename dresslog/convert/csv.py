@@ -188,7 +188,9 @@ def assign_columns(
     found: dict[str, int] = {}
     for role, name in columns.items():
         if role not in ROLES:
-            raise ConversionError(f"unknown column role {role!r}; roles: {', '.join(ROLES)}")
+            raise ConversionError(
+                f"unknown column role {role!r}; roles: {', '.join(ROLES)}", path=path
+            )
         if name in names:  # a mapping may name a column of the other file
             found[role] = names.index(name)
     taken = set(found.values())
