@@ -14,7 +14,7 @@ from dresslog.limb import Limb, limb_sdf, surface_points
 
 
 class ForceDistributor:
-    """`distribute` onto fixed limb points (N, 3), with their squared norms computed once."""
+    """Shares contacts among the k nearest of fixed limb points (N, 3), norms computed once."""
 
     def __init__(self, limb_points: np.ndarray, k: int = 5) -> None:
         self.limb_points = limb_points
@@ -170,10 +170,3 @@ class ClothSpreader:
         keep = f > 0
         surface, _ = surface_points(limb, pos[keep], depth[keep])
         return at[keep], surface, f[keep]
-
-
-def distribute(
-    positions: np.ndarray, magnitudes: np.ndarray, limb_points: np.ndarray, k: int = 5
-) -> np.ndarray:
-    """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
-    return ForceDistributor(limb_points, k)(positions, magnitudes)

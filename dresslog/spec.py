@@ -26,10 +26,6 @@ class Task(StrEnum):
     GOWN = "gown"
     SHORTS = "shorts"
 
-    @property
-    def limb(self) -> str:
-        return "arm" if self is Task.GOWN else "leg"
-
 
 class Outcome(StrEnum):
     """How a trial ended, decided from where the garment ends up on the limb."""

@@ -26,11 +26,6 @@ CONTACT_DTYPE = np.dtype(
 )
 
 
-def empty_contacts(n: int = 0) -> np.ndarray:
-    """A zeroed contact array of length `n`."""
-    return np.zeros(n, dtype=CONTACT_DTYPE)
-
-
 def contact_magnitudes(contacts: np.ndarray) -> np.ndarray:
     """Total force magnitude of each contact: |normal force + friction|."""
     normal = contacts["normal_force"][:, None] * contacts["normal"]

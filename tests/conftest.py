@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from dresslog.io.writer import TrialWriter
+from dresslog.limb import build_limb
 from dresslog.spec import Outcome, Task, TrialMetadata, TrialSpec
-from dresslog.trial import LimbPoints, empty_contacts
+from dresslog.trial import CONTACT_DTYPE, LimbPoints
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "samples"
@@ -29,7 +30,7 @@ def write_synthetic_trial(path: Path, task: Task = Task.GOWN, steps: int = 50) -
     forces = np.where(rng.random((steps, n)) < 0.1, rng.random((steps, n)), 0).astype(np.float32)
     contacts = []
     for i in range(steps):
-        c = empty_contacts(i % 4)
+        c = np.zeros(i % 4, CONTACT_DTYPE)
         c["position"] = rng.normal(size=(len(c), 3))
         c["normal"] = [0, 0, 1]
         c["friction"] = rng.normal(size=(len(c), 3))
@@ -38,7 +39,10 @@ def write_synthetic_trial(path: Path, task: Task = Task.GOWN, steps: int = 50) -
         c["vertex"] = np.arange(len(c))
         contacts.append(c)
     limb = LimbPoints(
-        task.limb, rng.normal(size=(n, 3)), (np.arange(n) % 3).astype(np.uint32), ("a", "bb", "ccc")
+        build_limb(task).name,
+        rng.normal(size=(n, 3)),
+        (np.arange(n) % 3).astype(np.uint32),
+        ("a", "bb", "ccc"),
     )
     vertices = rng.normal(size=(6, 3)).astype(np.float32)
     triangles = np.array([[0, 1, 2], [3, 4, 5]])

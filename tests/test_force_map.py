@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dresslog.force_map import ClothSpreader, ForceDistributor, distribute
+from dresslog.force_map import ClothSpreader, ForceDistributor
 from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, surface_points
 from dresslog.model.postprocess import contact_targets
 from dresslog.sim.garments import garment_for
@@ -29,7 +29,7 @@ def test_matches_a_loop_over_contacts() -> None:
     pos = rng.normal(size=(40, 3))
     mag = rng.uniform(0, 2, size=40)
     np.testing.assert_allclose(
-        distribute(pos, mag, points), _reference(pos, mag, points), rtol=1e-5
+        ForceDistributor(points)(pos, mag), _reference(pos, mag, points), rtol=1e-5
     )
 
 
@@ -38,22 +38,22 @@ def test_each_contact_is_shared_whole() -> None:
     points = rng.normal(size=(400, 3))
     pos = rng.normal(size=(25, 3))
     mag = rng.uniform(0, 3, size=25)
-    fm = distribute(pos, mag, points)
+    fm = ForceDistributor(points)(pos, mag)
     assert fm.dtype == np.float32 and fm.shape == (400,)
     assert fm.sum() == pytest.approx(mag.sum(), rel=1e-5)
-    assert np.count_nonzero(distribute(pos[:1], mag[:1], points)) == 5
+    assert np.count_nonzero(ForceDistributor(points)(pos[:1], mag[:1])) == 5
 
 
 def test_nearer_points_get_more() -> None:
     points = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0], [4, 0, 0], [9, 0, 0]])
-    fm = distribute(np.array([[0.1, 0, 0]]), np.array([1.0]), points)
+    fm = ForceDistributor(points)(np.array([[0.1, 0, 0]]), np.array([1.0]))
     assert np.all(np.diff(fm[:5]) < 0) and fm[5] == 0
 
 
 def test_no_contacts_give_zeros_and_a_contact_on_a_point_is_safe() -> None:
     points = np.eye(3)
-    assert not distribute(np.zeros((0, 3)), np.zeros(0), points).any()
-    fm = distribute(points[:1], np.array([2.0]), points, k=1)
+    assert not ForceDistributor(points)(np.zeros((0, 3)), np.zeros(0)).any()
+    fm = ForceDistributor(points, 1)(points[:1], np.array([2.0]))
     assert fm[0] == pytest.approx(2.0)
 
 

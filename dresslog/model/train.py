@@ -38,7 +38,7 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
 
 ``TrainHistory``: ``settings``, ``epochs`` (list of ``EpochRecord(epoch, train_loss,
     val_loss, seconds)``, the card's ``history``), ``n_train``, ``n_val``,
-    ``final_val_loss``, ``kept`` (the record of the epoch whose
+    ``kept`` (the record of the epoch whose
     weights were returned).
 """
 
@@ -84,10 +84,6 @@ class TrainHistory:
     n_train: int
     n_val: int
     epochs: list[EpochRecord] = field(default_factory=list)
-
-    @property
-    def final_val_loss(self) -> float | None:
-        return self.epochs[-1].val_loss if self.epochs else None
 
     @property
     def kept(self) -> EpochRecord | None:
