@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import click
 
+from dresslog.spec import Task
+
 from .common import reports_errors
 
 
 @click.command("convert")
 @click.argument("source", type=click.Path(path_type=str))
 @click.option("-o", "--output", required=True, type=click.Path(path_type=str), help="Trial file.")
-@click.option("--task", required=True, type=click.Choice(["gown", "shorts"]))
+@click.option("--task", required=True, type=click.Choice([t.value for t in Task]))
 @click.option("--wrench-topic", help="WrenchStamped topic, when the bag has several.")
 @click.option("--twist-topic", help="TwistStamped topic for the velocity.")
 @click.option("--pose-topic", help="PoseStamped topic (velocity by differentiation if no twist).")

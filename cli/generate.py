@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from dresslog.spec import Task
+
 from .common import reports_errors
 
 #: A million trials is months of simulation on a cluster; more is a typo (whose job
@@ -12,7 +14,7 @@ MAX_TRIALS = 1_000_000
 
 
 @click.command("generate")
-@click.option("--task", type=click.Choice(["gown", "shorts"]), required=True)
+@click.option("--task", type=click.Choice([t.value for t in Task]), required=True)
 @click.option("--trials", type=click.IntRange(1, MAX_TRIALS), required=True, help="Train + test.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), required=True)
 @click.option("--workers", type=click.IntRange(min=1), help="Parallel trials [all cores].")
