@@ -129,7 +129,9 @@ def test_record_live_without_a_display_says_so_and_writes_nothing(
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1
     assert (
-        result.output.startswith("Error: --live needs a display") and "view --web" in result.output
+        result.output.startswith("Error: the Rerun viewer needs a display")
+        and "--connect" in result.output
+        and "view --web" in result.output
     )
     assert list(tmp_path.iterdir()) == []
 

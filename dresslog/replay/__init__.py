@@ -15,11 +15,12 @@ from dresslog.replay.engine import (
     trial_context,
     trial_steps,
 )
-from dresslog.replay.live import SimulationSource, live_source, live_viewer
+from dresslog.replay.live import SimulationSource, live_source
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.replay.pipeline import InferenceReport, bundled_model, replay_file
 from dresslog.replay.rerun_sink import RerunSink
+from dresslog.replay.viewer import live_viewer
 
 __all__ = [
     "Estimator",

@@ -9,19 +9,13 @@ through the same code as `dresslog infer`. Only `record_live` imports the simula
 
 from __future__ import annotations
 
-import os
-import socket
-import sys
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Self
-from urllib.parse import urlsplit
 
 import numpy as np
 
-from dresslog.errors import DresslogError
 from dresslog.replay.engine import Estimator, Replay, Sink, Step, TrialContext, check_points
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.spec import TrialMetadata, TrialSpec
@@ -90,76 +84,6 @@ class SimulationSource:
             self.abort()
 
 
-#: Where `rr.spawn` starts a viewer, and how much longer than `rr.spawn` itself waits
-#: (about 10 s) it may take to listen there.
-SPAWNED_URL = "rerun+http://127.0.0.1:9876/proxy"
-SPAWN_GRACE_S = 2.0
-
-
-def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
-    """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
-    if connect is not None:
-        check_reachable(connect)
-    elif not has_display():
-        # a viewer spawned here dies at once, and the stream to it then never lets go
-        raise DresslogError(
-            "--live needs a display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY "
-            "is set); stream to a viewer elsewhere with --connect, or record without --live "
-            "and open the file with `dresslog view --web`"
-        )
-    import rerun as rr
-
-    from dresslog.replay.blueprint import default_blueprint
-    from dresslog.replay.rerun_sink import APPLICATION_ID
-
-    rec = rr.RecordingStream(APPLICATION_ID)
-    if connect is not None:
-        rec.connect_grpc(connect, default_blueprint=default_blueprint())
-        return rec
-    rec.spawn(default_blueprint=default_blueprint())
-    deadline = time.monotonic() + SPAWN_GRACE_S
-    while True:  # a viewer that cannot open its window exits; the stream would hang on it
-        try:
-            check_reachable(SPAWNED_URL, timeout=0.5)
-            return rec
-        except DresslogError:
-            if time.monotonic() > deadline:
-                rec.disconnect()
-                raise DresslogError(
-                    "the Rerun viewer did not start (is DISPLAY="
-                    f"{os.environ.get('DISPLAY', '')!r} a display you can open?); stream to a "
-                    "viewer elsewhere with --connect, or record without --live"
-                ) from None
-            time.sleep(0.2)
-
-
-def check_reachable(url: str, timeout: float = 2.0) -> None:
-    """Fail in one line if no viewer listens at a `rerun+http://HOST:PORT/proxy` URL.
-
-    Rerun itself would block for seconds on every call and then raise from a flush.
-    """
-    parts = urlsplit(url.removeprefix("rerun+"))
-    try:
-        port = parts.port or 9876  # raises for a port that is not a number in 0-65535
-    except ValueError:
-        port = None
-    if parts.scheme not in ("http", "https") or not parts.hostname or port is None:
-        raise DresslogError(f"{url!r} is not a Rerun address; give rerun+http://HOST:9876/proxy")
-    try:
-        socket.create_connection((parts.hostname, port), timeout=timeout).close()
-    except OSError as err:
-        raise DresslogError(
-            f"no Rerun viewer answers at {url} ({err.strerror or err}); start one there "
-            "(`rerun` listens on port 9876) or correct the address"
-        ) from None
-
-
-def has_display() -> bool:
-    """Whether a native viewer can open: on Linux it needs an X11 or Wayland display."""
-    names = ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET")
-    return not sys.platform.startswith("linux") or any(os.environ.get(n) for n in names)
-
-
 def live_source(
     model: str | Path | None,
     task: str,
@@ -174,6 +98,7 @@ def live_source(
     """
     from dresslog.replay.pipeline import resolve_model
     from dresslog.replay.rerun_sink import RerunSink
+    from dresslog.replay.viewer import live_viewer
     from dresslog.spec import Task
 
     loaded = resolve_model(model, Task(task), None, required=False)

@@ -18,18 +18,98 @@ import tempfile
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from urllib.parse import quote
+from typing import TYPE_CHECKING
+from urllib.parse import quote, urlsplit
 
 from dresslog.errors import DresslogError, TrialWriteError
 from dresslog.io.files import atomic_path, check_output
 from dresslog.io.reader import RRD_MAGIC
-from dresslog.replay.live import has_display
 from dresslog.replay.pipeline import InferenceReport, replay_file
+
+if TYPE_CHECKING:
+    import rerun as rr
 
 #: How long a viewer may take to stop on SIGTERM before it is killed.
 VIEWER_STOP_S = 5.0
 #: How often waiting for the viewer returns to Python, where Ctrl-C is noticed.
 POLL_S = 0.2
+
+
+#: Where `rr.spawn` starts a viewer, and how much longer than `rr.spawn` itself waits
+#: (about 10 s) it may take to listen there.
+SPAWNED_URL = "rerun+http://127.0.0.1:9876/proxy"
+SPAWN_GRACE_S = 2.0
+
+
+def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
+    """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
+    if connect is not None:
+        check_reachable(connect)
+    elif not has_display():
+        # a viewer spawned here dies at once, and the stream to it then never lets go
+        raise no_display(
+            "stream to a viewer elsewhere with --connect, or record without --live "
+            "and open the file with `dresslog view --web`"
+        )
+    import rerun as rr
+
+    from dresslog.replay.blueprint import default_blueprint
+    from dresslog.replay.rerun_sink import APPLICATION_ID
+
+    rec = rr.RecordingStream(APPLICATION_ID)
+    if connect is not None:
+        rec.connect_grpc(connect, default_blueprint=default_blueprint())
+        return rec
+    rec.spawn(default_blueprint=default_blueprint())
+    deadline = time.monotonic() + SPAWN_GRACE_S
+    while True:  # a viewer that cannot open its window exits; the stream would hang on it
+        try:
+            check_reachable(SPAWNED_URL, timeout=0.5)
+            return rec
+        except DresslogError:
+            if time.monotonic() > deadline:
+                rec.disconnect()
+                raise DresslogError(
+                    "the Rerun viewer did not start (is DISPLAY="
+                    f"{os.environ.get('DISPLAY', '')!r} a display you can open?); stream to a "
+                    "viewer elsewhere with --connect, or record without --live"
+                ) from None
+            time.sleep(0.2)
+
+
+def check_reachable(url: str, timeout: float = 2.0) -> None:
+    """Fail in one line if no viewer listens at a `rerun+http://HOST:PORT/proxy` URL.
+
+    Rerun itself would block for seconds on every call and then raise from a flush.
+    """
+    parts = urlsplit(url.removeprefix("rerun+"))
+    try:
+        port = parts.port or 9876  # raises for a port that is not a number in 0-65535
+    except ValueError:
+        port = None
+    if parts.scheme not in ("http", "https") or not parts.hostname or port is None:
+        raise DresslogError(f"{url!r} is not a Rerun address; give rerun+http://HOST:9876/proxy")
+    try:
+        socket.create_connection((parts.hostname, port), timeout=timeout).close()
+    except OSError as err:
+        raise DresslogError(
+            f"no Rerun viewer answers at {url} ({err.strerror or err}); start one there "
+            "(`rerun` listens on port 9876) or correct the address"
+        ) from None
+
+
+def has_display() -> bool:
+    """Whether a native viewer can open: on Linux it needs an X11 or Wayland display."""
+    names = ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET")
+    return not sys.platform.startswith("linux") or any(os.environ.get(n) for n in names)
+
+
+def no_display(instead: str, path: Path | None = None) -> DresslogError:
+    """The error for a native viewer asked for where none can open."""
+    return DresslogError(
+        f"the Rerun viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY is set); {instead}",
+        path=path,
+    )
 
 
 def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = None) -> str:
@@ -221,10 +301,8 @@ def view_file(
     if web_port is not None and _free_port(web_port) != web_port:
         raise DresslogError(f"port {web_port} is in use; pass another --port or leave it out")
     if not web and not has_display():  # checked before inferring, not after
-        raise DresslogError(
-            "the Rerun viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY is set); "
-            "serve it to a browser with --web, or write the recording with --save OUT.rrd",
-            path=path,
+        raise no_display(
+            "serve it to a browser with --web, or write the recording with --save OUT.rrd", path
         )
     with tempfile.TemporaryDirectory(prefix="dresslog-view-") as tmp:
         rrd = path
