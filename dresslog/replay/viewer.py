@@ -2,7 +2,8 @@
 
 An MCAP is first replayed into an .rrd (with the model when one is available,
 otherwise ground truth alone), so the viewer always opens a complete file with
-its default blueprint; the viewer itself is Rerun's own executable.
+its default blueprint; the viewer itself is Rerun's own executable. `live_viewer`
+gives `record --live` its stream: to a viewer spawned here or one already running.
 """
 
 from __future__ import annotations
