@@ -189,6 +189,18 @@ def test_mcap_ros2_decodes_identical_values(make_trial) -> None:
     assert contacts == [c["normal_force"].tolist() for c in sent["contacts"]]
 
 
+def test_the_file_says_its_qos_policies_are_integers_as_humbles_recorder_does(make_trial) -> None:
+    """rosbag2 from Jazzy on reads QoS policies as names, and integers as `unknown`, unless
+    a `rosbag2` metadata record without `serialized_metadata` marks the file (version 8)."""
+    from mcap.reader import make_reader
+
+    path, _ = make_trial(Task.GOWN)
+    with path.open("rb") as stream:
+        records = {m.name: m.metadata for m in make_reader(stream).iter_metadata()}
+    assert records["rosbag2"] == {"ROS_DISTRO": "humble"}
+    assert "reliability: 1\n" in wk.STREAM_QOS  # rmw's RELIABLE, as an integer
+
+
 def test_rosbags_anyreader_decodes_identical_values(make_trial) -> None:
     from rosbags.highlevel import AnyReader
     from rosbags.interfaces import QosDurability, QosReliability

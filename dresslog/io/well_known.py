@@ -43,7 +43,9 @@ FRAMES: dict[str, str] = {
 
 #: rosbag2's `offered_qos_profiles` for a stream: reliable, volatile, keep the last 10. The
 #: MCAP ros2 profile requires it on every channel; `ros2 bag play` publishes with it. Policies
-#: are rmw's enum integers (every ROS 2 release reads them); durations 0 mean "the default".
+#: are rmw's enum integers, as up to Humble; durations 0 mean "the default". rosbag2 from Jazzy
+#: on reads policies as names unless the file has a `rosbag2` metadata record without
+#: `serialized_metadata`, which marks it as written the Humble way: `ROSBAG2_METADATA`.
 _QOS = """\
 - history: 1
   depth: {depth}
@@ -65,6 +67,8 @@ STREAM_QOS = _QOS.format(depth=10, durability=2)
 #: Written once: latched (transient local, keep the last 1), so a late subscriber still gets it.
 LATCHED_QOS = _QOS.format(depth=1, durability=1)
 QOS: dict[str, str] = dict.fromkeys(SCHEMAS, STREAM_QOS) | {LIMB_POINTS: LATCHED_QOS}
+#: The metadata record Humble's recorder writes (name, contents); see `_QOS`.
+ROSBAG2_METADATA = ("rosbag2", {"ROS_DISTRO": "humble"})
 
 #: Channels without which a file is not a trial the model can run on.
 REQUIRED = (WRENCH, TWIST)

@@ -73,6 +73,7 @@ class TrialWriter:
         self._stream = self._tmp.open("wb")
         self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._writer.start(profile=wk.PROFILE, library=f"{wk.LIBRARY} {__version__}")
+        self._writer.add_metadata(*wk.ROSBAG2_METADATA)  # how rosbag2 reads our QoS
         return self
 
     def close(self) -> None:
