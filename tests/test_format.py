@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dresslog.errors import TrialWriteError
-from dresslog.io import cdr
+from dresslog.io import cdr, msgdefs
 from dresslog.io import well_known as wk
 from dresslog.io.files import temporary_path
 from dresslog.io.msgdefs import schema_text
@@ -403,3 +403,17 @@ def test_the_writer_refuses_metadata_that_is_not_a_trial_metadata_before_writing
     with pytest.raises(TrialWriteError, match="metadata must be a TrialMetadata, not dict"):
         TrialWriter(tmp_path / "t.mcap", {"task": "gown"})  # type: ignore[arg-type]
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "name", sorted({n for n in map(str, wk.SCHEMAS.values()) if not n.startswith("dresslog_msgs")})
+)
+def test_standard_schemas_are_ros2s_own_with_their_defaults(name: str) -> None:
+    """ROS 2 tools read our standard messages as theirs: same fields, same default values."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    humble = get_typestore(Stores.ROS2_HUMBLE)
+    for type_name in [name, *msgdefs.dependencies(name)]:
+        ours = get_types_from_msg(msgdefs.msg_text(type_name), type_name)[type_name]
+        assert ours == humble.fielddefs[type_name], type_name
+    assert "float64 w 1" in msgdefs.msg_text("geometry_msgs/msg/Quaternion")  # identity
