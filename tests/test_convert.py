@@ -13,7 +13,7 @@ from dresslog.cli.main import main
 from dresslog.convert import ConversionWarning, convert
 from dresslog.errors import ConversionError
 from dresslog.io import well_known as wk
-from dresslog.io.reader import TrialReader
+from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.summary import format_summary, summarize
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
@@ -227,13 +227,35 @@ def test_a_topic_of_the_wrong_type_is_refused(tmp_path: Path) -> None:
     bad(tmp_path, standard_topics(1.0), "is std_msgs/msg/String", wrench_topic="/rosout_text")
 
 
-def test_timestamps_going_backwards_are_refused(tmp_path: Path) -> None:
+def test_messages_out_of_order_or_logged_twice_are_sorted_and_dropped_with_a_warning(
+    tmp_path: Path,
+) -> None:
+    """A transport's reordering and a message logged twice give the trial of the clean log."""
+    topics = standard_topics(1.0)
+    clean = convert(make_bag(tmp_path / "clean", topics, "mcap"), tmp_path / "clean.mcap", "gown")
+    kind, stamps, values = topics["/ft_sensor/wrench"]
+    order = np.arange(len(stamps))
+    order[[500, 501]], order[[700, 702]] = order[[501, 500]], order[[702, 700]]
+    order = np.insert(order, 300, 299)  # message 299 twice
+    topics["/ft_sensor/wrench"] = (kind, stamps[order], values[order])
+    bag = make_bag(tmp_path / "messy", topics, "mcap")
+    with pytest.warns(ConversionWarning, match=r"of 1001 samples, 4 out of time order, sorted "
+                      r"and 1 repeated, dropped"):  # fmt: skip
+        report = convert(bag, tmp_path / "messy.mcap", "gown")
+    assert report.warnings[0].startswith("/ft_sensor/wrench: of 1001 samples")
+    got, want = read_trial(tmp_path / "messy.mcap"), read_trial(tmp_path / "clean.mcap")
+    np.testing.assert_array_equal(got.wrench.values, want.wrench.values)
+    assert clean.steps == report.steps
+
+
+def test_a_stamp_repeated_with_other_values_is_refused(tmp_path: Path) -> None:
     topics = standard_topics(1.0)
     kind, stamps, values = topics["/ft_sensor/wrench"]
     stamps = stamps.copy()
-    stamps[500], stamps[501] = stamps[501], stamps[500]
+    stamps[501] = stamps[500]  # a driver stamping a batch of two with one time
     topics["/ft_sensor/wrench"] = (kind, stamps, values)
-    bad(tmp_path, topics, "timestamps not increasing at sample 501", layout="mcap")
+    bad(tmp_path, topics, "not increasing at sample 501.*a stamp repeats with other values",
+        layout="mcap")  # fmt: skip
 
 
 def test_a_gap_longer_than_100_ms_is_named_in_a_warning(tmp_path: Path) -> None:

@@ -91,6 +91,28 @@ def load(
     return read_bag(path, wrench_topic=wrench_topic, twist_topic=twist_topic, pose_topic=pose_topic)
 
 
+def put_in_time_order(stream: SourceStream) -> str | None:
+    """Sort samples a log holds out of time order and drop exact repeats; say what was done.
+
+    A bag lists messages as they arrived: a transport's reordering or a message logged
+    twice leaves a few stamps out of order. A stamp repeated with other values (a driver
+    stamping a batch with one time) is left for `check_stream` to refuse.
+    """
+    t_ns, values = stream.t_ns, stream.values
+    if rs.first_disorder(t_ns) is None:
+        return None
+    order = np.argsort(t_ns, kind="stable")
+    t_ns, values = t_ns[order], values[order]
+    repeat = np.r_[False, (np.diff(t_ns) == 0) & (values[1:] == values[:-1]).all(axis=1)]
+    if (np.diff(t_ns[~repeat]) == 0).any():
+        return None
+    moved = int(np.count_nonzero(order != np.arange(len(order))))
+    done = [f"{moved} out of time order, sorted"] if moved else []
+    done += [f"{np.count_nonzero(repeat)} repeated, dropped"] if repeat.any() else []
+    stream.t_ns, stream.values = t_ns[~repeat], values[~repeat]
+    return f"{stream.name}: of {len(order)} samples, {' and '.join(done)}"
+
+
 def check_stream(stream: SourceStream, path: Path) -> None:
     """Enough samples, finite values, strictly increasing times: else a ConversionError."""
     # a bag's stream is named by its topic; a CSV's by its file, which the error names already
@@ -111,7 +133,7 @@ def check_stream(stream: SourceStream, path: Path) -> None:
         raise ConversionError(
             f"{where}timestamps not increasing at sample {bad} of {len(stream)} "
             f"({stream.t_ns[bad - 1]} then {stream.t_ns[bad]} ns, {stream.clock} clock); "
-            "the log is out of order or has repeated stamps",
+            "a stamp repeats with other values (a driver stamping a batch with one time?)",
             path=path,
         )
     if not np.isfinite(stream.values).all():
@@ -252,12 +274,13 @@ def convert(
         columns=columns,
         time_unit=time_unit,
     )
+    reordered = [m for stream in source.streams if (m := put_in_time_order(stream))]
     for stream in source.streams:
         check_stream(stream, path)
     averaged = rs.averages(source.wrench.t_ns)
     grid = common_grid(source, averaged)
 
-    found = _warnings(source, grid, max_gap_s)
+    found = reordered + _warnings(source, grid, max_gap_s)
     for message in found:
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
