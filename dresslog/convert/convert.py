@@ -99,7 +99,7 @@ def put_in_time_order(stream: SourceStream) -> str | None:
     stamping a batch with one time) is left for `check_stream` to refuse.
     """
     t_ns, values = stream.t_ns, stream.values
-    if rs.first_disorder(t_ns) is None:
+    if rs.first_disorder(t_ns) is None or (t_ns == t_ns[0]).all():  # in order, or unset
         return None
     order = np.argsort(t_ns, kind="stable")
     t_ns, values = t_ns[order], values[order]
