@@ -20,6 +20,8 @@ from .common import reports_errors
 @click.option("--column", "columns", multiple=True, metavar="ROLE=HEADER",
               help="Map a CSV column: time, fx..tz, vx..vz, wx..wz, x..z, qx..qw.")  # fmt: skip
 @click.option("--time-unit", type=click.Choice(["s", "ms", "us", "ns"]), help="CSV time unit.")
+@click.option("--clock", type=click.Choice(["header", "log"]), default="header", show_default=True,
+              help="A bag's times: header stamps, or receive times (clocks differ).")  # fmt: skip
 @click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame.")  # fmt: skip
 @click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",

@@ -6,7 +6,7 @@ converter's bulk numpy decoding is checked against an independent encoder.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -125,12 +125,20 @@ def standard_topics(seconds: float = 3.0) -> Topics:
     }
 
 
-def write_bag(path: Path, topics: Topics, layout: str, unstamped: Iterable[str] = ()) -> Path:
+def write_bag(
+    path: Path,
+    topics: Topics,
+    layout: str,
+    unstamped: Iterable[str] = (),
+    stamp_lead_ns: Mapping[str, int] | None = None,
+) -> Path:
     """Write `topics` as `ros1` (.bag), `sqlite3` or `mcap` (ROS 2 folder); returns the input.
 
     The `unstamped` topics' header stamps are left 0, as a driver that never fills
-    them does; their messages are still logged at their times.
+    them does; their messages are still logged at their times. `stamp_lead_ns` moves
+    a topic's header stamps ahead of its log times, as a sensor on its own clock does.
     """
+    lead = stamp_lead_ns or {}
     unstamped = set(unstamped)
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
@@ -150,7 +158,7 @@ def write_bag(path: Path, topics: Topics, layout: str, unstamped: Iterable[str] 
             # a recorder logs in arrival order: log times increase even when stamps do not
             log_times = np.sort(stamps).tolist()
             for t_ns, log_ns, row in zip(stamps.tolist(), log_times, values, strict=True):
-                stamp = 0 if topic in unstamped else t_ns
+                stamp = 0 if topic in unstamped else t_ns + lead.get(topic, 0)
                 raw = serialize(message(store, ros1, kind, stamp, row), TYPES[kind])
                 writer.write(connection, log_ns, raw)
     return path

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -246,6 +247,36 @@ def test_messages_out_of_order_or_logged_twice_are_sorted_and_dropped_with_a_war
     got, want = read_trial(tmp_path / "messy.mcap"), read_trial(tmp_path / "clean.mcap")
     np.testing.assert_array_equal(got.wrench.values, want.wrench.values)
     assert clean.steps == report.steps
+
+
+def test_sensors_on_their_own_clocks_are_named_and_convert_on_receive_times(
+    tmp_path: Path,
+) -> None:
+    """Header stamps 0.3 s ahead on one topic: by stamp the streams are shifted, a warning
+    says so, and --clock log aligns them as they arrived, as the clean log does."""
+    topics = standard_topics(2.0)
+    clean = make_bag(tmp_path / "clean", topics, "mcap")
+    skewed = write_bag(
+        tmp_path / "skewed", topics, "mcap", stamp_lead_ns={"/arm/ee_pose": 300_000_000}
+    )
+    with pytest.warns(ConversionWarning, match=r"/arm/ee_pose \+0\.300 s.*--clock log"):
+        convert(skewed, tmp_path / "by_stamp.mcap", "gown")
+    convert(clean, tmp_path / "clean.mcap", "gown")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # receive times agree: nothing to warn about
+        report = convert(skewed, tmp_path / "by_log.mcap", "gown", clock="log")
+    assert report.source["streams"]["pose"]["clock"] == "log"
+    got, want = read_trial(tmp_path / "by_log.mcap"), read_trial(tmp_path / "clean.mcap")
+    np.testing.assert_allclose(got.twist.values, want.twist.values, atol=1e-9)
+
+
+def test_clock_log_applies_to_bags_only(tmp_path: Path) -> None:
+    (tmp_path / "x.csv").write_text("t,fx,fy,fz,tx,ty,tz,vx,vy,vz\n")
+    code = CliRunner().invoke(
+        main, ["convert", str(tmp_path / "x.csv"), "-o", str(tmp_path / "t.mcap"),
+               "--task", "gown", "--clock", "log"],
+    )  # fmt: skip
+    assert code.exit_code == 1 and "--clock log: applies to bags, not to a CSV" in code.output
 
 
 def test_a_stamp_repeated_with_other_values_is_refused(tmp_path: Path) -> None:

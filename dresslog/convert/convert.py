@@ -17,6 +17,7 @@ import time
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel
@@ -58,16 +59,17 @@ def load(
     motion: Path | None = None,
     columns: Mapping[str, str] | None = None,
     time_unit: str | None = None,
+    clock: Literal["header", "log"] = "header",
 ) -> Source:
     """Read an external log of any supported kind, chosen by what `path` is."""
     if not path.exists():
         raise ConversionError("no such file or folder", path=path)
     suffix = path.suffix.lower()
     is_csv = suffix in CSV_SUFFIXES and path.is_file()
-    given = {"--motion": motion, "--column": columns, "--time-unit": time_unit}
+    given: dict[str, object] = {"--motion": motion, "--column": columns, "--time-unit": time_unit}
     if is_csv:
         given = {"--wrench-topic": wrench_topic, "--twist-topic": twist_topic}
-        given["--pose-topic"] = pose_topic
+        given |= {"--pose-topic": pose_topic, "--clock log": clock == "log"}
     if unused := [option for option, value in given.items() if value]:
         what = "bags, not to a CSV" if is_csv else "a CSV, not to a bag"
         raise ConversionError(f"{', '.join(unused)}: applies to {what}; leave it out", path=path)
@@ -88,7 +90,10 @@ def load(
         )
     from dresslog.convert.rosbag import read_bag
 
-    return read_bag(path, wrench_topic=wrench_topic, twist_topic=twist_topic, pose_topic=pose_topic)
+    return read_bag(
+        path, wrench_topic=wrench_topic, twist_topic=twist_topic, pose_topic=pose_topic,
+        clock=clock,
+    )  # fmt: skip
 
 
 def put_in_time_order(stream: SourceStream) -> str | None:
@@ -110,6 +115,8 @@ def put_in_time_order(stream: SourceStream) -> str | None:
     done = [f"{moved} out of time order, sorted"] if moved else []
     done += [f"{np.count_nonzero(repeat)} repeated, dropped"] if repeat.any() else []
     stream.t_ns, stream.values = t_ns[~repeat], values[~repeat]
+    if stream.log_ns is not None:
+        stream.log_ns = stream.log_ns[order][~repeat]
     return f"{stream.name}: of {len(order)} samples, {' and '.join(done)}"
 
 
@@ -180,8 +187,9 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
             raise ConversionError(
                 f"the {what} {overlap:.3g} s, less than two 100 Hz steps{unit}", path=source.path
             )
+        hint = "" if source.format == "csv" else "; or use the bag's receive times: --clock log"
         raise ConversionError(
-            f"streams do not overlap in time ({spans}); they must share one clock",
+            f"streams do not overlap in time ({spans}); they must share one clock{hint}",
             path=source.path,
         )
     return grid
@@ -241,6 +249,7 @@ def convert(
     motion: str | Path | None = None,
     columns: Mapping[str, str] | None = None,
     time_unit: str | None = None,
+    clock: Literal["header", "log"] = "header",
     rotate: Quaternion | None = None,
     tare_s: float = 0.0,
     max_gap_s: float = MAX_GAP_S,
@@ -273,6 +282,7 @@ def convert(
         motion=Path(motion) if motion is not None else None,
         columns=columns,
         time_unit=time_unit,
+        clock=clock,
     )
     reordered = [m for stream in source.streams if (m := put_in_time_order(stream))]
     for stream in source.streams:
@@ -311,6 +321,8 @@ def _warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
     if len({s.clock for s in source.streams}) > 1:
         clocks = ", ".join(f"{s.name} on its {s.clock} clock" for s in source.streams)
         found.append(f"streams on different clocks ({clocks}): off by the logging delay")
+    elif message := _clock_skew(source.streams):
+        found.append(message)
     wrench_s = (source.wrench.t_ns[-1] - source.wrench.t_ns[0]) / 1e9
     if (kept := (grid[-1] - grid[0]) / 1e9) < 0.9 * wrench_s:
         found.append(
@@ -318,6 +330,28 @@ def _warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
             "every stream covers"
         )
     return found
+
+
+#: How far apart two streams' header clocks may run, against the bag's receive times.
+MAX_CLOCK_SKEW_S = 0.05
+
+
+def _clock_skew(streams: list[SourceStream]) -> str | None:
+    """Streams whose header stamps lead their receive times by different amounts: the
+    sensors' clocks disagree, and aligning by stamp would shift one signal in time."""
+    lead = {
+        s.name: float(np.median(s.t_ns - s.log_ns)) / 1e9
+        for s in streams
+        if s.clock == "header" and s.log_ns is not None
+    }
+    if len(lead) < 2 or max(lead.values()) - min(lead.values()) <= MAX_CLOCK_SKEW_S:
+        return None
+    leads = ", ".join(f"{name} {value:+.3f} s" for name, value in lead.items())
+    return (
+        f"header stamps lead the bag's receive times by different amounts ({leads}): the "
+        "streams' clocks disagree, so aligned by stamp they are shifted; if so, convert on "
+        "receive times with --clock log"
+    )
 
 
 def _resample_all(

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -219,8 +219,13 @@ def read_bag(
     wrench_topic: str | None = None,
     twist_topic: str | None = None,
     pose_topic: str | None = None,
+    clock: Literal["header", "log"] = "header",
 ) -> Source:
-    """Read the needed topics of one bag (any format AnyReader opens) into a `Source`."""
+    """Read the needed topics of one bag (any format AnyReader opens) into a `Source`.
+
+    Times are the messages' header stamps, or with `clock="log"` the bag's receive times:
+    for a sensor whose own clock is not the robot's.
+    """
     highlevel, rosbag1, rosbag2, typesys = _rosbags()
     errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError)
     wanted = {"wrench": wrench_topic, "twist": twist_topic, "pose": pose_topic}
@@ -261,13 +266,17 @@ def read_bag(
             raise ConversionError(
                 f"topic {topic}: message does not match {MESSAGE_TYPES[kind]}: {err}", path=path
             ) from None
-        clock = "header"
+        logged = np.asarray(log_ns, dtype=np.int64)
         # unset header stamps (0): fall back to the recording time. A clock that starts at
         # 0, as simulation time does, may stamp the first message 0, and only that one.
-        if (stamps[1:] == 0).any():
-            stamps, clock = np.asarray(log_ns, dtype=np.int64), "log"
+        if clock == "log":
+            stamps, stream_clock = logged, "log"
+        elif (stamps[1:] == 0).any():
+            stamps, stream_clock = logged, "log"
             notes.append(f"{topic}: header stamps unset, used the bag's log times")
-        streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, clock)
+        else:
+            stream_clock = "header"
+        streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, stream_clock, logged)
     return Source(
         path=path,
         format="ros1" if ros1 else "ros2",

@@ -33,6 +33,8 @@ class SourceStream:
     values: np.ndarray
     frame_id: str = ""
     clock: str = "header"
+    #: a bag's own receive times (T,), beside header stamps: how far apart the clocks are
+    log_ns: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.t_ns)
