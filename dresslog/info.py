@@ -47,9 +47,15 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
 
 def _dataset(path: Path, as_json: bool) -> Description:
     """The manifest's summary; trials missing or of another size than it records fail it."""
-    from dresslog.dataset.manifest import damaged_error, damaged_files, load_manifest
+    from dresslog.dataset.manifest import (
+        damaged_error,
+        damaged_files,
+        load_manifest,
+        warn_if_incomplete,
+    )
 
     manifest = load_manifest(path)
+    warn_if_incomplete(path, manifest)
     damaged = list(damaged_files(path, manifest))  # sizes only: hashing every trial is slow
     problem = damaged_error(path, *damaged[0]) if damaged else None
     if as_json:

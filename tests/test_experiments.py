@@ -166,6 +166,8 @@ def test_an_incomplete_dataset_is_used_with_a_warning(
     assert result.exit_code == 0, result.output
     warning = "Warning: " + str(part) + ": the dataset is incomplete (2/3 train, 1/1 test)"
     assert warning in result.output and "Traceback" not in result.output
+    code, output = invoke("info", part)
+    assert code == 0 and warning in output, output
     code, output = invoke("eval", model, data, "-q")
     assert code == 0 and "Warning" not in output
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import warnings
 import zipfile
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -24,8 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from dresslog.dataset.manifest import Manifest, Split, check_files, damaged_error, load_manifest
-from dresslog.errors import DatasetError, DresslogWarning, TrialFormatError
+from dresslog.dataset.manifest import (
+    Manifest,
+    Split,
+    check_files,
+    damaged_error,
+    load_manifest,
+    warn_if_incomplete,
+)
+from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
 
@@ -198,13 +204,7 @@ def load_dataset(
     manifest = load_manifest(root)
     if not manifest.trials:
         raise DatasetError("the manifest lists no completed trials", path=root)
-    if not manifest.complete:  # an interrupted generation: usable, but say so
-        warnings.warn(
-            f"{root}: the dataset is incomplete ({manifest.counts()}); run its "
-            "`dresslog generate` command again to finish it",
-            DresslogWarning,
-            stacklevel=2,
-        )
+    warn_if_incomplete(root, manifest)
     check_files(root, manifest)
     path = cache_path(root, manifest)
     arrays = None if rebuild or not path.exists() else _read(path, manifest)

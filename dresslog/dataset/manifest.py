@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import warnings
 from collections.abc import Iterator
 from datetime import UTC, datetime
 from enum import IntEnum, StrEnum
@@ -26,7 +27,7 @@ from typing import Any, Final, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from dresslog import __version__
-from dresslog.errors import DatasetError, first_problem
+from dresslog.errors import DatasetError, DresslogWarning, first_problem
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Outcome, Task, TrialSpec
 
@@ -251,6 +252,17 @@ def damage(root: Path, entry: Entry, *, checksum: bool = False) -> str | None:
     if checksum and sha256_file(path) != entry.sha256:
         return "changed"
     return None
+
+
+def warn_if_incomplete(root: Path, manifest: Manifest) -> None:
+    """An interrupted generation's folder is usable, but say so, and how to finish it."""
+    if not manifest.complete:
+        warnings.warn(
+            f"{root}: the dataset is incomplete ({manifest.counts()}); run its "
+            "`dresslog generate` command again to finish it",
+            DresslogWarning,
+            stacklevel=3,
+        )
 
 
 def damaged_error(root: str | Path, file: str, how: str) -> DatasetError:
