@@ -160,6 +160,15 @@ def test_a_bracket_is_a_unit_only_when_it_reads_as_one(header: str, unit: str | 
     assert (found[0] if found else None) == unit
 
 
+@pytest.mark.parametrize("header", ["vx (km/h)", "Fx (dN)", "Fz [daN]", "Tx (kgf cm)"])
+def test_a_prefixed_unit_not_converted_is_refused_not_read_as_si(header: str) -> None:
+    """`km/h` read as m/s would be 3.6x wrong, silently: a unit, though not one converted."""
+    role = role_of(header)
+    assert role is not None
+    with pytest.raises(ConversionError, match="a unit dresslog does not convert"):
+        _value_scale(header, role, Path("x.csv"))
+
+
 def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:
     t = np.arange(200) / 1000.0
     values = wrench(t)

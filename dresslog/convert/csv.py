@@ -66,9 +66,11 @@ _VALUE_UNITS: dict[str, dict[str, float]] = {
     "q": {},
 }  # fmt: skip
 #: What a unit is written with: a bracket made only of these (and `/`) names a unit,
-#: anything else (`Fx (tool)`, `Fx [sensor 2]`) is a label.
+#: anything else (`Fx (tool)`, `Fx [sensor 2]`) is a label. SI bases take any common
+#: prefix (`dN`, `km/h`), so a unit not converted is refused, never read as SI.
 _UNIT_ATOMS = re.compile(
-    r"^(lbf|lb|kgf|gf|ozf|oz|ft|in|deg|rad|rpm|sec|kn|mn|n|km|cm|mm|um|µm|μm|m|ms|us|s|kg|g)+$"
+    r"^((da|[kmcdunµμhg])?(n|m|s|g|h|hr|min|rad|deg)"
+    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|sec|kn|knots?)+$"
 )
 #: Brackets that say a column has no unit.
 _NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
