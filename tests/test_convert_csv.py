@@ -13,7 +13,7 @@ from dresslog.convert import ConversionWarning, convert
 from dresslog.convert import resample as rs
 from dresslog.convert.csv import _value_scale, role_of
 from dresslog.errors import ConversionError
-from dresslog.io.reader import TrialReader
+from dresslog.io.reader import TrialReader, read_trial
 from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
 
 
@@ -364,6 +364,39 @@ def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:
     path.write_text(preamble + path.read_text())
     report = convert(path, tmp_path / "t.mcap", "gown")
     assert report.steps == 49 and "time column 'time' read as s" in report.source["notes"][0]
+
+
+ATI_PREAMBLE = """Start Time,11/14/2023 22:13:20
+RDT Sample Rate,1000
+Force Units,N
+Counts per Unit Force,1000000
+Torque Units,{torque}
+Counts per Unit Torque,{per_torque}
+"""
+
+
+def test_ati_counts_are_scaled_by_the_preambles_counts_per_unit(tmp_path: Path) -> None:
+    """ATI's Net F/T demo logs raw counts: read as newtons they are 10^6 too large."""
+    t = np.arange(500) / 1000.0
+    w = wrench(t)
+    names = ["Status (hex)", "RDT Sequence", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "Time"]
+    counts = [np.full_like(t, 0), np.arange(500), *(w[:, :3] * 1e6).T, *(w[:, 3:] * 1e9).T, t]
+    path = write_csv(tmp_path / "ati.csv", names, counts)
+    text = path.read_text()
+    path.write_text(ATI_PREAMBLE.format(torque="N-mm", per_torque=1000000) + text)
+    motion = write_csv(tmp_path / "v.csv", ["time", "vx", "vy", "vz"], [t, *twist(t)[:, :3].T])
+    report = convert(path, tmp_path / "t.mcap", "gown", motion=motion)
+    assert "force and torque read as counts" in " ".join(report.source["notes"])
+    si = _with_velocity(tmp_path / "si.csv", t)
+    convert(si, tmp_path / "si.mcap", "gown")
+    np.testing.assert_allclose(
+        read_trial(tmp_path / "t.mcap").wrench.values,
+        read_trial(tmp_path / "si.mcap").wrench.values,
+        rtol=1e-9, atol=1e-12,
+    )  # fmt: skip
+    path.write_text(ATI_PREAMBLE.format(torque="kgf-cm", per_torque=1000) + text)
+    with pytest.raises(ConversionError, match=r"torque columns are in counts \('1000' per "):
+        convert(path, tmp_path / "u.mcap", "gown", motion=motion)
 
 
 def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> None:

@@ -109,6 +109,36 @@ def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
     )
 
 
+def _counts_scales(path: Path, header_line: int, delimiter: str | None) -> dict[str, float]:
+    """SI factor per count of the force and torque columns, from an ATI logger's preamble.
+
+    ATI's Net F/T demo writes raw counts, with `Counts per Unit Force` and `Force Units`
+    (likewise torque) above the header: read as newtons they are 10^6 times too large.
+    """
+    preamble: dict[str, str] = {}
+    with path.open(newline="", encoding="utf-8-sig") as stream:
+        for _, line in zip(range(header_line), stream, strict=False):
+            cells = next(csv.reader([line], delimiter=delimiter or ","), [])
+            if len(cells) >= 2:
+                preamble[" ".join(cells[0].lower().rstrip(": ").split())] = cells[1].strip()
+    scales = {}
+    for group, quantity in (("f", "force"), ("t", "torque")):
+        counts = preamble.get(f"counts per unit {quantity}")
+        if counts is None:
+            continue
+        unit = preamble.get(f"{quantity} units", "")
+        known = {_unit_key(u): factor for u, factor in _VALUE_UNITS[group].items()}
+        if not (_is_number(counts) and float(counts) > 0 and _unit_key(unit) in known):
+            raise ConversionError(
+                f"the {quantity} columns are in counts ({counts!r} per {unit or 'unit'!r}), "
+                f"which dresslog cannot scale; give the {quantity} units as one of "
+                f"{', '.join(_VALUE_UNITS[group])} and a positive count",
+                path=path,
+            )
+        scales[group] = known[_unit_key(unit)] / float(counts)
+    return scales
+
+
 def _unit_in(name: str) -> str | None:
     """A time unit written in a header: `Time (s)`, `stamp[ns]`, `time_ns`, `%time`."""
     if name.strip() == "%time" or name.strip().endswith("header.stamp"):
@@ -346,11 +376,22 @@ def read_table(
     values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
     notes = [f"{path.name}: time column {time_name!r} read as {unit}"]
     scaled = []
+    counts = _counts_scales(path, line, delimiter)
     for role in values:
         unit_scale = _value_scale(names[found[role]], role, path)
+        if role[:-1] in counts:
+            if unit_scale is not None:
+                raise ConversionError(
+                    f"column {names[found[role]]!r} gives a unit, but the preamble says the "
+                    "column is in counts; keep one",
+                    path=path,
+                )
+            unit_scale = ("counts", counts[role[:-1]])
         if unit_scale is not None and unit_scale[1] != 1.0:
             values[role] = values[role] * unit_scale[1]
             scaled.append(f"{names[found[role]]!r}")
+    if counts:
+        notes.append(f"{path.name}: force and torque read as counts, per the preamble")
     if scaled:
         notes.append(f"{path.name}: scaled to SI units: {', '.join(scaled)}")
     if ignored:
