@@ -22,6 +22,9 @@ from .common import reports_errors
 @click.option("--time-unit", type=click.Choice(["s", "ms", "us", "ns"]), help="CSV time unit.")
 @click.option("--clock", type=click.Choice(["header", "log"]), default="header", show_default=True,
               help="A bag's times: header stamps, or receive times (clocks differ).")  # fmt: skip
+@click.option("--wrench-frame", type=click.Choice(["world", "pose"]), default="world",
+              show_default=True, help="The wrench's axes: world, or the gripper's own "
+              "(turned by the pose's orientation).")  # fmt: skip
 @click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame.")  # fmt: skip
 @click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",

@@ -131,12 +131,14 @@ def write_bag(
     layout: str,
     unstamped: Iterable[str] = (),
     stamp_lead_ns: Mapping[str, int] | None = None,
+    frames: Mapping[str, str] | None = None,
 ) -> Path:
     """Write `topics` as `ros1` (.bag), `sqlite3` or `mcap` (ROS 2 folder); returns the input.
 
     The `unstamped` topics' header stamps are left 0, as a driver that never fills
     them does; their messages are still logged at their times. `stamp_lead_ns` moves
-    a topic's header stamps ahead of its log times, as a sensor on its own clock does.
+    a topic's header stamps ahead of its log times, as a sensor on its own clock does;
+    `frames` names a topic's header frame (else `ft`).
     """
     lead = stamp_lead_ns or {}
     unstamped = set(unstamped)
@@ -159,6 +161,7 @@ def write_bag(
             log_times = np.sort(stamps).tolist()
             for t_ns, log_ns, row in zip(stamps.tolist(), log_times, values, strict=True):
                 stamp = 0 if topic in unstamped else t_ns + lead.get(topic, 0)
-                raw = serialize(message(store, ros1, kind, stamp, row), TYPES[kind])
+                frame = (frames or {}).get(topic, "ft")
+                raw = serialize(message(store, ros1, kind, stamp, row, frame), TYPES[kind])
                 writer.write(connection, log_ns, raw)
     return path

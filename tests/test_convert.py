@@ -19,6 +19,7 @@ from dresslog.io.summary import format_summary, summarize
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from tests.convert_signals import (
+    YAW_RATE,
     pose,
     seconds_of,
     standard_topics,
@@ -277,6 +278,42 @@ def test_clock_log_applies_to_bags_only(tmp_path: Path) -> None:
                "--task", "gown", "--clock", "log"],
     )  # fmt: skip
     assert code.exit_code == 1 and "--clock log: applies to bags, not to a CSV" in code.output
+
+
+def test_a_wrench_in_the_grippers_axes_is_turned_into_world_axes_by_the_pose(
+    tmp_path: Path,
+) -> None:
+    """A wrist sensor turns with the gripper (here yawing 0.3 rad/s): --wrench-frame pose
+    gives the trial of the same wrench logged in world axes; without it, a warning."""
+    topics = standard_topics(2.0)
+    world = convert(make_bag(tmp_path / "w", topics, "mcap"), tmp_path / "world.mcap", "gown")
+    kind, stamps, values = topics["/ft_sensor/wrench"]
+    yaw = YAW_RATE * seconds_of(stamps)  # the pose's orientation at each wrench sample
+    c, s = np.cos(yaw), np.sin(yaw)
+    local = values.copy()
+    for k in (0, 3):  # R(yaw)^T v: world axes into the gripper's
+        x, y = values[:, k], values[:, k + 1]
+        local[:, k], local[:, k + 1] = c * x + s * y, -s * x + c * y
+    topics["/ft_sensor/wrench"] = (kind, stamps, local)
+    frames = {"/ft_sensor/wrench": "ft_sensor_link", "/arm/ee_pose": "base_link"}
+    bag = write_bag(tmp_path / "g", topics, "mcap", frames=frames)
+    with pytest.warns(ConversionWarning, match=r"'ft_sensor_link', the motion in 'base_link'"):
+        convert(bag, tmp_path / "as_is.mcap", "gown")
+    report = convert(bag, tmp_path / "turned.mcap", "gown", wrench_frame="pose")
+    assert not report.warnings and report.steps == world.steps
+    got, want = read_trial(tmp_path / "turned.mcap"), read_trial(tmp_path / "world.mcap")
+    np.testing.assert_allclose(got.wrench.values, want.wrench.values, atol=0.02)
+    assert (
+        np.abs(read_trial(tmp_path / "as_is.mcap").wrench.values - want.wrench.values).max() > 0.5
+    )
+
+
+def test_a_wrench_frame_of_pose_needs_an_orientation(tmp_path: Path) -> None:
+    topics = standard_topics(1.0)
+    stamps = topics.pop("/arm/ee_pose")[1]
+    topics["/arm/ee_twist"] = ("twist", stamps, twist(seconds_of(stamps)))
+    bad(tmp_path, topics, "--wrench-frame pose turns the wrench by the gripper's orientation",
+        wrench_frame="pose")  # fmt: skip
 
 
 def test_a_stamp_repeated_with_other_values_is_refused(tmp_path: Path) -> None:

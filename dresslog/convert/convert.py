@@ -250,6 +250,7 @@ def convert(
     columns: Mapping[str, str] | None = None,
     time_unit: str | None = None,
     clock: Literal["header", "log"] = "header",
+    wrench_frame: Literal["world", "pose"] = "world",
     rotate: Quaternion | None = None,
     tare_s: float = 0.0,
     max_gap_s: float = MAX_GAP_S,
@@ -257,10 +258,12 @@ def convert(
 ) -> ConversionReport:
     """Convert one external log into the trial `output` (100 Hz, times from 0, no ground truth).
 
-    `rotate` (x y z w) turns every vector (force, torque, velocities, pose)
-    into the model's frame; `tare_s` subtracts the mean wrench of the first
-    seconds. Gaps longer than `max_gap_s` are bridged by interpolation and
-    reported as `ConversionWarning`s (and in the report).
+    `wrench_frame="pose"` says the sensor's axes turn with the gripper: each step's
+    wrench is turned from the pose's orientation into its world axes (after the tare,
+    which belongs to the sensor's own axes). `rotate` (x y z w) then turns every vector
+    (force, torque, velocities, pose) into the model's frame; `tare_s` subtracts the mean
+    wrench of the first seconds. Gaps longer than `max_gap_s` are bridged by
+    interpolation and reported as `ConversionWarning`s (and in the report).
     """
     started = time.perf_counter()
     path, output = Path(path), Path(output)
@@ -291,10 +294,12 @@ def convert(
     grid = common_grid(source, averaged)
 
     found = reordered + _warnings(source, grid, max_gap_s)
+    if wrench_frame == "world" and rotate is None and (message := _frames_differ(source)):
+        found.append(message)
     for message in found:
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
-    wrench, twist, pose, processing = _resample_all(source, grid, tare_s, rotate)
+    wrench, twist, pose, processing = _resample_all(source, grid, tare_s, rotate, wrench_frame)
 
     info = _source_info(source, grid, processing, found, motion)
     metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
@@ -332,6 +337,7 @@ def _warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
     return found
 
 
+_IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
 #: How far apart two streams' header clocks may run, against the bag's receive times.
 MAX_CLOCK_SKEW_S = 0.05
 
@@ -354,8 +360,25 @@ def _clock_skew(streams: list[SourceStream]) -> str | None:
     )
 
 
+def _frames_differ(source: Source) -> str | None:
+    """The wrench in another named frame than the motion: a sensor's own axes, likely."""
+    motion = source.twist or source.pose
+    frames = (source.wrench.frame_id, motion.frame_id if motion is not None else "")
+    if not all(frames) or frames[0] == frames[1]:
+        return None
+    return (
+        f"the wrench is in frame {frames[0]!r}, the motion in {frames[1]!r}: the model reads "
+        "both in world axes; if the sensor's axes turn with the gripper, give --wrench-frame "
+        "pose, if they are fixed but turned, --rotate"
+    )
+
+
 def _resample_all(
-    source: Source, grid: np.ndarray, tare_s: float, rotate: Quaternion | None
+    source: Source,
+    grid: np.ndarray,
+    tare_s: float,
+    rotate: Quaternion | None,
+    wrench_frame: Literal["world", "pose"] = "world",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
     """Wrench, twist and pose on the grid, tared and rotated, and how each was made."""
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
@@ -385,6 +408,15 @@ def _resample_all(
             )
         wrench = rs.tare(grid, wrench, tare_s)
         processing["tare_s"] = tare_s
+    if wrench_frame == "pose":
+        if source.pose is None or pose is None or (source.pose.values[:, 3:] == _IDENTITY).all():
+            raise ConversionError(
+                "--wrench-frame pose turns the wrench by the gripper's orientation, and the "
+                "log has none: give --pose-topic, or position and qx..qw columns",
+                path=source.path,
+            )
+        wrench = rs.rotate_by_orientation(wrench, pose[:, 3:7])
+        processing["wrench_frame"] = "gripper axes, turned into world axes by the pose"
     if rotate is not None:
         wrench, twist = rs.rotate_vectors(wrench, rotate), rs.rotate_vectors(twist, rotate)
         pose = rs.rotate_pose(pose, rotate) if pose is not None else None

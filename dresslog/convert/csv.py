@@ -33,6 +33,8 @@ LINEAR, ANGULAR = ("vx", "vy", "vz"), ("wx", "wy", "wz")
 POSITION, ORIENTATION = ("x", "y", "z"), ("qx", "qy", "qz", "qw")
 ROLES = ("time", *FORCE, *TORQUE, *LINEAR, *ANGULAR, *POSITION, *ORIENTATION)
 UNITS = {"s": 1e9, "ms": 1e6, "us": 1e3, "ns": 1.0}
+#: A CSV stream's clock, as `info` names it: whatever its time column counts.
+CSV_CLOCK = "time column"
 
 _PREFIX = re.compile(r"^(field|header|wrench|twist|pose|ee|ft|sensor|robot)+")
 _PATTERNS = [
@@ -425,12 +427,16 @@ def _motion(
     if (linear := _group(values, LINEAR)) is not None:
         angular = _group(values, ANGULAR)
         angular = np.zeros_like(linear) if angular is None else angular
-        twist = SourceStream("twist", name, t_ns, np.concatenate([linear, angular], axis=1))
+        twist = SourceStream(
+            "twist", name, t_ns, np.concatenate([linear, angular], axis=1), clock=CSV_CLOCK
+        )
     if (position := _group(values, POSITION)) is not None:
         quat = _group(values, ORIENTATION)
         if quat is None:
             quat = np.tile([0.0, 0.0, 0.0, 1.0], (len(t_ns), 1))
-        pose = SourceStream("pose", name, t_ns, np.concatenate([position, quat], axis=1))
+        pose = SourceStream(
+            "pose", name, t_ns, np.concatenate([position, quat], axis=1), clock=CSV_CLOCK
+        )
     return twist, pose
 
 
@@ -451,8 +457,9 @@ def read_csv(
         raise ConversionError(_missing_hint(missing, _header(path)[1]), path=path)
     _incomplete(values, path)
     wrench = SourceStream(
-        "wrench", path.name, t_ns, np.stack([values[r] for r in (*FORCE, *TORQUE)], axis=1)
-    )
+        "wrench", path.name, t_ns, np.stack([values[r] for r in (*FORCE, *TORQUE)], axis=1),
+        clock=CSV_CLOCK,
+    )  # fmt: skip
     twist, pose = _motion(t_ns, values, path.name)
     if motion is not None:
         m_ns, m_values, m_notes = read_table(motion, columns, time_unit)

@@ -160,16 +160,28 @@ def tare(t_ns: np.ndarray, values: np.ndarray, seconds: float) -> np.ndarray:
     return values - values[window].mean(axis=0)
 
 
+def rotation_matrices(quats: np.ndarray) -> np.ndarray:
+    """The 3x3 matrices (..., 3, 3) of quaternions (..., 4) (x y z w), normalised first."""
+    q = np.asarray(quats, dtype=np.float64)
+    x, y, z, w = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
+    rows = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+
+
 def rotation_matrix(quat: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
     """The 3x3 matrix of a quaternion (x y z w), normalised first."""
-    x, y, z, w = np.asarray(quat, dtype=np.float64) / np.linalg.norm(quat)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    return rotation_matrices(np.asarray(quat))
+
+
+def rotate_by_orientation(values: np.ndarray, quats: np.ndarray) -> np.ndarray:
+    """Rotate each row's 3-vector blocks (T, 3k) by that row's orientation (T, 4): a
+    wrench measured in the gripper's own axes, expressed in the world's."""
+    blocks = values.reshape(len(values), -1, 3)
+    return np.einsum("tij,tkj->tki", rotation_matrices(quats), blocks).reshape(values.shape)
 
 
 def rotate_vectors(values: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
