@@ -180,8 +180,11 @@ def choose_topics(
         if topic not in types:
             raise ConversionError(f"topic {topic} not found (topics: {listing})", path=path)
         if types[topic] != MESSAGE_TYPES[kind]:
+            unstamped = types[topic] == MESSAGE_TYPES[kind].removesuffix("Stamped")
+            why = " (one without a header has no time of its own)" if unstamped else ""
             raise ConversionError(
-                f"topic {topic} is {types[topic]}, {OPTIONS[kind]} needs {MESSAGE_TYPES[kind]}",
+                f"topic {topic} is {types[topic]}, {OPTIONS[kind]} needs "
+                f"{MESSAGE_TYPES[kind]}{why}",
                 path=path,
             )
         chosen[kind] = topic
