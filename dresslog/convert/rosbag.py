@@ -40,12 +40,6 @@ def _rosbags() -> Any:
     return highlevel, rosbag1, rosbag2, typesys
 
 
-def normalize_type(msgtype: str) -> str:
-    """`geometry_msgs/WrenchStamped` (ROS 1 style) -> `geometry_msgs/msg/WrenchStamped`."""
-    package, _, name = msgtype.rpartition("/")
-    return msgtype if package.endswith("/msg") else f"{package}/msg/{name}"
-
-
 # -- bulk decoding -------------------------------------------------------------------------
 
 
@@ -236,7 +230,7 @@ def read_bag(
         default = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
         with highlevel.AnyReader([path], default_typestore=default) as reader:
             ros1 = not reader.is2
-            types = {c.topic: normalize_type(c.msgtype) for c in reader.connections}
+            types = {c.topic: c.msgtype for c in reader.connections}  # pkg/msg/Type, ROS 1 too
             if not types or reader.message_count == 0:
                 raise ConversionError("bag has no messages", path=path)
             chosen, notes = choose_topics(types, wanted, path)
