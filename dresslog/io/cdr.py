@@ -22,7 +22,7 @@ from functools import cache
 import numpy as np
 import numpy.typing as npt
 
-from dresslog.io.msgdefs import _full_name, fields
+from dresslog.io.msgdefs import fields, full_type_name
 
 _NUMPY = {
     "bool": "u1", "byte": "u1", "char": "u1", "int8": "i1", "uint8": "u1",
@@ -93,7 +93,7 @@ class _Builder:
             fmt = np.dtype(_NUMPY[base])
             self.add(path, fmt, fmt.itemsize)
         else:
-            full = _full_name(base, package)
+            full = full_type_name(base, package)
             uniform = _uniform_primitive(full)
             if uniform:
                 fmt = np.dtype(_NUMPY[uniform[0]])
@@ -112,7 +112,7 @@ class _Builder:
             fmt = np.dtype(_NUMPY[base])
             self.add(path, (fmt, (count,)), fmt.itemsize)
             return
-        full = _full_name(base, package)
+        full = full_type_name(base, package)
         if uniform := _uniform_primitive(full):
             fmt = np.dtype(_NUMPY[uniform[0]])
             self.add(path, (fmt, (count, uniform[1])), fmt.itemsize)

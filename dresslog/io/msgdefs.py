@@ -20,7 +20,7 @@ PRIMITIVES = frozenset(
 SEPARATOR = "=" * 80
 
 
-def _full_name(type_name: str, package: str) -> str:
+def full_type_name(type_name: str, package: str) -> str:
     """`Vector3` inside geometry_msgs -> `geometry_msgs/msg/Vector3`."""
     parts = type_name.split("/")
     if len(parts) == 1:
@@ -59,7 +59,7 @@ def dependencies(name: str) -> list[str]:
         base = re.sub(r"\[.*\]$", "", type_)
         if base in PRIMITIVES:
             continue
-        full = _full_name(base, package)
+        full = full_type_name(base, package)
         for dep in [full, *dependencies(full)]:
             if dep not in found:
                 found.append(dep)
