@@ -20,14 +20,15 @@ import numpy as np
 from dresslog.convert.source import MESSAGE_TYPES, WIDTHS, Source, SourceStream
 from dresslog.errors import ConversionError
 from dresslog.io import cdr
+from dresslog.io import well_known as wk
 
 INSTALL_HINT = "reading ROS bags needs rosbags: pip install 'dresslog[ros]'"
 OPTIONS = {"wrench": "--wrench-topic", "twist": "--twist-topic", "pose": "--pose-topic"}
-#: CDR field names of each kind's two value blocks.
+#: CDR field names of each kind's two value blocks: those of our own topic of that kind.
 FIELDS = {
-    "wrench": ("wrench.force", "wrench.torque"),
-    "twist": ("twist.linear", "twist.angular"),
-    "pose": ("pose.position", "pose.orientation"),
+    "wrench": wk.VECTOR_FIELDS[wk.WRENCH],
+    "twist": wk.VECTOR_FIELDS[wk.TWIST],
+    "pose": wk.VECTOR_FIELDS[wk.POSE],
 }
 
 

@@ -226,11 +226,11 @@ class TrialReader:
                 f"message does not match its schema: {err}", path=self.path, channel=topic
             ) from None
 
-    def _vectors(self, topic: str, a: str, b: str) -> Stream:
+    def _vectors(self, topic: str) -> Stream:
         msgs = np.concatenate(self._decode(topic)) if self.has(topic) else None
         if msgs is None:
             return Stream(np.zeros(0, np.int64), np.zeros((0, 6)))
-        values = np.concatenate([msgs[a], msgs[b]], axis=1)
+        values = np.concatenate([msgs[f] for f in wk.VECTOR_FIELDS[topic]], axis=1)
         bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
         if len(bad):
             raise TrialFormatError(
@@ -244,19 +244,19 @@ class TrialReader:
     @cached_property
     def wrench(self) -> Stream:
         """(T, 6) force and torque the garment applies at the end effector."""
-        return self._vectors(wk.WRENCH, "wrench.force", "wrench.torque")
+        return self._vectors(wk.WRENCH)
 
     @cached_property
     def twist(self) -> Stream:
         """(T, 6) end-effector linear and angular velocity."""
-        return self._vectors(wk.TWIST, "twist.linear", "twist.angular")
+        return self._vectors(wk.TWIST)
 
     @cached_property
     def pose(self) -> Stream | None:
         """(T, 7) end-effector position and quaternion x y z w."""
         if not self.has(wk.POSE):
             return None
-        return self._vectors(wk.POSE, "pose.position", "pose.orientation")
+        return self._vectors(wk.POSE)
 
     @cached_property
     def measurements(self) -> Measurements:

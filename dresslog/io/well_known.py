@@ -29,6 +29,13 @@ SCHEMAS: dict[str, str] = {
     GARMENT: "dresslog_msgs/msg/GarmentState",
 }
 
+#: The two 3-vector fields of each end-effector message: its columns 0-2 and 3-5 (3-6).
+VECTOR_FIELDS: dict[str, tuple[str, str]] = {
+    WRENCH: ("wrench.force", "wrench.torque"),
+    TWIST: ("twist.linear", "twist.angular"),
+    POSE: ("pose.position", "pose.orientation"),
+}
+
 #: Header frame of each topic: measurements at the end effector, ground truth in the world.
 FRAMES: dict[str, str] = {
     WRENCH: "ee",

@@ -196,24 +196,24 @@ class TrialWriter:
     # -- streams ---------------------------------------------------------------
     def write_wrench(self, t_ns: int | np.ndarray, wrench: np.ndarray) -> None:
         """Force (N) and torque (N m) the garment applies at the end effector, (6,) or (T, 6)."""
-        rows = self._rows(wk.WRENCH, wrench, 6)
-        times, msgs = self._stamped(wk.WRENCH, t_ns, {}, len(rows))
-        msgs["wrench.force"], msgs["wrench.torque"] = rows[:, :3], rows[:, 3:]
-        self._write(wk.WRENCH, times, msgs)
+        self._write_vectors(wk.WRENCH, t_ns, wrench, 6)
 
     def write_twist(self, t_ns: int | np.ndarray, twist: np.ndarray) -> None:
         """End-effector linear (m/s) and angular (rad/s) velocity, (6,) or (T, 6)."""
-        rows = self._rows(wk.TWIST, twist, 6)
-        times, msgs = self._stamped(wk.TWIST, t_ns, {}, len(rows))
-        msgs["twist.linear"], msgs["twist.angular"] = rows[:, :3], rows[:, 3:]
-        self._write(wk.TWIST, times, msgs)
+        self._write_vectors(wk.TWIST, t_ns, twist, 6)
 
     def write_pose(self, t_ns: int | np.ndarray, pose: np.ndarray) -> None:
         """End-effector position (m) and quaternion x y z w, (7,) or (T, 7)."""
-        rows = self._rows(wk.POSE, pose, 7)
-        times, msgs = self._stamped(wk.POSE, t_ns, {}, len(rows))
-        msgs["pose.position"], msgs["pose.orientation"] = rows[:, :3], rows[:, 3:]
-        self._write(wk.POSE, times, msgs)
+        self._write_vectors(wk.POSE, t_ns, pose, 7)
+
+    def _write_vectors(
+        self, topic: str, t_ns: int | np.ndarray, values: np.ndarray, width: int
+    ) -> None:
+        rows = self._rows(topic, values, width)
+        times, msgs = self._stamped(topic, t_ns, {}, len(rows))
+        first, second = wk.VECTOR_FIELDS[topic]
+        msgs[first], msgs[second] = rows[:, :3], rows[:, 3:]
+        self._write(topic, times, msgs)
 
     def write_force_map(
         self,
