@@ -130,6 +130,15 @@ class TrialSpec(BaseModel):
             raise ValueError(f"duration: at least two recorded steps, {2 / self.sim.record_hz} s")
         return self
 
+    def describe(self) -> str:
+        """The spec in one line: what `info` prints and the viewer shows."""
+        return (
+            f"seed {self.seed}, speed {self.speed:.3f} m/s, offset "
+            f"({', '.join(f'{v:+.3f}' for v in self.limb_offset)}) m, rotation "
+            f"{self.limb_rotation.degrees:+g} deg about {self.limb_rotation.axis}, "
+            f"duration {self.duration:g} s"
+        )
+
 
 class TrialMetadata(BaseModel):
     """What a recording says about itself (the MCAP metadata record `dresslog`)."""

@@ -10,7 +10,7 @@ from pydantic import BaseModel
 
 from dresslog.io import well_known as wk
 from dresslog.io.reader import TrialReader
-from dresslog.spec import TrialMetadata, TrialSpec
+from dresslog.spec import TrialMetadata
 
 
 class ChannelSummary(BaseModel):
@@ -67,16 +67,6 @@ def summarize(path: str | Path) -> TrialSummary:
         )
 
 
-def describe_spec(spec: TrialSpec) -> str:
-    """A simulated trial's spec in one line: what `info` prints and the viewer shows."""
-    return (
-        f"seed {spec.seed}, speed {spec.speed:.3f} m/s, offset "
-        f"({', '.join(f'{v:+.3f}' for v in spec.limb_offset)}) m, rotation "
-        f"{spec.limb_rotation.degrees:+g} deg about {spec.limb_rotation.axis}, "
-        f"duration {spec.duration:g} s"
-    )
-
-
 def format_summary(summary: TrialSummary) -> str:
     """The human-readable form printed by `dresslog info`."""
     md = summary.metadata
@@ -93,7 +83,7 @@ def format_summary(summary: TrialSummary) -> str:
     width = max(len(c.topic) for c in summary.channels)
     lines += [f"    {c.topic:<{width}}  {c.count:>6}  {c.schema_name}" for c in summary.channels]
     if md.spec is not None:
-        lines.append(f"  spec      {describe_spec(md.spec)}")
+        lines.append(f"  spec      {md.spec.describe()}")
     if md.source:
         lines += _source_lines(md.source)
     if md.software:

@@ -19,7 +19,6 @@ import numpy as np
 
 from dresslog.errors import TrialWriteError
 from dresslog.io.files import check_output, discard, temporary_path
-from dresslog.io.summary import describe_spec
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.trial import contact_magnitudes
@@ -221,7 +220,7 @@ class RerunSink:
         shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
         what = f"**{md.task.value}** trial from {source}, outcome {md.outcome.value}"
         if md.spec is not None:
-            what += f": {describe_spec(md.spec)}"
+            what += f": {md.spec.describe()}"
         if ctx.trial is not None and ctx.trial.limb_points is None:
             what += ". Drawn on the task's nominal limb: the log does not say where the limb was"
         return (
