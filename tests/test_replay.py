@@ -13,13 +13,14 @@ from dresslog.errors import TrialFormatError
 from dresslog.io import well_known as wk
 from dresslog.io.reader import TrialReader, read_trial
 from dresslog.model import ModelCard, Normalisation, load_model, save_model
+from dresslog.model.bundled import MODELS_ENV
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.model.postprocess import sequence_rmse
 from dresslog.replay.engine import Replay, run, trial_context, trial_steps
 from dresslog.replay.live import SimulationSource
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink
-from dresslog.replay.pipeline import MODELS_ENV, replay_file
+from dresslog.replay.pipeline import replay_file
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
 from tests.conftest import SAMPLES
@@ -309,7 +310,7 @@ def test_a_model_for_the_other_task_points_to_the_bundled_one(gown, tmp_path: Pa
 def test_bad_input_is_one_line_and_writes_nothing(
     gown, tmp_path: Path, monkeypatch, make, message: str, output: str
 ) -> None:
-    monkeypatch.setattr("dresslog.replay.pipeline.bundled_model", lambda task: None)
+    monkeypatch.setattr("dresslog.model.bundled.bundled_model", lambda task: None)
     trial, model = make(tmp_path, *gown)
     out = tmp_path / "results"
     out.mkdir()

@@ -112,7 +112,7 @@ def test_rerun_verifies_the_recording(inferred) -> None:
 
 
 def test_view_save_without_a_model_shows_ground_truth_alone(make_trial, tmp_path, monkeypatch):
-    monkeypatch.setattr("dresslog.replay.pipeline.bundled_model", lambda task: None)
+    monkeypatch.setattr("dresslog.model.bundled.bundled_model", lambda task: None)
     trial, _ = make_trial(Task.GOWN, 12)
     rrd = tmp_path / "view.rrd"
     result = CliRunner().invoke(main, ["view", str(trial), "--save", str(rrd)])
@@ -123,7 +123,7 @@ def test_view_save_without_a_model_shows_ground_truth_alone(make_trial, tmp_path
 
 
 def test_view_of_a_converted_log_without_any_model_asks_for_one(tmp_path, monkeypatch):
-    monkeypatch.setattr("dresslog.replay.pipeline.bundled_model", lambda task: None)
+    monkeypatch.setattr("dresslog.model.bundled.bundled_model", lambda task: None)
     log = _converted_log(tmp_path)
     rrd = tmp_path / "view.rrd"
     result = CliRunner().invoke(main, ["view", str(log), "--save", str(rrd)])

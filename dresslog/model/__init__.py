@@ -5,6 +5,7 @@ network and training live in `dresslog.model.network` and `dresslog.model.train`
 imported explicitly by the code that trains. Each module's docstring lists its API.
 """
 
+from dresslog.model.bundled import bundled_model, resolve_model
 from dresslog.model.files import (
     DataProvenance,
     Hyperparameters,
@@ -33,10 +34,12 @@ __all__ = [
     "Normalisation",
     "NumpyEstimator",
     "apply_contact",
+    "bundled_model",
     "check_task",
     "contact_targets",
     "load_model",
     "network_targets",
+    "resolve_model",
     "rmse",
     "save_model",
     "sequence_rmse",

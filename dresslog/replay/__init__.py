@@ -4,6 +4,7 @@ One code path for `dresslog infer`, `view` and the live view of a running
 simulation. Rerun is imported only when a Rerun sink writes.
 """
 
+from dresslog.model.bundled import bundled_model
 from dresslog.replay.engine import (
     Estimator,
     Replay,
@@ -18,7 +19,7 @@ from dresslog.replay.engine import (
 from dresslog.replay.live import SimulationSource, live_source
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
-from dresslog.replay.pipeline import InferenceReport, bundled_model, replay_file
+from dresslog.replay.pipeline import InferenceReport, replay_file
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.replay.viewer import live_viewer
 

@@ -96,7 +96,7 @@ def live_source(
 
     Without a model (none given, none bundled) the live view shows ground truth alone.
     """
-    from dresslog.replay.pipeline import resolve_model
+    from dresslog.model.bundled import resolve_model
     from dresslog.replay.rerun_sink import RerunSink
     from dresslog.replay.viewer import live_viewer
     from dresslog.spec import Task

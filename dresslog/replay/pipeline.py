@@ -7,15 +7,14 @@ and hands the steps to the one replay engine; it also times its stages, which
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dresslog.errors import ModelError
 from dresslog.io.files import check_output
 from dresslog.io.reader import TrialReader
+from dresslog.model.bundled import resolve_model
 from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink
@@ -23,57 +22,7 @@ from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
 
 if TYPE_CHECKING:
-    from dresslog.model.files import LoadedModel
-
-#: Set to a folder holding `<task>/` model folders to override the bundled models.
-MODELS_ENV = "DRESSLOG_MODELS"
-
-
-def bundled_model_candidates(task: Task | str) -> list[Path]:
-    """Where the model for `task` may be: $DRESSLOG_MODELS, the checkout's samples, the package."""
-    task = Task(task).value
-    package = Path(__file__).resolve().parents[1]
-    places = [package.parent / "samples" / "models", package / "samples" / "models"]
-    if os.environ.get(MODELS_ENV):
-        places.insert(0, Path(os.environ[MODELS_ENV]))
-    return [place / task for place in places]
-
-
-def bundled_model(task: Task | str) -> Path | None:
-    """The bundled model folder for `task`, or None if this installation has none."""
-    for path in bundled_model_candidates(task):
-        if (path / "card.json").is_file():
-            return path
-    return None
-
-
-def resolve_model(
-    model: str | Path | None, task: Task, n_points: int | None, *, required: bool = True
-) -> LoadedModel | None:
-    """Load `model` (or the bundled one for `task`) and check it fits the trial.
-
-    Without a model given or bundled: an error if `required`, else None.
-    """
-    from dresslog.model.files import check_task, load_model
-
-    given = model is not None
-    if model is None:
-        model = bundled_model(task)
-        if model is None and not required:
-            return None
-        if model is None:
-            looked = ", ".join(str(p) for p in bundled_model_candidates(task))
-            raise ModelError(
-                f"no bundled {task.value} model (looked in {looked}); "
-                f"pass --model with a {task.value} model folder"
-            )
-    loaded = load_model(model)
-    bundled = bundled_model(task)
-    hint = "pass --model with a {task} model folder"
-    if given and bundled is not None:
-        hint = f"leave out --model to use the bundled one ({bundled})"
-    check_task(loaded, task, n_points, hint=hint)
-    return loaded
+    pass
 
 
 @dataclass

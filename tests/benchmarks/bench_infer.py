@@ -44,7 +44,7 @@ def pin_one_core() -> str:
 
 
 def inputs(tmp: Path, trial: Path | None, model: Path | None) -> tuple[Path, Path]:
-    from dresslog.replay.pipeline import bundled_model
+    from dresslog.model.bundled import bundled_model
     from dresslog.spec import Task
 
     if trial is None:
