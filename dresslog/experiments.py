@@ -41,7 +41,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from dresslog.dataset import DatasetArrays, Split, generate, load_dataset, load_manifest
-from dresslog.dataset.generate import check_executor
+from dresslog.dataset.executors import check_executor
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, first_problem

@@ -11,22 +11,27 @@ folder always produces the same data, however often it was interrupted.
 
 from __future__ import annotations
 
-import importlib
 import os
 import re
 import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, Protocol
+from typing import Any
 
 from pydantic import ValidationError
 
+from dresslog.dataset.executors import (
+    RECORDER,
+    ExecutorName,
+    Job,
+    check_executor,
+    make_executor,
+    resolve,
+)
 from dresslog.dataset.manifest import (
     MANIFEST_FILE,
     TEST_FRACTION,
@@ -36,12 +41,11 @@ from dresslog.dataset.manifest import (
     Status,
     damage,
     load_manifest,
-    slot_file,
     trial_seed,
 )
-from dresslog.errors import DatasetError, DresslogError, SimulationError, first_problem
-from dresslog.io.files import discard, exclusive, sha256_file, temporary_path
-from dresslog.spec import Outcome, Task, TrialSpec
+from dresslog.errors import DatasetError, first_problem
+from dresslog.io.files import exclusive
+from dresslog.spec import Task, TrialSpec
 
 #: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
 MAX_ATTEMPTS = 5
@@ -52,182 +56,7 @@ POLL_S = 0.2
 #: Signals that stop a generation cleanly: Ctrl-C, and a kill (SIGTERM).
 _STOPS = (signal.SIGINT, signal.SIGTERM)
 LOCK_FILE = ".generate.lock"
-RECORDER = "dresslog.sim:record_trial"
 SPEC_FACTORY = "dresslog.sim:random_spec"
-ExecutorName = Literal["process", "ray"]
-
-
-def _resolve(target: str) -> Callable[..., Any]:
-    module, name = target.split(":")
-    return getattr(importlib.import_module(module), name)
-
-
-@dataclass(frozen=True)
-class Job:
-    """One attempt at one slot; plain data, so it pickles to a process or a Ray worker."""
-
-    root: str
-    split: Split
-    slot: int
-    attempt: int
-    spec: TrialSpec
-    recorder: str = RECORDER
-
-    @property
-    def file(self) -> str:
-        return slot_file(self.split, self.slot)
-
-
-class _Worker:
-    """A pool worker's view of Ctrl-C, which the terminal sends to every process.
-
-    The trial being recorded stops at once (its temporary file is removed) and queued
-    trials are not started; an idle worker stays alive, so the pool never breaks and
-    never has to kill a worker in the middle of a file. A worker whose generation was
-    killed outright (``kill -9``, out of memory) stops the same way and exits: it would
-    otherwise wait for work forever.
-    """
-
-    writing: Path | None = None  # the trial being recorded
-    interrupted = False
-
-    @classmethod
-    def start(cls) -> None:
-        signal.signal(signal.SIGINT, cls._on_interrupt)
-        signal.signal(signal.SIGTERM, cls._on_terminate)
-        threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
-
-    @classmethod
-    def _exit_with(cls, parent: int) -> None:
-        while os.getppid() == parent:
-            time.sleep(0.5)
-        os.kill(os.getpid(), signal.SIGINT)
-        deadline = time.monotonic() + 5.0
-        while cls.writing is not None and time.monotonic() < deadline:
-            time.sleep(0.05)  # the trial stops and removes its temporary file
-        cls._exit(1)  # the interrupt may have gone astray (into cleanup code)
-
-    @classmethod
-    def _on_terminate(cls, signum: int, frame: object) -> None:
-        """Still the end (the pool terminates a broken worker so), minus the temporary."""
-        cls._exit(128 + signum)
-
-    @classmethod
-    def _exit(cls, code: int) -> None:
-        """Exit now, removing the temporary file of a trial still being recorded."""
-        if cls.writing is not None:
-            discard(temporary_path(cls.writing))
-        os._exit(code)
-
-    @classmethod
-    def _on_interrupt(cls, signum: int, frame: object) -> None:
-        cls.interrupted = True
-        if cls.writing is not None:
-            raise KeyboardInterrupt
-
-
-def run_job(job: Job) -> Entry:
-    """Simulate and record one trial; an unstable simulation becomes a failed entry.
-
-    Runs in a worker. Only `DresslogError`s count as trial failures; any other
-    exception is a bug and propagates, stopping the generation.
-    """
-    if _Worker.interrupted:
-        raise KeyboardInterrupt
-    path = Path(job.root) / job.file
-    started = time.perf_counter()
-    base = {"split": job.split, "slot": job.slot, "attempt": job.attempt, "spec": job.spec}
-    try:
-        _Worker.writing = path
-        result = _resolve(job.recorder)(job.spec, path, overwrite=True)
-    except DresslogError as err:
-        path.unlink(missing_ok=True)
-        reason = err.message if isinstance(err, SimulationError) else str(err)
-        return Entry(
-            **base,
-            status=Status.FAILED,
-            outcome=Outcome.FAILED,
-            failure=f"{type(err).__name__}: {reason}",
-            seconds=time.perf_counter() - started,
-        )
-    finally:
-        _Worker.writing = None
-    return Entry(
-        **base,
-        status=Status.OK,
-        file=job.file,
-        outcome=Outcome(result.outcome),
-        steps=int(result.steps),
-        size=path.stat().st_size,
-        sha256=sha256_file(path),
-        seconds=time.perf_counter() - started,
-    )
-
-
-class Executor(Protocol):
-    """Runs jobs somewhere; `done(timeout)` returns the jobs finished by then, maybe none.
-
-    `shutdown()` stops the work and returns the jobs that finished meanwhile (after an
-    interrupt, workers may complete what they had started), so none goes unrecorded.
-    """
-
-    def submit(self, job: Job) -> None: ...
-    def done(self, timeout: float) -> list[Entry]: ...
-    def pending(self) -> int: ...
-    def shutdown(self) -> list[Entry]: ...
-
-
-class ProcessExecutor:
-    """A local process pool (spawned workers: no pybullet or torch state is forked)."""
-
-    def __init__(self, workers: int) -> None:
-        import multiprocessing
-
-        self._pool = ProcessPoolExecutor(
-            workers, mp_context=multiprocessing.get_context("spawn"), initializer=_Worker.start
-        )
-        self._futures: set[Future[Entry]] = set()
-
-    def submit(self, job: Job) -> None:
-        self._futures.add(self._pool.submit(run_job, job))
-
-    def done(self, timeout: float) -> list[Entry]:
-        """Finished entries; a job that raised (a bug) raises once the others are out."""
-        finished, _ = wait(self._futures, timeout, return_when=FIRST_COMPLETED)
-        ok = {f for f in finished if f.exception() is None}
-        if not ok:
-            for f in finished:
-                f.result()
-        self._futures -= ok
-        return [f.result() for f in ok]
-
-    def pending(self) -> int:
-        return len(self._futures)
-
-    def shutdown(self) -> list[Entry]:
-        self._pool.shutdown(wait=True, cancel_futures=True)
-        finished = [f for f in self._futures if f.done() and not f.cancelled()]
-        self._futures = set()
-        return [f.result() for f in finished if f.exception() is None]
-
-
-def make_executor(name: ExecutorName | str, workers: int) -> Executor:
-    """The pool for `name`, which `check_executor` has passed."""
-    if name == "ray":
-        from dresslog.dataset.ray_executor import RayExecutor
-
-        return RayExecutor(workers)
-    return ProcessExecutor(workers)
-
-
-def check_executor(name: ExecutorName | str) -> None:
-    """Fail before anything is written when `name` cannot run here (Ray not installed)."""
-    if name == "ray":
-        from dresslog.dataset.ray_executor import import_ray
-
-        import_ray()
-    elif name != "process":
-        raise DatasetError(f"unknown executor {name!r}; use 'process' or 'ray'")
 
 
 def _check_folder(root: Path) -> None:
@@ -342,7 +171,7 @@ def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[J
 
 def _spec_factory(recorder: str) -> Callable[..., TrialSpec] | None:
     """The simulator's `random_spec`, unless a test recorder stands in for the simulator."""
-    return _resolve(SPEC_FACTORY) if recorder == RECORDER else None
+    return resolve(SPEC_FACTORY) if recorder == RECORDER else None
 
 
 def _job(

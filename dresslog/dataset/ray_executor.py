@@ -12,7 +12,7 @@ import contextlib
 import os
 from typing import Any
 
-from dresslog.dataset.generate import Job, run_job
+from dresslog.dataset.executors import Job, run_job
 from dresslog.dataset.manifest import Entry
 from dresslog.errors import DatasetError
 
