@@ -44,21 +44,19 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 import torch
 
 from dresslog.errors import ModelError
-from dresslog.io.files import atomic_path
+from dresslog.model.checkpoint import fingerprint, resume, run_key, save_checkpoint
 from dresslog.model.files import (
     DataProvenance,
     EpochRecord,
@@ -156,116 +154,6 @@ def _evaluate_loss(
     return total / count
 
 
-def _run_key(
-    net: ForceMapLSTM, history: TrainHistory, normalise: bool, data: str
-) -> dict[str, Any]:
-    """What a checkpoint must share with the run that resumes it: settings, shape, data."""
-    return {
-        "settings": history.settings.model_dump(),
-        "arch": [net.n_points, net.hidden, net.layers],
-        "normalise": normalise,
-        "data": data,
-    }
-
-
-def _fingerprint(*arrays: Sequence[np.ndarray]) -> str:
-    """A hash of every sequence's values, in order: another dataset gives another one."""
-    digest = hashlib.blake2b(digest_size=16)
-    for group in arrays:
-        for a in group:
-            digest.update(np.ascontiguousarray(a).tobytes())
-    return digest.hexdigest()
-
-
-#: What a checkpoint's metadata says it is; another value is not read.
-CHECKPOINT_FORMAT = "dresslog-checkpoint/1"
-
-
-def _save_checkpoint(
-    path: Path,
-    net: ForceMapLSTM,
-    optim: torch.optim.Optimizer,
-    history: TrainHistory,
-    best: dict[str, Any],
-    key: dict[str, Any],
-) -> None:
-    """Tensors in safetensors, everything else as JSON in its metadata: nothing to unpickle."""
-    from safetensors.torch import save_file
-
-    optim_state = optim.state_dict()
-    tensors = {f"model.{k}": v for k, v in net.state_dict().items()}
-    tensors |= {f"best.{k}": v for k, v in best.items()}
-    for index, slots in optim_state["state"].items():
-        tensors |= {f"optim.{index}.{name}": v for name, v in slots.items()}
-    metadata = {
-        "format": CHECKPOINT_FORMAT,
-        "key": json.dumps(key),
-        "epochs": json.dumps([e.model_dump() for e in history.epochs]),
-        "param_groups": json.dumps(optim_state["param_groups"]),
-    }
-    with atomic_path(path) as tmp:
-        save_file({k: v.detach().contiguous() for k, v in tensors.items()}, tmp, metadata)
-
-
-def _read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
-    """The metadata (decoded) and tensors of a checkpoint `_save_checkpoint` wrote."""
-    from safetensors import safe_open
-
-    with safe_open(str(path), framework="pt") as stream:
-        metadata = stream.metadata() or {}
-        tensors = {name: stream.get_tensor(name) for name in stream.keys()}  # noqa: SIM118
-    if metadata.get("format") != CHECKPOINT_FORMAT:
-        raise ValueError("not a dresslog checkpoint")
-    return {k: json.loads(metadata[k]) for k in ("key", "epochs", "param_groups")}, tensors
-
-
-def _resume(
-    path: Path,
-    net: ForceMapLSTM,
-    optim: torch.optim.Optimizer,
-    history: TrainHistory,
-    best: dict[str, Any],
-    key: dict[str, Any],
-) -> None:
-    """Continue from a checkpoint of the same settings and data; refuse one from another run."""
-    unreadable = "is not a checkpoint dresslog can read; pass --overwrite to start afresh"
-    try:
-        metadata, tensors = _read_checkpoint(path)
-    except Exception:  # safetensors' and json's reasons help no one here
-        raise ModelError(unreadable, path=path) from None
-    saved, key = metadata["key"], json.loads(json.dumps(key))  # compared as stored
-    if not isinstance(saved, dict):
-        raise ModelError(unreadable, path=path)
-    if saved.get("data") not in (None, key["data"]):
-        raise ModelError(
-            "checkpoint is from a run on other data (the dataset changed since): pass "
-            "--overwrite to start afresh",
-            path=path,
-        )
-    if saved != key:
-        raise ModelError(
-            "checkpoint is from a run with other settings: repeat that run's options to "
-            "resume it, or pass --overwrite to start afresh",
-            path=path,
-        )
-    slots: dict[int, dict[str, torch.Tensor]] = {}
-    for name, value in tensors.items():
-        if name.startswith("optim."):
-            index, slot = name.removeprefix("optim.").split(".", 1)
-            slots.setdefault(int(index), {})[slot] = value
-    try:
-        net.load_state_dict(_under(tensors, "model."))
-        optim.load_state_dict({"state": slots, "param_groups": metadata["param_groups"]})
-        best.update(_under(tensors, "best."))
-        history.epochs = [EpochRecord.model_validate(e) for e in metadata["epochs"]]
-    except (KeyError, TypeError, ValueError, RuntimeError):  # a layout not our own
-        raise ModelError(unreadable, path=path) from None
-
-
-def _under(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
-    return {k.removeprefix(prefix): v for k, v in tensors.items() if k.startswith(prefix)}
-
-
 def train(
     sequences: Sequence[np.ndarray],
     forces: Sequence[np.ndarray],
@@ -339,11 +227,11 @@ def train(
         net, optim = build()
         ckpt = Path(checkpoint) if checkpoint is not None else None
         best: dict[str, torch.Tensor] = {}  # the kept epoch's weights, if keep_best
-        data = _fingerprint(phis, targets, val_phis, val_targets)
-        key = _run_key(net, history, normalise, data)
+        data = fingerprint(phis, targets, val_phis, val_targets)
+        key = run_key(net, history, normalise, data)
         if ckpt is not None and ckpt.exists():
             try:
-                _resume(ckpt, net, optim, history, best, key)
+                resume(ckpt, net, optim, history, best, key)
             except ModelError:
                 if not restart_other:
                     raise
@@ -447,7 +335,7 @@ def _fit(
         if s.keep_best and history.kept is record:
             best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
         if ckpt is not None:
-            _save_checkpoint(ckpt, net, optim, history, best, key)
+            save_checkpoint(ckpt, net, optim, history, best, key)
         shown = {"loss": f"{record.train_loss:.3g}"}
         bar.set_postfix(shown if val_loss is None else {**shown, "val": f"{val_loss:.3g}"})
         bar.update()

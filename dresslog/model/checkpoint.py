@@ -1,0 +1,134 @@
+"""The training checkpoint: what an interrupted `train` resumes from.
+
+One safetensors file beside the model folder, written after every epoch: the network's,
+the optimiser's and the best epoch's tensors, and as JSON metadata the run's key
+(settings, shape, a fingerprint of the data), its epochs so far and the optimiser's
+groups. Nothing in it is unpickled; a checkpoint of another run is refused, not mixed in.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import torch
+
+from dresslog.errors import ModelError
+from dresslog.io.files import atomic_path
+from dresslog.model.files import EpochRecord
+from dresslog.model.network import ForceMapLSTM
+
+if TYPE_CHECKING:
+    from dresslog.model.train import TrainHistory
+
+
+def run_key(net: ForceMapLSTM, history: TrainHistory, normalise: bool, data: str) -> dict[str, Any]:
+    """What a checkpoint must share with the run that resumes it: settings, shape, data."""
+    return {
+        "settings": history.settings.model_dump(),
+        "arch": [net.n_points, net.hidden, net.layers],
+        "normalise": normalise,
+        "data": data,
+    }
+
+
+def fingerprint(*arrays: Sequence[np.ndarray]) -> str:
+    """A hash of every sequence's values, in order: another dataset gives another one."""
+    digest = hashlib.blake2b(digest_size=16)
+    for group in arrays:
+        for a in group:
+            digest.update(np.ascontiguousarray(a).tobytes())
+    return digest.hexdigest()
+
+
+#: What a checkpoint's metadata says it is; another value is not read.
+CHECKPOINT_FORMAT = "dresslog-checkpoint/1"
+
+
+def save_checkpoint(
+    path: Path,
+    net: ForceMapLSTM,
+    optim: torch.optim.Optimizer,
+    history: TrainHistory,
+    best: dict[str, Any],
+    key: dict[str, Any],
+) -> None:
+    """Tensors in safetensors, everything else as JSON in its metadata: nothing to unpickle."""
+    from safetensors.torch import save_file
+
+    optim_state = optim.state_dict()
+    tensors = {f"model.{k}": v for k, v in net.state_dict().items()}
+    tensors |= {f"best.{k}": v for k, v in best.items()}
+    for index, slots in optim_state["state"].items():
+        tensors |= {f"optim.{index}.{name}": v for name, v in slots.items()}
+    metadata = {
+        "format": CHECKPOINT_FORMAT,
+        "key": json.dumps(key),
+        "epochs": json.dumps([e.model_dump() for e in history.epochs]),
+        "param_groups": json.dumps(optim_state["param_groups"]),
+    }
+    with atomic_path(path) as tmp:
+        save_file({k: v.detach().contiguous() for k, v in tensors.items()}, tmp, metadata)
+
+
+def _read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+    """The metadata (decoded) and tensors of a checkpoint `save_checkpoint` wrote."""
+    from safetensors import safe_open
+
+    with safe_open(str(path), framework="pt") as stream:
+        metadata = stream.metadata() or {}
+        tensors = {name: stream.get_tensor(name) for name in stream.keys()}  # noqa: SIM118
+    if metadata.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError("not a dresslog checkpoint")
+    return {k: json.loads(metadata[k]) for k in ("key", "epochs", "param_groups")}, tensors
+
+
+def resume(
+    path: Path,
+    net: ForceMapLSTM,
+    optim: torch.optim.Optimizer,
+    history: TrainHistory,
+    best: dict[str, Any],
+    key: dict[str, Any],
+) -> None:
+    """Continue from a checkpoint of the same settings and data; refuse one from another run."""
+    unreadable = "is not a checkpoint dresslog can read; pass --overwrite to start afresh"
+    try:
+        metadata, tensors = _read_checkpoint(path)
+    except Exception:  # safetensors' and json's reasons help no one here
+        raise ModelError(unreadable, path=path) from None
+    saved, key = metadata["key"], json.loads(json.dumps(key))  # compared as stored
+    if not isinstance(saved, dict):
+        raise ModelError(unreadable, path=path)
+    if saved.get("data") not in (None, key["data"]):
+        raise ModelError(
+            "checkpoint is from a run on other data (the dataset changed since): pass "
+            "--overwrite to start afresh",
+            path=path,
+        )
+    if saved != key:
+        raise ModelError(
+            "checkpoint is from a run with other settings: repeat that run's options to "
+            "resume it, or pass --overwrite to start afresh",
+            path=path,
+        )
+    slots: dict[int, dict[str, torch.Tensor]] = {}
+    for name, value in tensors.items():
+        if name.startswith("optim."):
+            index, slot = name.removeprefix("optim.").split(".", 1)
+            slots.setdefault(int(index), {})[slot] = value
+    try:
+        net.load_state_dict(_under(tensors, "model."))
+        optim.load_state_dict({"state": slots, "param_groups": metadata["param_groups"]})
+        best.update(_under(tensors, "best."))
+        history.epochs = [EpochRecord.model_validate(e) for e in metadata["epochs"]]
+    except (KeyError, TypeError, ValueError, RuntimeError):  # a layout not our own
+        raise ModelError(unreadable, path=path) from None
+
+
+def _under(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
+    return {k.removeprefix(prefix): v for k, v in tensors.items() if k.startswith(prefix)}
