@@ -21,7 +21,7 @@ from dresslog.io.files import atomic_path
 from dresslog.spec import PAPER_AXES
 
 if TYPE_CHECKING:
-    from dresslog.experiments import SweepReport
+    from dresslog.experiments.sweeps import SweepReport
     from dresslog.model.files import ModelCard
 
 

@@ -1,0 +1,60 @@
+"""The paper's experiments on dataset folders: train a model, evaluate it, sweep it (Sec. V).
+
+This is the glue between `dresslog.dataset` (folders, manifests, cached arrays) and
+`dresslog.model` (network, training, metrics), so that the CLI commands and a Python
+user make the same one call. Simulation and decoding run in spawned worker processes:
+call these from under ``if __name__ == "__main__":`` in a script.
+
+Public API
+----------
+``train_dataset(data, out, *, epochs=10, batch_size=16, hidden=50, layers=3, lr=1e-3,
+normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant",
+input_differences=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
+on_epoch=None) -> ModelCard``
+    Trains on the training split (holding out a tenth of it, `dresslog.model.train`'s
+    ``val_fraction``, for the per-epoch validation loss), scores the test split, and
+    saves a model folder whose card names the data by its manifest hash and keeps the
+    per-epoch losses, with their plot (``training.png``). Resumes from
+    ``.<out>.checkpoint.safetensors`` beside `out`.
+``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
+-> EvalReport``
+    RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome,
+    with contact-map precision and recall; with ``bounds``, the oracle ratios too.
+``dataset_bounds(data, *, split="test", workers=None) -> dict[str, float]``
+    Those oracle ratios alone (`dresslog.model.bounds`): how low the data let any model go.
+``sweep(model, out, *, speeds=(), rotations=(), n=128, seed=0, ...) -> SweepReport``
+    Figs. 12 and 13: the same `n` fresh sequences (sweep seeds, disjoint from every
+    training and test seed) re-simulated per setting; RMSE per setting and its ratio to
+    the in-range setting; `out/sweep.csv`, `out/sweep.json` and `out/sweep.png`.
+"""
+
+from dresslog.experiments.evaluation import EvalReport, dataset_bounds, evaluate_dataset
+from dresslog.experiments.sweeps import (
+    ROTATION_SPEED,
+    Setting,
+    SweepReport,
+    default_sweep_folder,
+    parse_rotation,
+    parse_speed,
+    sweep,
+    sweep_settings,
+)
+from dresslog.experiments.training import TRAINING_PLOT, train_dataset
+from dresslog.model.evaluate import Scores
+
+__all__ = [
+    "ROTATION_SPEED",
+    "TRAINING_PLOT",
+    "EvalReport",
+    "Scores",
+    "Setting",
+    "SweepReport",
+    "dataset_bounds",
+    "default_sweep_folder",
+    "evaluate_dataset",
+    "parse_rotation",
+    "parse_speed",
+    "sweep",
+    "sweep_settings",
+    "train_dataset",
+]

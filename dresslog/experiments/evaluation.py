@@ -1,0 +1,141 @@
+"""`evaluate_dataset` and `dataset_bounds`: a model scored on a split (`dresslog eval`)."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dresslog.dataset import DatasetArrays, Split, load_dataset, load_manifest
+from dresslog.errors import DatasetError
+from dresslog.model.evaluate import Scores, evaluate
+from dresslog.model.files import (
+    LoadedModel,
+    check_task,
+    load_model,
+)
+from dresslog.spec import Task
+
+
+@dataclass(frozen=True)
+class EvalReport:
+    task: str
+    model: str
+    data: str
+    split: str
+    manifest_sha256: str
+    overall: Scores
+    per_outcome: dict[str, Scores] = field(default_factory=dict)
+    #: oracle name -> its ratio on the same split (`dresslog.model.bounds`), if asked
+    #: for (None if not; empty if the split has no force, so nothing to place)
+    bounds: dict[str, float] | None = None
+
+    def to_json(self) -> str:
+        """JSON with nan as null (JSON has no nan)."""
+        return json.dumps(finite(asdict(self)), indent=2)
+
+    def table(self) -> str:
+        head = (
+            f"{'group':<10}{'n':>6}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}"
+            f"{'prec':>7}{'rec':>7}"
+        )
+        rows = [("all", self.overall), *self.per_outcome.items()]
+        lines = [f"{self.task} model {self.model} on {self.data} ({self.split} split)", head]
+        for name, s in rows:
+            lines.append(
+                f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
+                f"{s.contact_precision:>7.3f}{s.contact_recall:>7.3f}"
+            )
+        lines.append(
+            f"half the truth: the estimate at each step's true total force "
+            f"{self.overall.ratio_at_true_total:.3f}, the true shape at the estimate's "
+            f"total {self.overall.ratio_true_shape:.3f}"
+        )
+        if self.bounds:
+            lines.append("oracle ratios on the same sequences (the data's limits):")
+            lines += [f"  {name:<28}{value:>8.3f}" for name, value in self.bounds.items()]
+        elif self.bounds is not None:
+            lines.append("oracle ratios: none, no force on the limb in these sequences")
+        return "\n".join(lines)
+
+
+def finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite(v) for v in value]
+    return value
+
+
+def check_data_task(model: LoadedModel, task: Task, n_points: int | None = None) -> None:
+    """`check_task` worded for eval and sweep, which take the model as MODEL."""
+    hint = "give a {task} model (e.g. samples/models/{task})"
+    check_task(model, task, n_points, subject="data", hint=hint)
+
+
+def score_rows(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
+    return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
+
+
+def evaluate_dataset(
+    model: str | Path,
+    data: str | Path,
+    *,
+    split: Split | str = Split.TEST,
+    bounds: bool = False,
+    workers: int | None = None,
+    progress: bool = True,
+) -> EvalReport:
+    """Score `model` on one split of `data`, overall and per outcome (dressed/missed/caught).
+
+    With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
+    so the model's ratio can be read against what the data allow.
+    """
+    if split not in set(Split):
+        raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
+    loaded = load_model(model)
+    check_data_task(loaded, load_manifest(data).task)
+    arrays = load_dataset(data, workers=workers, progress=progress)
+    check_data_task(loaded, arrays.task, arrays.n_points)
+    rows = arrays.rows(split)
+    if not len(rows):
+        raise DatasetError(f"the dataset has no {Split(split)} trials", path=data)
+    per_outcome = {}
+    for outcome in sorted(set(arrays.outcomes[rows].tolist())):
+        per_outcome[outcome] = score_rows(loaded, arrays, arrays.rows(split, outcome))
+    return EvalReport(
+        task=arrays.task.value,
+        model=str(model),
+        data=str(data),
+        split=Split(split).value,
+        manifest_sha256=arrays.manifest_sha256,
+        overall=score_rows(loaded, arrays, rows),
+        per_outcome=per_outcome,
+        bounds=_bounds(arrays, rows) if bounds else None,
+    )
+
+
+def dataset_bounds(
+    data: str | Path, *, split: Split | str = Split.TEST, workers: int | None = None
+) -> dict[str, float]:
+    """The oracle ratios of `dresslog.model.bounds` on one split of `data`, with no model."""
+    arrays = load_dataset(data, workers=workers, progress=False)
+    return _bounds(arrays, arrays.rows(split))
+
+
+def _bounds(arrays: DatasetArrays, rows: np.ndarray) -> dict[str, float]:
+    from dresslog.limb import build_limb, limb_points
+    from dresslog.model.bounds import oracle_ratios
+
+    truths = arrays.force_maps(rows)
+    if not any(t.any() for t in truths):
+        return {}  # no force anywhere: nothing to place, no bound
+    train = arrays.rows(Split.TRAIN)
+    points = limb_points(build_limb(arrays.task)).points
+    return oracle_ratios(truths, points, arrays.force_maps(train) if len(train) else None)

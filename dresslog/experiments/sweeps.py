@@ -1,0 +1,221 @@
+"""`sweep`: the generalisation experiments of Figs. 12 and 13 (`dresslog sweep`)."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from dresslog.dataset import Split, generate, load_dataset
+from dresslog.dataset.executors import check_executor
+from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
+from dresslog.dataset.manifest import MANIFEST_FILE
+from dresslog.errors import DatasetError, first_problem
+from dresslog.experiments.evaluation import check_data_task, finite, score_rows
+from dresslog.io.files import atomic_path
+from dresslog.model.evaluate import Scores
+from dresslog.model.files import (
+    CARD_FILE,
+    load_model,
+)
+from dresslog.model.files import FORMAT as MODEL_FORMAT
+from dresslog.plots import plot_sweep
+from dresslog.spec import Task, TrialSpec
+
+#: Mid-range speeds (m/s) the paper used for the rotation sweep (12.5 and 17.5 cm/s).
+ROTATION_SPEED = {Task.GOWN: 0.125, Task.SHORTS: 0.175}
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One sweep setting: its name, the spec fields it fixes, and its scores."""
+
+    name: str
+    kind: str  # "baseline", "speed" or "rotation"
+    value: float
+    axis: str
+    overrides: dict[str, Any]
+    scores: Scores | None = None
+
+    @property
+    def folder(self) -> str:
+        return self.name.replace(":", "_")
+
+
+@dataclass(frozen=True)
+class SweepReport:
+    task: str
+    model: str
+    n: int
+    baseline_rmse: float
+    settings: list[Setting]
+
+    def ratio(self, setting: Setting) -> float:
+        assert setting.scores is not None
+        return setting.scores.rmse / self.baseline_rmse if self.baseline_rmse else math.nan
+
+    def table(self) -> str:
+        lines = [f"{'setting':<18}{'n':>5}{'RMSE (N)':>12}{'zero (N)':>12}{'x in-range':>12}"]
+        for s in self.settings:
+            assert s.scores is not None
+            lines.append(
+                f"{s.name:<18}{s.scores.n:>5}{s.scores.rmse:>12.5f}"
+                f"{s.scores.zero_rmse:>12.5f}{self.ratio(s):>12.2f}"
+            )
+        return "\n".join(lines)
+
+
+def parse_rotation(text: str) -> tuple[str, float]:
+    """'y:-15' -> ('y', -15.0): degrees about an axis, forearm at the elbow, foot at the ankle."""
+    axis, sep, degrees = text.partition(":")
+    try:
+        if not sep or axis not in ("x", "y", "z"):
+            raise ValueError
+        return axis, float(degrees) + 0.0  # -0 is 0: one setting, one folder
+    except ValueError:
+        raise DatasetError(f"rotation {text!r} is not AXIS:DEGREES, e.g. y:-15") from None
+
+
+def parse_speed(text: str | float) -> float:
+    """'0.2' -> 0.2 (m/s)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise DatasetError(f"speed {text!r} is not a number in m/s, e.g. 0.2") from None
+
+
+def sweep_settings(
+    task: Task,
+    speeds: Sequence[float | str],
+    rotations: Sequence[str],
+    duration: float | None = None,
+) -> list[Setting]:
+    """The in-range baseline, then one setting per speed and per rotation.
+
+    Every setting's fields are checked as a spec here, so a bad value stops the sweep
+    before its first trial, not after the settings before it.
+    """
+    extra = {"duration": duration} if duration else {}
+    settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
+    for speed in map(parse_speed, speeds):
+        settings.append(Setting(f"speed:{speed:g}", "speed", speed, "", {"speed": speed, **extra}))
+    for text in rotations:
+        axis, degrees = parse_rotation(text)
+        fields = {
+            "speed": ROTATION_SPEED[task],
+            "limb_rotation": {"axis": axis, "degrees": degrees},
+            **extra,
+        }
+        settings.append(Setting(f"rot:{axis}:{degrees:g}", "rotation", degrees, axis, fields))
+    unique: dict[str, Setting] = {}  # a value given twice (0.1 and 0.10) is swept once
+    for setting in settings:
+        unique.setdefault(setting.name, setting)
+    settings = list(unique.values())
+    for setting in settings:
+        try:
+            TrialSpec.model_validate({"task": task, **setting.overrides})
+        except ValidationError as err:
+            raise DatasetError(f"{setting.name}: invalid {first_problem(err)}") from None
+    return settings
+
+
+def _dresslog_folder(folder: Path) -> str | None:
+    """ "a dataset" or "a model" if `folder` is one of ours (another tool's manifest.json
+    does not count), else None."""
+    for name, what, kind in ((MANIFEST_FILE, "a dataset", DATASET_FORMAT),
+                             (CARD_FILE, "a model", MODEL_FORMAT)):  # fmt: skip
+        try:
+            if json.loads((folder / name).read_text(encoding="utf-8")).get("format") == kind:
+                return what
+        except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+            continue
+    return None
+
+
+def default_sweep_folder(model: str | Path) -> Path:
+    """`MODEL-sweep` in the current folder: never beside a bundled model, in the package."""
+    return Path(f"{Path(model).resolve().name}-sweep")
+
+
+def sweep(
+    model: str | Path,
+    out: str | Path,
+    *,
+    speeds: Sequence[float | str] = (),
+    rotations: Sequence[str] = (),
+    n: int = 128,
+    seed: int = 0,
+    duration: float | None = None,
+    workers: int | None = None,
+    executor: str = "process",
+    progress: bool = True,
+) -> SweepReport:
+    """Re-simulate the same `n` fresh sequences per setting and score the model on each.
+
+    Each setting is a dataset folder under `out` (so an interrupted sweep resumes); the
+    sweep seeds are the same in every setting, so settings differ only in what they fix.
+    """
+    if n < 1:
+        raise DatasetError(f"a sweep needs at least 1 sequence per setting, not {n}")
+    loaded = load_model(model)
+    task = loaded.card.task
+    if not speeds and not rotations:
+        raise DatasetError("give at least one --speeds or --rotations value")
+    settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
+    check_executor(executor)
+    out = Path(out)
+    resolved = out.resolve()
+    for folder in (resolved, *resolved.parents):  # nor anywhere inside one
+        what = _dresslog_folder(folder)
+        if what is not None:
+            where = "is" if folder == resolved else f"is inside {folder},"
+            message = f"{where} {what} folder; give the sweep a folder of its own"
+            raise DatasetError(message, path=out)
+    out.mkdir(parents=True, exist_ok=True)
+    done: list[Setting] = []
+    for setting in settings:
+        folder = out / setting.folder
+        generate(
+            task,
+            n,
+            folder,
+            splits={Split.SWEEP: n},
+            overrides=setting.overrides,
+            seed=seed,
+            workers=workers,
+            executor=executor,
+            progress=progress,
+            label=f"{task.value} {setting.name}",
+        )
+        arrays = load_dataset(folder, workers=workers, progress=False)
+        check_data_task(loaded, arrays.task, arrays.n_points)
+        scores = score_rows(loaded, arrays, arrays.rows(Split.SWEEP))
+        done.append(Setting(**{**asdict(setting), "scores": scores}))
+    baseline = done[0].scores
+    assert baseline is not None
+    report = SweepReport(task.value, str(model), n, baseline.rmse, done)
+    _write_sweep(out, report)
+    return report
+
+
+def _write_sweep(out: Path, report: SweepReport) -> None:
+    rows = ["setting,kind,axis,value,n,rmse,zero_rmse,ratio_to_in_range"]
+    for s in report.settings:
+        assert s.scores is not None
+        value = "" if math.isnan(s.value) else f"{s.value:g}"
+        rows.append(
+            f"{s.name},{s.kind},{s.axis},{value},{s.scores.n},{s.scores.rmse:.6g},"
+            f"{s.scores.zero_rmse:.6g},{report.ratio(s):.4g}"
+        )
+    for name, text in (
+        ("sweep.csv", "\n".join(rows) + "\n"),
+        ("sweep.json", json.dumps(finite(asdict(report)), indent=2) + "\n"),
+    ):
+        with atomic_path(out / name) as tmp:
+            tmp.write_text(text)
+    plot_sweep(out / "sweep.png", report)

@@ -1,0 +1,101 @@
+"""`train_dataset`: the paper's network trained on a dataset folder (`dresslog train`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Literal
+
+from dresslog.dataset import Split, load_dataset, load_manifest
+from dresslog.errors import DatasetError
+from dresslog.io.files import exclusive
+from dresslog.model.evaluate import evaluate
+from dresslog.model.files import (
+    DataProvenance,
+    EpochRecord,
+    ModelCard,
+    check_model_folder,
+)
+from dresslog.model.options import VAL_FRACTION, check_options, held_out
+from dresslog.plots import plot_training
+
+#: The learning curve `train_dataset` draws into the model folder.
+TRAINING_PLOT = "training.png"
+
+
+def train_dataset(
+    data: str | Path,
+    out: str | Path,
+    *,
+    epochs: int = 10,
+    batch_size: int = 16,
+    hidden: int = 50,
+    layers: int = 3,
+    lr: float = 1e-3,
+    normalise: bool = False,
+    balance_loss: bool = False,
+    keep_best: bool = False,
+    lr_schedule: Literal["constant", "cosine"] = "constant",
+    input_differences: bool = False,
+    window: int | None = None,
+    seed: int = 0,
+    overwrite: bool = False,
+    workers: int | None = None,
+    progress: bool = True,
+    on_epoch: Callable[[EpochRecord], None] | None = None,
+) -> ModelCard:
+    """Train the paper's network (by default) on `data`'s training split; save to `out`."""
+    out = Path(out)
+    if out.name in ("", ".."):  # `-o .` or `-o ..`: name the folder, for the files beside it
+        out = out.resolve()
+    check_model_folder(out, overwrite)  # say so now, not after hours of training
+    steps = [t.steps for t in load_manifest(data).trials if t.split is Split.TRAIN]
+    check_options(  # from the manifest: a bad option fails before minutes of decoding
+        steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
+        hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
+    )  # fmt: skip
+    checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
+    # a second run on the same output would share (and garble) the checkpoint
+    with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
+        arrays = load_dataset(data, workers=workers, progress=progress)
+        rows = arrays.rows(Split.TRAIN)
+        if len(rows) < 2:
+            raise DatasetError(f"needs at least 2 training trials, has {len(rows)}", path=data)
+        from dresslog.model.files import save_model
+        from dresslog.model.train import make_card, train  # torch once the data checks out
+
+        weights, history = train(
+            arrays.sequences(rows),
+            arrays.force_maps(rows),
+            epochs=epochs,
+            batch_size=batch_size,
+            lr=lr,
+            hidden=hidden,
+            layers=layers,
+            seed=seed,
+            window=window,
+            normalise=normalise,
+            balance_loss=balance_loss,
+            keep_best=keep_best,
+            lr_schedule=lr_schedule,
+            input_differences=input_differences,
+            progress=progress,
+            checkpoint=checkpoint,
+            restart_other=overwrite,  # an interrupted run of these options still resumes
+            on_epoch=on_epoch,
+        )
+        metrics: dict[str, float] = {}
+        test = arrays.rows(Split.TEST)
+        if len(test):
+            from dresslog.model.numpy_lstm import NumpyEstimator
+
+            scores = evaluate(
+                NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test)
+            )
+            metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
+        provenance = DataProvenance(manifest_sha256=arrays.manifest_sha256, description=str(data))
+        card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
+        card = save_model(out, weights, card, overwrite=overwrite)
+        plot_training(out / TRAINING_PLOT, card)
+        checkpoint.unlink(missing_ok=True)
+    return card
