@@ -26,10 +26,14 @@ CONTACT_DTYPE = np.dtype(
 )
 
 
+def contact_vectors(contacts: np.ndarray) -> np.ndarray:
+    """Total force (C, 3) of each contact: normal force along the normal, plus friction."""
+    return contacts["normal_force"][:, None] * contacts["normal"] + contacts["friction"]
+
+
 def contact_magnitudes(contacts: np.ndarray) -> np.ndarray:
     """Total force magnitude of each contact: |normal force + friction|."""
-    normal = contacts["normal_force"][:, None] * contacts["normal"]
-    v = normal + contacts["friction"]
+    v = contact_vectors(contacts)
     # np.linalg.norm(v, axis=1) bit for bit: sqrt of the row sums (x + y) + z of v * v
     s = v * v
     return np.sqrt(s[:, 0] + s[:, 1] + s[:, 2])

@@ -21,7 +21,7 @@ from dresslog.errors import TrialWriteError
 from dresslog.io.files import check_output, discard, temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
-from dresslog.trial import contact_magnitudes
+from dresslog.trial import contact_magnitudes, contact_vectors
 
 if TYPE_CHECKING:
     import rerun as rr
@@ -307,7 +307,7 @@ class RerunSink:
         items = [c for c in b.contacts if c is not None]
         counts = [len(c) for c in items]
         allc = np.concatenate(items)
-        vectors = allc["normal_force"][:, None] * allc["normal"] + allc["friction"]
+        vectors = contact_vectors(allc)
         magnitude = contact_magnitudes(allc)[:, None]
         length = ARROW_MAX * magnitude / (magnitude + ARROW_HALF)
         send(
