@@ -241,8 +241,8 @@ def test_messages_out_of_order_or_logged_twice_are_sorted_and_dropped_with_a_war
     order = np.insert(order, 300, 299)  # message 299 twice
     topics["/ft_sensor/wrench"] = (kind, stamps[order], values[order])
     bag = make_bag(tmp_path / "messy", topics, "mcap")
-    with pytest.warns(ConversionWarning, match=r"of 1001 samples, 4 out of time order, sorted "
-                      r"and 1 repeated, dropped"):  # fmt: skip
+    with pytest.warns(ConversionWarning, match=r"of 1001 samples, 3 stamped before one logged "
+                      r"earlier, sorted and 1 logged twice, dropped"):  # fmt: skip
         report = convert(bag, tmp_path / "messy.mcap", "gown")
     assert report.warnings[0].startswith("/ft_sensor/wrench: of 1001 samples")
     got, want = read_trial(tmp_path / "messy.mcap"), read_trial(tmp_path / "clean.mcap")
@@ -316,14 +316,36 @@ def test_a_wrench_frame_of_pose_needs_an_orientation(tmp_path: Path) -> None:
         wrench_frame="pose")  # fmt: skip
 
 
+def test_a_zero_quaternion_is_refused_not_read_as_no_rotation(tmp_path: Path) -> None:
+    """ROS 1's unset orientation: normalised it would be the identity, silently."""
+    topics = standard_topics(1.0)
+    kind, stamps, values = topics["/arm/ee_pose"]
+    values = values.copy()
+    values[20:25, 3:] = 0.0
+    topics["/arm/ee_pose"] = (kind, stamps, values)
+    bad(tmp_path, topics, r"/arm/ee_pose: pose orientation is the zero quaternion at 5 of 50 "
+        r"samples \(first: sample 20\)")  # fmt: skip
+
+
 def test_a_stamp_repeated_with_other_values_is_refused(tmp_path: Path) -> None:
     topics = standard_topics(1.0)
     kind, stamps, values = topics["/ft_sensor/wrench"]
     stamps = stamps.copy()
     stamps[501] = stamps[500]  # a driver stamping a batch of two with one time
     topics["/ft_sensor/wrench"] = (kind, stamps, values)
-    bad(tmp_path, topics, "not increasing at sample 501.*a stamp repeats with other values",
-        layout="mcap")  # fmt: skip
+    bad(tmp_path, topics, r"samples 500 and 501 of 1000 share the stamp \d+ ns \(header clock\) "
+        "with other values: a driver stamping a batch", layout="mcap")  # fmt: skip
+
+
+def test_a_clock_that_jumps_back_is_refused_not_sorted_into_the_rest(tmp_path: Path) -> None:
+    """Two publishers' seconds apart, or a clock reset: sorting would interleave them."""
+    topics = standard_topics(2.0)
+    kind, stamps, values = topics["/ft_sensor/wrench"]
+    stamps = stamps.copy()
+    stamps[1500:] -= 1_000_000_000  # back by 1 s halfway
+    topics["/ft_sensor/wrench"] = (kind, stamps, values)
+    bad(tmp_path, topics, r"time goes back 0.999 s at sample 1500 of 2000 \(header clock\): "
+        "a clock reset", layout="mcap")  # fmt: skip
 
 
 def test_a_gap_longer_than_100_ms_is_named_in_a_warning(tmp_path: Path) -> None:

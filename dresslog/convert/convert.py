@@ -96,34 +96,62 @@ def load(
     )  # fmt: skip
 
 
-def put_in_time_order(stream: SourceStream) -> str | None:
-    """Sort samples a log holds out of time order and drop exact repeats; say what was done.
+#: How far back a sample may be stamped, behind one logged before it, and still be
+#: put in its place: a transport's reordering, not a clock that jumped back.
+MAX_LATE_S = 0.1
+
+
+def _where(stream: SourceStream, path: Path) -> str:
+    """A bag's stream is named by its topic; a CSV's by its file, which the error names."""
+    return "" if stream.name == path.name else f"{stream.name}: "
+
+
+def put_in_time_order(stream: SourceStream, path: Path) -> str | None:
+    """Sort samples stamped a little out of order and drop exact repeats; say what was done.
 
     A bag lists messages as they arrived: a transport's reordering or a message logged
     twice leaves a few stamps out of order. A stamp repeated with other values (a driver
-    stamping a batch with one time) is left for `check_stream` to refuse.
+    stamping a batch with one time) or a jump back of more than `MAX_LATE_S` (a clock
+    reset, two logs in one) is refused: sorting would interleave what does not belong.
     """
     t_ns, values = stream.t_ns, stream.values
     if rs.first_disorder(t_ns) is None or (t_ns == t_ns[0]).all():  # in order, or unset
         return None
+    where, clock = _where(stream, path), f"{stream.clock} clock"
     order = np.argsort(t_ns, kind="stable")
-    t_ns, values = t_ns[order], values[order]
-    repeat = np.r_[False, (np.diff(t_ns) == 0) & (values[1:] == values[:-1]).all(axis=1)]
-    if (np.diff(t_ns[~repeat]) == 0).any():
-        return None
-    moved = int(np.count_nonzero(order != np.arange(len(order))))
-    done = [f"{moved} out of time order, sorted"] if moved else []
-    done += [f"{np.count_nonzero(repeat)} repeated, dropped"] if repeat.any() else []
-    stream.t_ns, stream.values = t_ns[~repeat], values[~repeat]
+    sorted_t, sorted_v = t_ns[order], values[order]
+    same = np.diff(sorted_t) == 0
+    equal = (sorted_v[1:] == sorted_v[:-1]) | (np.isnan(sorted_v[1:]) & np.isnan(sorted_v[:-1]))
+    behind = np.maximum.accumulate(t_ns) - t_ns
+    if (worst := int(np.argmax(behind))) and behind[worst] > MAX_LATE_S * 1e9:
+        raise ConversionError(
+            f"{where}time goes back {behind[worst] / 1e9:.3g} s at sample {worst} of "
+            f"{len(t_ns)} ({clock}): a clock reset, or two logs in one; convert each part "
+            "on its own",
+            path=path,
+        )
+    clash = np.flatnonzero(same & ~equal.all(axis=1))
+    if len(clash):
+        stamp, first, second = sorted_t[clash[0]], order[clash[0]], order[clash[0] + 1]
+        raise ConversionError(
+            f"{where}samples {first} and {second} of {len(t_ns)} share the stamp {stamp} ns "
+            f"({clock}) with other values: a driver stamping a batch with one time, or times "
+            "written more coarsely than the rate",
+            path=path,
+        )
+    late = int(np.count_nonzero(behind > 0))
+    repeat = np.r_[False, same & equal.all(axis=1)]
+    done = [f"{late} stamped before one logged earlier, sorted"] if late else []
+    done += [f"{np.count_nonzero(repeat)} logged twice, dropped"] if repeat.any() else []
+    stream.t_ns, stream.values = sorted_t[~repeat], sorted_v[~repeat]
     if stream.log_ns is not None:
         stream.log_ns = stream.log_ns[order][~repeat]
-    return f"{stream.name}: of {len(order)} samples, {' and '.join(done)}"
+    return f"{stream.name}: of {len(t_ns)} samples, {' and '.join(done)}"
 
 
 def check_stream(stream: SourceStream, path: Path) -> None:
     """Enough samples, finite values, strictly increasing times: else a ConversionError."""
-    # a bag's stream is named by its topic; a CSV's by its file, which the error names already
-    where = "" if stream.name == path.name else f"{stream.name}: "
+    where = _where(stream, path)
     if len(stream) < 2:
         raise ConversionError(
             f"{where}only {len(stream)} {stream.kind} sample(s); a trial needs a log of "
@@ -139,8 +167,7 @@ def check_stream(stream: SourceStream, path: Path) -> None:
     if (bad := rs.first_disorder(stream.t_ns)) is not None:
         raise ConversionError(
             f"{where}timestamps not increasing at sample {bad} of {len(stream)} "
-            f"({stream.t_ns[bad - 1]} then {stream.t_ns[bad]} ns, {stream.clock} clock); "
-            "a stamp repeats with other values (a driver stamping a batch with one time?)",
+            f"({stream.t_ns[bad - 1]} then {stream.t_ns[bad]} ns, {stream.clock} clock)",
             path=path,
         )
     if not np.isfinite(stream.values).all():
@@ -149,6 +176,20 @@ def check_stream(stream: SourceStream, path: Path) -> None:
         raise ConversionError(
             f"{where}{stream.values[row, col]} {stream.kind} {COMPONENTS[stream.kind][col]} at "
             f"sample {row} ({seconds:.3f} s in); drop or fill that sample",
+            path=path,
+        )
+    if stream.kind == "pose":
+        _check_orientation(stream, where, path)
+
+
+def _check_orientation(stream: SourceStream, where: str, path: Path) -> None:
+    """A zero quaternion is no rotation at all (ROS 1's unset value), not the identity."""
+    zero = np.flatnonzero(np.linalg.norm(stream.values[:, 3:7], axis=1) < 1e-6)
+    if len(zero):
+        raise ConversionError(
+            f"{where}pose orientation is the zero quaternion at {len(zero)} of {len(stream)} "
+            f"samples (first: sample {zero[0]}), ROS 1's unset value; drop those samples or "
+            "fill in the orientation",
             path=path,
         )
 
@@ -187,7 +228,12 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
             raise ConversionError(
                 f"the {what} {overlap:.3g} s, less than two 100 Hz steps{unit}", path=source.path
             )
-        hint = "" if source.format == "csv" else "; or use the bag's receive times: --clock log"
+        on_log = all(s.clock == "log" for s in source.streams)
+        hint = (
+            ""
+            if source.format == "csv" or on_log
+            else "; or use the bag's receive times: --clock log"
+        )
         raise ConversionError(
             f"streams do not overlap in time ({spans}); they must share one clock{hint}",
             path=source.path,
@@ -276,6 +322,10 @@ def convert(
         raise ConversionError("rotation quaternion must be finite and not zero")
     if not (np.isfinite(tare_s) and tare_s >= 0):
         raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
+    if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
+        raise ConversionError(
+            f"clock {clock!r} / wrench frame {wrench_frame!r}: use header or log / world or pose"
+        )
 
     source = load(
         path,
@@ -287,7 +337,13 @@ def convert(
         time_unit=time_unit,
         clock=clock,
     )
-    reordered = [m for stream in source.streams if (m := put_in_time_order(stream))]
+    messages_in = source.message_count
+    if wrench_frame == "pose":
+        _check_turnable(source)
+    # one CSV's streams share its time column: one message for it
+    reordered = list(
+        dict.fromkeys(m for stream in source.streams if (m := put_in_time_order(stream, path)))
+    )
     for stream in source.streams:
         check_stream(stream, path)
     averaged = rs.averages(source.wrench.t_ns)
@@ -313,7 +369,7 @@ def convert(
         output=str(output),
         steps=len(grid),
         duration_s=float(t_ns[-1]) / 1e9,
-        messages_in=source.message_count,
+        messages_in=messages_in,
         elapsed_s=time.perf_counter() - started,
         source=info,
         warnings=found,
@@ -337,7 +393,6 @@ def _warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
     return found
 
 
-_IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
 #: How far apart two streams' header clocks may run, against the bag's receive times.
 MAX_CLOCK_SKEW_S = 0.05
 
@@ -355,8 +410,9 @@ def _clock_skew(streams: list[SourceStream]) -> str | None:
     leads = ", ".join(f"{name} {value:+.3f} s" for name, value in lead.items())
     return (
         f"header stamps lead the bag's receive times by different amounts ({leads}): the "
-        "streams' clocks disagree, so aligned by stamp they are shifted; if so, convert on "
-        "receive times with --clock log"
+        "streams' clocks disagree, and aligned by stamp they are shifted (then convert on "
+        "receive times with --clock log), or one stream arrives later than it is stamped "
+        "(then the stamps are right)"
     )
 
 
@@ -364,12 +420,27 @@ def _frames_differ(source: Source) -> str | None:
     """The wrench in another named frame than the motion: a sensor's own axes, likely."""
     motion = source.twist or source.pose
     frames = (source.wrench.frame_id, motion.frame_id if motion is not None else "")
-    if not all(frames) or frames[0] == frames[1]:
+    if not all(frames) or frames[0].lstrip("/") == frames[1].lstrip("/"):  # ROS 1's /base
         return None
     return (
         f"the wrench is in frame {frames[0]!r}, the motion in {frames[1]!r}: the model reads "
         "both in world axes; if the sensor's axes turn with the gripper, give --wrench-frame "
         "pose, if they are fixed but turned, --rotate"
+    )
+
+
+def _check_turnable(source: Source) -> None:
+    """`--wrench-frame pose` needs the gripper's orientation, as logged (not filled in)."""
+    if source.pose is not None and source.pose.has_orientation:
+        return
+    if source.format == "csv":
+        how = "give position and qx..qw columns" if source.pose is None else "add qx..qw columns"
+    else:
+        how = "give the gripper's PoseStamped topic with --pose-topic"
+    raise ConversionError(
+        f"--wrench-frame pose turns the wrench by the gripper's orientation, which the log "
+        f"does not hold; {how}",
+        path=source.path,
     )
 
 
@@ -409,12 +480,7 @@ def _resample_all(
         wrench = rs.tare(grid, wrench, tare_s)
         processing["tare_s"] = tare_s
     if wrench_frame == "pose":
-        if source.pose is None or pose is None or (source.pose.values[:, 3:] == _IDENTITY).all():
-            raise ConversionError(
-                "--wrench-frame pose turns the wrench by the gripper's orientation, and the "
-                "log has none: give --pose-topic, or position and qx..qw columns",
-                path=source.path,
-            )
+        assert pose is not None  # _check_turnable
         wrench = rs.rotate_by_orientation(wrench, pose[:, 3:7])
         processing["wrench_frame"] = "gripper axes, turned into world axes by the pose"
     if rotate is not None:

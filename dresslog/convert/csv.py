@@ -432,11 +432,13 @@ def _motion(
         )
     if (position := _group(values, POSITION)) is not None:
         quat = _group(values, ORIENTATION)
+        held = quat is not None
         if quat is None:
             quat = np.tile([0.0, 0.0, 0.0, 1.0], (len(t_ns), 1))
         pose = SourceStream(
-            "pose", name, t_ns, np.concatenate([position, quat], axis=1), clock=CSV_CLOCK
-        )
+            "pose", name, t_ns, np.concatenate([position, quat], axis=1), clock=CSV_CLOCK,
+            has_orientation=held,
+        )  # fmt: skip
     return twist, pose
 
 

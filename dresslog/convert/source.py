@@ -35,6 +35,8 @@ class SourceStream:
     clock: str = "header"
     #: a bag's own receive times (T,), beside header stamps: how far apart the clocks are
     log_ns: np.ndarray | None = None
+    #: False for a pose whose orientation the log lacks (filled in as the identity)
+    has_orientation: bool = True
 
     def __len__(self) -> int:
         return len(self.t_ns)
