@@ -18,6 +18,7 @@ the header to say so, or `time_unit`.
 from __future__ import annotations
 
 import csv
+import math
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -61,7 +62,10 @@ _UNIT_NAMES = {
 _VALUE_UNITS: dict[str, dict[str, float]] = {
     "f": {"N": 1.0, "kN": 1e3, "mN": 1e-3, "lbf": 4.4482216152605},
     "t": {"N m": 1.0, "N mm": 1e-3, "mN m": 1e-3, "kN m": 1e3,
-          "lbf in": 0.1129848290276167, "lbf ft": 1.3558179483314004},
+          "lbf in": 0.1129848290276167, "in lbf": 0.1129848290276167,
+          "lb in": 0.1129848290276167, "in lb": 0.1129848290276167,
+          "lbf ft": 1.3558179483314004, "ft lbf": 1.3558179483314004,
+          "lb ft": 1.3558179483314004, "ft lb": 1.3558179483314004},
     "v": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
     "w": {"rad/s": 1.0, "deg/s": np.pi / 180},
     "": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
@@ -72,16 +76,18 @@ _VALUE_UNITS: dict[str, dict[str, float]] = {
 #: prefix (`dN`, `km/h`), so a unit not converted is refused, never read as SI.
 _UNIT_ATOMS = re.compile(
     r"^((da|[kmcdunµμhg])?(n|m|s|g|h|hr|min|rad|deg)"
-    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|sec|kn|knots?)+$"
+    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?)+$"
 )
 #: Brackets that say a column has no unit.
 _NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
 
 
 def _unit_key(unit: str) -> str:
-    """`N·m`, `N-m`, `Nm` -> `nm`; `°/sec` -> `deg/s`."""
+    """`N·m`, `N-m`, `Nm` -> `nm`; `°/sec`, `deg s-1`, `degree/s`, `dps` -> `deg/s`."""
+    unit = re.sub(r"[\s·*.]*([a-zA-Zµμ°]+)\s*(?:\^-1|-1|⁻¹)", r"/\1", unit)  # s-1 -> /s
     key = re.sub(r"[\s·*.\-]", "", unit.lower()).replace("\u00b0", "deg")
-    return key.replace("/sec", "/s").replace("degrees", "deg")
+    key = key.replace("/sec", "/s").replace("degrees", "deg").replace("degree", "deg")
+    return "deg/s" if key == "dps" else key
 
 
 def _is_unit(written: str) -> bool:
@@ -102,6 +108,8 @@ def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
         return None
     written, known = units[0], _VALUE_UNITS[role[:-1]]
     scale = {_unit_key(unit): factor for unit, factor in known.items()}.get(_unit_key(written))
+    if re.search(r"(?<![A-Za-z])M(?=[Nn])", written):  # MN is mega, not milli, newtons
+        scale = None
     if scale is not None:
         return written, scale
     hint = f"give the values in one of {', '.join(known)}" if known else "a quaternion has none"
@@ -111,43 +119,82 @@ def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
     )
 
 
-def _counts_scales(path: Path, header_line: int, delimiter: str | None) -> dict[str, float]:
+def _preamble(path: Path, header_line: int) -> dict[str, str]:
+    """`key: value` pairs of the lines above the header, each split by its own separator
+    (`Key,value`, `Key;value`, `Key: value`, `Key=value`); keys lower-cased."""
+    pairs: dict[str, str] = {}
+    with path.open(newline="", encoding="utf-8-sig") as stream:
+        for _, line in zip(range(header_line), stream, strict=False):
+            text = line.strip()
+            delimiter = next((d for d in "\t;," if d in text), None)
+            cells = next(csv.reader([text], delimiter=delimiter), []) if delimiter else [text]
+            if len(cells) < 2 or not cells[1].strip():
+                cells = re.split(r"\s*[:=]\s*", cells[0] if cells else "", maxsplit=1)
+            if len(cells) >= 2:
+                pairs[" ".join(cells[0].lower().rstrip(":= ").split())] = cells[1].strip()
+    return pairs
+
+
+def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
     """SI factor per count of the force and torque columns, from an ATI logger's preamble.
 
     ATI's Net F/T demo writes raw counts, with `Counts per Unit Force` and `Force Units`
     (likewise torque) above the header: read as newtons they are 10^6 times too large.
+    It always gives both; a preamble that gives one, or that cannot be read, is refused.
     """
-    preamble: dict[str, str] = {}
-    with path.open(newline="", encoding="utf-8-sig") as stream:
-        for _, line in zip(range(header_line), stream, strict=False):
-            cells = next(csv.reader([line], delimiter=delimiter or ","), [])
-            if len(cells) >= 2:
-                preamble[" ".join(cells[0].lower().rstrip(": ").split())] = cells[1].strip()
+    preamble = _preamble(path, header_line)
+    given = [q for q in ("force", "torque") if f"counts per unit {q}" in preamble]
+    if not given:
+        with path.open(encoding="utf-8-sig", errors="replace") as stream:
+            above = "".join(line for _, line in zip(range(header_line), stream, strict=False))
+        if "counts per unit" in above.lower():
+            raise ConversionError(
+                "the preamble mentions counts per unit, but not as `Counts per Unit Force,N` "
+                "lines dresslog reads; give the values in N and N m",
+                path=path,
+            )
+        return {}
+    if len(given) == 1:
+        other = "torque" if given == ["force"] else "force"
+        raise ConversionError(
+            f"the preamble gives counts per unit {given[0]} but not {other}, so the "
+            f"{other} columns' unit is unknown; add `Counts per Unit {other.title()}`",
+            path=path,
+        )
     scales = {}
     for group, quantity in (("f", "force"), ("t", "torque")):
-        counts = preamble.get(f"counts per unit {quantity}")
-        if counts is None:
-            continue
+        counts = preamble[f"counts per unit {quantity}"]
         unit = preamble.get(f"{quantity} units", "")
         known = {_unit_key(u): factor for u, factor in _VALUE_UNITS[group].items()}
-        if not (_is_number(counts) and float(counts) > 0 and _unit_key(unit) in known):
+        per = float(counts) if _is_number(counts) else math.nan
+        if not (math.isfinite(per) and per > 0 and _unit_key(unit) in known):
             raise ConversionError(
                 f"the {quantity} columns are in counts ({counts!r} per {unit or 'unit'!r}), "
                 f"which dresslog cannot scale; give the {quantity} units as one of "
                 f"{', '.join(_VALUE_UNITS[group])} and a positive count",
                 path=path,
             )
-        scales[group] = known[_unit_key(unit)] / float(counts)
+        scales[group] = known[_unit_key(unit)] / per
     return scales
 
 
-def _unit_in(name: str) -> str | None:
-    """A time unit written in a header: `Time (s)`, `stamp[ns]`, `time_ns`, `%time`."""
+def _unit_in(name: str, path: Path) -> str | None:
+    """A time unit written in a header: `Time (s)`, `stamp[ns]`, `time_ns`, `%time`.
+
+    Any bracket may hold it (`Time (UTC) [ms]`); one that names another unit (`min`)
+    is refused, since reading its values as seconds would be silently wrong.
+    """
     if name.strip() == "%time" or name.strip().endswith("header.stamp"):
         return "ns"  # rostopic echo -p / rosbag-to-CSV exports
-    bracket = re.search(r"[\(\[]\s*(\w+)\s*[\)\]]", name)
-    if bracket and bracket.group(1).lower() in _UNIT_NAMES:
-        return _UNIT_NAMES[bracket.group(1).lower()]
+    brackets = [b.strip() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
+    if known := [b for b in brackets if b.lower() in _UNIT_NAMES]:
+        return _UNIT_NAMES[known[0].lower()]
+    if other := [b for b in brackets if b.lower() not in _NO_UNIT and _is_unit(b)]:
+        raise ConversionError(
+            f"time column {name!r} is in {other[0]!r}, a unit dresslog does not read; give "
+            "its values in s, ms, us or ns, or say which with --time-unit",
+            path=path,
+        )
     match = _TIME.match(_key(name))
     if match and match.group(2):
         return _UNIT_NAMES[match.group(2)]
@@ -297,6 +344,7 @@ def _time_ns(
 
 def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.ndarray:
     """A text column as floats, or an error naming the first cell that is not a number."""
+    column = np.char.strip(column, '"')  # a logger that quotes every cell
     try:
         return column.astype(np.float64)
     except ValueError:
@@ -365,7 +413,7 @@ def read_table(
     if len(text) == 0:
         raise ConversionError("CSV has a header but no rows", path=path)
     data = dict(zip(roles, text.T, strict=True))
-    given = time_unit or _unit_in(names[found["time"]])
+    given = time_unit or _unit_in(names[found["time"]], path)
     time_name = names[found["time"]]
     t_ns, unit = _time_ns(
         data.pop("time"), "s" if nanos is not None else given, time_name, line, path
@@ -378,7 +426,7 @@ def read_table(
     values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
     notes = [f"{path.name}: time column {time_name!r} read as {unit}"]
     scaled = []
-    counts = _counts_scales(path, line, delimiter)
+    counts = _counts_scales(path, line)
     for role in values:
         unit_scale = _value_scale(names[found[role]], role, path)
         if role[:-1] in counts:
@@ -388,12 +436,20 @@ def read_table(
                     "column is in counts; keep one",
                     path=path,
                 )
+            column = values[role]
+            if len(odd := np.flatnonzero(column != np.round(column))):
+                raise ConversionError(
+                    f"column {names[found[role]]!r}, line {line + odd[0] + 2}: "
+                    f"{column[odd[0]]:g} is not a count, though the preamble gives counts per "
+                    "unit; remove those lines if the values are in N and N m",
+                    path=path,
+                )
             unit_scale = ("counts", counts[role[:-1]])
         if unit_scale is not None and unit_scale[1] != 1.0:
             values[role] = values[role] * unit_scale[1]
             scaled.append(f"{names[found[role]]!r}")
     if counts:
-        notes.append(f"{path.name}: force and torque read as counts, per the preamble")
+        notes.append(f"{path.name}: force and torque are counts, scaled by the preamble")
     if scaled:
         notes.append(f"{path.name}: scaled to SI units: {', '.join(scaled)}")
     if ignored:
