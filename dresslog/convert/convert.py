@@ -482,7 +482,7 @@ def _resample_all(
     if wrench_frame == "pose":
         assert pose is not None  # _check_turnable
         wrench = rs.rotate_by_orientation(wrench, pose[:, 3:7])
-        processing["wrench_frame"] = "gripper axes, turned into world axes by the pose"
+        processing["wrench_frame"] = "from the gripper's axes into world axes by the pose"
     if rotate is not None:
         wrench, twist = rs.rotate_vectors(wrench, rotate), rs.rotate_vectors(twist, rotate)
         pose = rs.rotate_pose(pose, rotate) if pose is not None else None

@@ -111,10 +111,12 @@ def _source_lines(source: dict[str, object]) -> list[str]:
     lines += [  # what was derived rather than recorded, e.g. the twist from the pose
         f"    {kind:<7} {how}"
         for kind, how in processing.items()
-        if isinstance(how, str) and kind not in streams
+        if isinstance(how, str) and kind in ("twist", "pose") and kind not in streams
     ]
     if "tare_s" in processing:
         lines.append(f"    tared   over the first {processing['tare_s']} s")
+    if "wrench_frame" in processing:
+        lines.append(f"    turned  the wrench {processing['wrench_frame']}")
     if "rotation_xyzw" in processing:
         lines.append(f"    rotated by the quaternion (x y z w) {processing['rotation_xyzw']}")
     lines += [f"    note    {text}" for text in part("notes", list)]
