@@ -45,8 +45,9 @@ def main() -> None:
     parser.add_argument("--model", action="append", default=[], help="TASK=MODEL_FOLDER")
     parser.add_argument("-o", "--out", type=Path, default=Path("docs/learnability.png"))
     args = parser.parse_args()
-    models = dict(m.split("=", 1) for m in args.model)
-    if not set(models) <= set(PAPER_RATIO) or not all(models.values()):
+    pairs = [m.split("=", 1) for m in args.model]
+    models = {p[0]: p[1] for p in pairs if len(p) == 2}
+    if len(models) < len(pairs) or not set(models) <= set(PAPER_RATIO) or not all(models.values()):
         parser.error(f"--model takes TASK=MODEL_FOLDER, TASK one of {', '.join(PAPER_RATIO)}")
 
     import matplotlib

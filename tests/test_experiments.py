@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import os
 import socket
+import subprocess
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -357,6 +359,18 @@ def test_train_refuses_a_bad_option_before_loading_any_trial(
     code, output = invoke("train", bare, "-o", tmp_path / "m", *option)
     assert code == 1 and problem in output and "Traceback" not in output, output
     assert not (tmp_path / "m").exists()
+
+
+def test_train_refuses_a_bad_option_without_loading_torch(data: Path, tmp_path: Path) -> None:
+    """Torch takes seconds to import; a typo in an option should not wait for it."""
+    args = ["train", str(data), "-o", str(tmp_path / "m"), "--lr", "inf"]
+    code = (
+        "import sys; from dresslog.cli.main import main\n"
+        f"try: main({args!r})\n"
+        "except SystemExit as exit: print(exit.code, 'torch' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["1", "False"], out.stdout + out.stderr
 
 
 def test_train_overwrite_replaces_only_a_model_never_the_data(data: Path) -> None:

@@ -176,7 +176,7 @@ def choose_topics(
             raise ConversionError(f"topic {topic} not found (topics: {listing})", path=path)
         if types[topic] != MESSAGE_TYPES[kind]:
             unstamped = types[topic] == MESSAGE_TYPES[kind].removesuffix("Stamped")
-            why = " (one without a header has no time of its own)" if unstamped else ""
+            why = " (dresslog reads stamped messages only)" if unstamped else ""
             raise ConversionError(
                 f"topic {topic} is {types[topic]}, {OPTIONS[kind]} needs "
                 f"{MESSAGE_TYPES[kind]}{why}",
@@ -194,7 +194,11 @@ def choose_topics(
             continue
         short = MESSAGE_TYPES[kind].split("/")[-1]
         if not found:
-            raise ConversionError(f"no {short} topic for the wrench (topics: {listing})", path=path)
+            plain = MESSAGE_TYPES[kind].removesuffix("Stamped")
+            why = "; dresslog reads stamped messages only" if plain in types.values() else ""
+            raise ConversionError(
+                f"no {short} topic for the wrench (topics: {listing}){why}", path=path
+            )
         message = (
             f"{len(found)} {short} topics ({', '.join(found)}); choose one with {OPTIONS[kind]}"
         )

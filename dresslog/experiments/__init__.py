@@ -11,10 +11,10 @@ Public API
 normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant",
 input_differences=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
 on_epoch=None) -> ModelCard``
-    Trains on the training split (holding out a tenth of it, `dresslog.model.train`'s
-    ``val_fraction``, for the per-epoch validation loss), scores the test split, and
-    saves a model folder whose card names the data by its manifest hash and keeps the
-    per-epoch losses, with their plot (``training.png``). Resumes from
+    Trains on the training split (holding out a tenth of it,
+    `dresslog.model.options.VAL_FRACTION`, for the per-epoch validation loss), scores
+    the test split, and saves a model folder whose card names the data by its manifest
+    hash and keeps the per-epoch losses, with their plot (``training.png``). Resumes from
     ``.<out>.checkpoint.safetensors`` beside `out`.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
 -> EvalReport``

@@ -50,6 +50,8 @@ def train_dataset(
         out = out.resolve()
     check_model_folder(out, overwrite)  # say so now, not after hours of training
     steps = [t.steps for t in load_manifest(data).trials if t.split is Split.TRAIN]
+    if len(steps) < 2:
+        raise DatasetError(f"needs at least 2 training trials, has {len(steps)}", path=data)
     check_options(  # from the manifest: a bad option fails before minutes of decoding
         steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
@@ -59,8 +61,6 @@ def train_dataset(
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
         arrays = load_dataset(data, workers=workers, progress=progress)
         rows = arrays.rows(Split.TRAIN)
-        if len(rows) < 2:
-            raise DatasetError(f"needs at least 2 training trials, has {len(rows)}", path=data)
         from dresslog.model.files import save_model
         from dresslog.model.train import make_card, train  # torch once the data checks out
 

@@ -1,8 +1,9 @@
 """The force-map LSTM: numpy inference, model files, the paper's metrics (no torch here).
 
-Inference and model files import no torch (`dresslog infer` starts fast); the torch
-network and training live in `dresslog.model.network` and `dresslog.model.train` and are
-imported explicitly by the code that trains. Each module's docstring lists its API.
+Inference, model files and the bundled-model lookup (`bundled`) import no torch
+(`dresslog infer` starts fast); the torch network, training and its checkpoint live in
+`dresslog.model.network`, `train` and `checkpoint`, imported explicitly by the code that
+trains. Each module's docstring lists its API.
 """
 
 from dresslog.model.bundled import bundled_model, resolve_model

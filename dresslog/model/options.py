@@ -13,7 +13,7 @@ VAL_FRACTION = 0.1
 
 def held_out(n_sequences: int, val_fraction: float) -> int:
     """How many of `n_sequences` are held out to validate on (at least one is trained on)."""
-    return min(round(val_fraction * n_sequences), n_sequences - 1)
+    return max(0, min(round(val_fraction * n_sequences), n_sequences - 1))
 
 
 def check_options(

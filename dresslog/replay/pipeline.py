@@ -10,7 +10,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from dresslog.io.files import check_output
 from dresslog.io.reader import TrialReader
@@ -20,9 +19,6 @@ from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
-
-if TYPE_CHECKING:
-    pass
 
 
 @dataclass
