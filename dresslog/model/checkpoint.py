@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -49,26 +50,31 @@ def fingerprint(*arrays: Sequence[np.ndarray]) -> str:
 CHECKPOINT_FORMAT = "dresslog-checkpoint/1"
 
 
-def save_checkpoint(
-    path: Path,
-    net: ForceMapLSTM,
-    optim: torch.optim.Optimizer,
-    history: TrainHistory,
-    best: dict[str, Any],
-    key: dict[str, Any],
-) -> None:
+@dataclass
+class RunState:
+    """A run in progress, as its checkpoint keeps it: network, optimiser, the epochs so
+    far, the kept epoch's weights (with keep_best) and the key a resuming run must share."""
+
+    net: ForceMapLSTM
+    optim: torch.optim.Optimizer
+    history: TrainHistory
+    key: dict[str, Any]
+    best: dict[str, torch.Tensor] = field(default_factory=dict)
+
+
+def save_checkpoint(path: Path, run: RunState) -> None:
     """Tensors in safetensors, everything else as JSON in its metadata: nothing to unpickle."""
     from safetensors.torch import save_file
 
-    optim_state = optim.state_dict()
-    tensors = {f"model.{k}": v for k, v in net.state_dict().items()}
-    tensors |= {f"best.{k}": v for k, v in best.items()}
+    optim_state = run.optim.state_dict()
+    tensors = {f"model.{k}": v for k, v in run.net.state_dict().items()}
+    tensors |= {f"best.{k}": v for k, v in run.best.items()}
     for index, slots in optim_state["state"].items():
         tensors |= {f"optim.{index}.{name}": v for name, v in slots.items()}
     metadata = {
         "format": CHECKPOINT_FORMAT,
-        "key": json.dumps(key),
-        "epochs": json.dumps([e.model_dump() for e in history.epochs]),
+        "key": json.dumps(run.key),
+        "epochs": json.dumps([e.model_dump() for e in run.history.epochs]),
         "param_groups": json.dumps(optim_state["param_groups"]),
     }
     with atomic_path(path) as tmp:
@@ -87,21 +93,14 @@ def _read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, torch.Tensor
     return {k: json.loads(metadata[k]) for k in ("key", "epochs", "param_groups")}, tensors
 
 
-def resume(
-    path: Path,
-    net: ForceMapLSTM,
-    optim: torch.optim.Optimizer,
-    history: TrainHistory,
-    best: dict[str, Any],
-    key: dict[str, Any],
-) -> None:
+def resume(path: Path, run: RunState) -> None:
     """Continue from a checkpoint of the same settings and data; refuse one from another run."""
     unreadable = "is not a checkpoint dresslog can read; pass --overwrite to start afresh"
     try:
         metadata, tensors = _read_checkpoint(path)
     except Exception:  # safetensors' and json's reasons help no one here
         raise ModelError(unreadable, path=path) from None
-    saved, key = metadata["key"], json.loads(json.dumps(key))  # compared as stored
+    saved, key = metadata["key"], json.loads(json.dumps(run.key))  # compared as stored
     if not isinstance(saved, dict):
         raise ModelError(unreadable, path=path)
     if saved.get("data") not in (None, key["data"]):
@@ -122,10 +121,10 @@ def resume(
             index, slot = name.removeprefix("optim.").split(".", 1)
             slots.setdefault(int(index), {})[slot] = value
     try:
-        net.load_state_dict(_under(tensors, "model."))
-        optim.load_state_dict({"state": slots, "param_groups": metadata["param_groups"]})
-        best.update(_under(tensors, "best."))
-        history.epochs = [EpochRecord.model_validate(e) for e in metadata["epochs"]]
+        run.net.load_state_dict(_under(tensors, "model."))
+        run.optim.load_state_dict({"state": slots, "param_groups": metadata["param_groups"]})
+        run.best.update(_under(tensors, "best."))
+        run.history.epochs = [EpochRecord.model_validate(e) for e in metadata["epochs"]]
     except (KeyError, TypeError, ValueError, RuntimeError):  # a layout not our own
         raise ModelError(unreadable, path=path) from None
 

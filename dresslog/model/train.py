@@ -56,7 +56,7 @@ import numpy as np
 import torch
 
 from dresslog.errors import ModelError
-from dresslog.model.checkpoint import fingerprint, resume, run_key, save_checkpoint
+from dresslog.model.checkpoint import RunState, fingerprint, resume, run_key, save_checkpoint
 from dresslog.model.files import (
     DataProvenance,
     EpochRecord,
@@ -226,27 +226,23 @@ def train(
     try:
         net, optim = build()
         ckpt = Path(checkpoint) if checkpoint is not None else None
-        best: dict[str, torch.Tensor] = {}  # the kept epoch's weights, if keep_best
         data = fingerprint(phis, targets, val_phis, val_targets)
-        key = run_key(net, history, normalise, data)
+        run = RunState(net, optim, history, run_key(net, history, normalise, data))
         if ckpt is not None and ckpt.exists():
             try:
-                resume(ckpt, net, optim, history, best, key)
+                resume(ckpt, run)
             except ModelError:
                 if not restart_other:
                     raise
                 ckpt.unlink()  # another run's (or unreadable): this one starts afresh
-                net, optim = build()
-                history.epochs, best = [], {}
-        _fit(
-            net, optim, phis, targets, val_phis, val_targets, history, progress, ckpt, on_epoch,
-            best, key,
-        )  # fmt: skip
-        if best:
-            net.load_state_dict(best)
+                history.epochs = []
+                run = RunState(*build(), history, run.key)
+        _fit(run, phis, targets, val_phis, val_targets, progress, ckpt, on_epoch)
+        if run.best:
+            run.net.load_state_dict(run.best)
     finally:
         torch.set_num_threads(previous_threads)
-    weights = net.weights()
+    weights = run.net.weights()
     weights["head.weight"][:n_points] /= scale  # outputs in newtons again
     weights["head.bias"][:n_points] /= scale
     return weights, history
@@ -275,21 +271,18 @@ def epoch_lr(settings: Hyperparameters, epoch: int) -> float:
 
 
 def _fit(
-    net: ForceMapLSTM,
-    optim: torch.optim.Optimizer,
+    run: RunState,
     phis: list[np.ndarray],
     targets: list[np.ndarray],
     val_phis: list[np.ndarray],
     val_targets: list[np.ndarray],
-    history: TrainHistory,
     progress: bool,
     ckpt: Path | None,
     on_epoch: Callable[[EpochRecord], None] | None,
-    best: dict[str, torch.Tensor],
-    key: dict,
 ) -> None:
     from tqdm import tqdm
 
+    net, optim, history = run.net, run.optim, run.history
     s = history.settings
     bar = tqdm(total=s.epochs, initial=len(history.epochs), unit="epoch", disable=not progress)
     for epoch in range(len(history.epochs), s.epochs):
@@ -333,9 +326,9 @@ def _fit(
         )
         history.epochs.append(record)
         if s.keep_best and history.kept is record:
-            best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
+            run.best.update({k: v.detach().clone() for k, v in net.state_dict().items()})
         if ckpt is not None:
-            save_checkpoint(ckpt, net, optim, history, best, key)
+            save_checkpoint(ckpt, run)
         shown = {"loss": f"{record.train_loss:.3g}"}
         bar.set_postfix(shown if val_loss is None else {**shown, "val": f"{val_loss:.3g}"})
         bar.update()
