@@ -25,6 +25,8 @@ from .common import reports_errors
 @click.option("--wrench-frame", type=click.Choice(["world", "pose"]), default="world",
               show_default=True, help="The wrench's axes: world, or the gripper's own "
               "(turned by the pose's orientation).")  # fmt: skip
+@click.option("--sensor-rotation", nargs=4, type=float, metavar="QX QY QZ QW",
+              help="With --wrench-frame pose: the sensor's axes in the gripper's.")  # fmt: skip
 @click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame.")  # fmt: skip
 @click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",

@@ -306,6 +306,17 @@ def test_a_wrench_in_the_grippers_axes_is_turned_into_world_axes_by_the_pose(
     assert (
         np.abs(read_trial(tmp_path / "as_is.mcap").wrench.values - want.wrench.values).max() > 0.5
     )
+    mounted = local.copy()  # a sensor turned 90 deg about z on the gripper: R_mount^T v
+    for k in (0, 3):
+        mounted[:, k], mounted[:, k + 1] = local[:, k + 1], -local[:, k]
+    topics["/ft_sensor/wrench"] = (kind, stamps, mounted)
+    bag = write_bag(tmp_path / "m", topics, "mcap", frames=frames)
+    mount = (0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4))
+    convert(bag, tmp_path / "mounted.mcap", "gown", wrench_frame="pose", sensor_rotation=mount)
+    got = read_trial(tmp_path / "mounted.mcap")
+    np.testing.assert_allclose(got.wrench.values, want.wrench.values, atol=0.02)
+    with pytest.raises(ConversionError, match="--sensor-rotation turns a sensor's axes"):
+        convert(bag, tmp_path / "no.mcap", "gown", sensor_rotation=mount)
 
 
 def test_a_wrench_frame_of_pose_needs_an_orientation(tmp_path: Path) -> None:

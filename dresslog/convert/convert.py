@@ -297,6 +297,7 @@ def convert(
     time_unit: str | None = None,
     clock: Literal["header", "log"] = "header",
     wrench_frame: Literal["world", "pose"] = "world",
+    sensor_rotation: Quaternion | None = None,
     rotate: Quaternion | None = None,
     tare_s: float = 0.0,
     max_gap_s: float = MAX_GAP_S,
@@ -306,7 +307,8 @@ def convert(
 
     `wrench_frame="pose"` says the sensor's axes turn with the gripper: each step's
     wrench is turned from the pose's orientation into its world axes (after the tare,
-    which belongs to the sensor's own axes). `rotate` (x y z w) then turns every vector
+    which belongs to the sensor's own axes), first by `sensor_rotation` (x y z w; the
+    sensor's axes in the gripper's, as mounted) if given. `rotate` then turns every vector
     (force, torque, velocities, pose) into the model's frame; `tare_s` subtracts the mean
     wrench of the first seconds. Gaps longer than `max_gap_s` are bridged by
     interpolation and reported as `ConversionWarning`s (and in the report).
@@ -318,8 +320,14 @@ def convert(
     except ValueError:
         raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
     check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
-    if rotate is not None and not (np.isfinite(rotate).all() and np.linalg.norm(rotate) > 0):
-        raise ConversionError("rotation quaternion must be finite and not zero")
+    for quat in (rotate, sensor_rotation):
+        if quat is not None and not (np.isfinite(quat).all() and np.linalg.norm(quat) > 0):
+            raise ConversionError("rotation quaternion must be finite and not zero")
+    if sensor_rotation is not None and wrench_frame != "pose":
+        raise ConversionError(
+            "--sensor-rotation turns a sensor's axes into the gripper's, with --wrench-frame "
+            "pose; a sensor fixed in the world is turned with --rotate"
+        )
     if not (np.isfinite(tare_s) and tare_s >= 0):
         raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
     if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
@@ -355,7 +363,9 @@ def convert(
     for message in found:
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
-    wrench, twist, pose, processing = _resample_all(source, grid, tare_s, rotate, wrench_frame)
+    wrench, twist, pose, processing = _resample_all(
+        source, grid, tare_s, rotate, wrench_frame, sensor_rotation
+    )
 
     info = _source_info(source, grid, processing, found, motion)
     metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
@@ -450,6 +460,7 @@ def _resample_all(
     tare_s: float,
     rotate: Quaternion | None,
     wrench_frame: Literal["world", "pose"] = "world",
+    sensor_rotation: Quaternion | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
     """Wrench, twist and pose on the grid, tared and rotated, and how each was made."""
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
@@ -481,8 +492,12 @@ def _resample_all(
         processing["tare_s"] = tare_s
     if wrench_frame == "pose":
         assert pose is not None  # _check_turnable
+        via = ""
+        if sensor_rotation is not None:  # the sensor's mount: its axes in the gripper's
+            wrench = rs.rotate_vectors(wrench, sensor_rotation)
+            via = f" (the sensor mounted at {[float(v) for v in sensor_rotation]})"
         wrench = rs.rotate_by_orientation(wrench, pose[:, 3:7])
-        processing["wrench_frame"] = "from the gripper's axes into world axes by the pose"
+        processing["wrench_frame"] = f"from the gripper's axes{via} into world axes by the pose"
     if rotate is not None:
         wrench, twist = rs.rotate_vectors(wrench, rotate), rs.rotate_vectors(twist, rotate)
         pose = rs.rotate_pose(pose, rotate) if pose is not None else None
