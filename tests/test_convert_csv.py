@@ -164,7 +164,8 @@ def test_a_bracket_is_a_unit_only_when_it_reads_as_one(header: str, unit: str | 
     ("header", "factor"),
     [("vx (mm s-1)", 1e-3), ("vx [mm·s⁻¹]", 1e-3), ("wx (degree/s)", np.pi / 180),
      ("wx (dps)", np.pi / 180), ("Tx (in-lb)", 0.1129848290276167), ("Tx (NM)", 1.0),
-     ("Fx (mN)", 1e-3)],
+     ("Fx (mN)", 1e-3), ("vx (mm/second)", 1e-3), ("wx (degrees per second)", np.pi / 180),
+     ("Tx (N⋅mm)", 1e-3)],
 )  # fmt: skip
 def test_units_written_the_other_usual_ways_are_scaled_alike(header: str, factor: float) -> None:
     role = role_of(header)
@@ -175,7 +176,8 @@ def test_units_written_the_other_usual_ways_are_scaled_alike(header: str, factor
 
 @pytest.mark.parametrize(
     ("header", "outcome"),
-    [("Time (UTC) [ms]", "ms"), ("Time [sensor] (ms)", "ms"), ("Time (min)", "refused"),
+    [("Time (UTC) [ms]", "ms"), ("Time [sensor] (ms)", "ms"), ("Time (msec.)", "ms"),
+     ("Time (milliseconds)", "ms"), ("Time (min)", "refused"), ("Time (minutes)", "refused"),
      ("Time (cs)", "refused")],
 )  # fmt: skip
 def test_a_time_unit_in_any_bracket_is_read_and_one_not_read_is_refused(
@@ -352,12 +354,29 @@ def test_a_time_column_of_unset_stamps_points_to_another(tmp_path: Path) -> None
         convert(path, tmp_path / "t.mcap", "gown")
 
 
+def test_microseconds_at_100_hz_with_no_unit_are_not_guessed_as_nanoseconds(
+    tmp_path: Path,
+) -> None:
+    """Read as ns they would make a 100 kHz log, 1,000 times too short: ask instead."""
+    t = np.arange(600) / 100.0
+    path = _with_velocity(tmp_path / "us.csv", t)
+    lines = path.read_text().splitlines()
+    rows = [f"{round(float(r.split(',', 1)[0]) * 1e6)},{r.split(',', 1)[1]}" for r in lines[1:]]
+    path.write_text("\n".join([lines[0], *rows]) + "\n")
+    with pytest.raises(
+        ConversionError, match=r"read as ns gives samples 1e-05 s apart.*--time-unit"
+    ):
+        convert(path, tmp_path / "t.mcap", "gown")
+    assert convert(path, tmp_path / "t.mcap", "gown", time_unit="us").steps == 599
+
+
 def test_quoted_cells_are_read_as_their_numbers(tmp_path: Path) -> None:
     plain = _with_velocity(tmp_path / "p.csv", np.arange(300) / 1000.0)
     quoted = tmp_path / "q.csv"
     lines = plain.read_text().splitlines()
-    rows = [",".join(f'"{cell}"' for cell in row.split(",")) for row in lines[1:]]
-    quoted.write_text("\n".join([lines[0], *rows]) + "\n")
+    rows = [", ".join(f'"{cell}"' for cell in row.split(",")) for row in lines[1:]]
+    header = ", ".join(f'"{cell}"' for cell in lines[0].split(","))  # `", "` between cells
+    quoted.write_text("\n".join([header, *rows]) + "\n")
     convert(plain, tmp_path / "p.mcap", "gown")
     convert(quoted, tmp_path / "q.mcap", "gown")
     np.testing.assert_array_equal(

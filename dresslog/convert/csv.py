@@ -51,10 +51,14 @@ _TIME = re.compile(
     r"(s|sec|secs|seconds|ms|msec|us|usec|ns|nsec|nanoseconds)?$"
 )
 _UNIT_NAMES = {
-    "s": "s", "sec": "s", "secs": "s", "seconds": "s", "ms": "ms", "msec": "ms",
-    "us": "us", "usec": "us", "\u00b5s": "us", "\u03bcs": "us", "ns": "ns", "nsec": "ns",
-    "nanoseconds": "ns",
+    "s": "s", "sec": "s", "secs": "s", "second": "s", "seconds": "s",
+    "ms": "ms", "msec": "ms", "millisec": "ms", "millisecond": "ms", "milliseconds": "ms",
+    "us": "us", "usec": "us", "\u00b5s": "us", "\u03bcs": "us", "\u00b5sec": "us",
+    "microsec": "us", "microsecond": "us", "microseconds": "us",
+    "ns": "ns", "nsec": "ns", "nanosec": "ns", "nanosecond": "ns", "nanoseconds": "ns",
 }  # fmt: skip
+#: Time units a header may name that dresslog does not read: refused, never guessed past.
+_OTHER_TIME_UNITS = {"min", "mins", "minute", "minutes", "h", "hr", "hrs", "hour", "hours"}
 
 
 #: SI factor of each unit a value column's header may give in brackets, by role
@@ -84,9 +88,11 @@ _NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
 
 def _unit_key(unit: str) -> str:
     """`N·m`, `N-m`, `Nm` -> `nm`; `°/sec`, `deg s-1`, `degree/s`, `dps` -> `deg/s`."""
-    unit = re.sub(r"[\s·*.]*([a-zA-Zµμ°]+)\s*(?:\^-1|-1|⁻¹)", r"/\1", unit)  # s-1 -> /s
-    key = re.sub(r"[\s·*.\-]", "", unit.lower()).replace("\u00b0", "deg")
-    key = key.replace("/sec", "/s").replace("degrees", "deg").replace("degree", "deg")
+    unit = re.sub(r"\s+per\s+", "/", unit)  # mm per s
+    unit = re.sub(r"[\s·⋅×*._]*([a-zA-Zµμ°]+)\s*(?:\^-1|-1|⁻¹)", r"/\1", unit)  # s-1 -> /s
+    key = re.sub(r"[\s·⋅×*._\-]", "", unit.lower()).replace("\u00b0", "deg")
+    key = re.sub(r"/sec(ond)?s?$", "/s", key)
+    key = key.replace("degrees", "deg").replace("degree", "deg")
     return "deg/s" if key == "dps" else key
 
 
@@ -167,7 +173,8 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
         unit = preamble.get(f"{quantity} units", "")
         known = {_unit_key(u): factor for u, factor in _VALUE_UNITS[group].items()}
         per = float(counts) if _is_number(counts) else math.nan
-        if not (math.isfinite(per) and per > 0 and _unit_key(unit) in known):
+        mega = re.search(r"(?<![A-Za-z])M(?=[Nn])", unit)  # MN is mega, not milli, newtons
+        if mega or not (math.isfinite(per) and per > 0 and _unit_key(unit) in known):
             raise ConversionError(
                 f"the {quantity} columns are in counts ({counts!r} per {unit or 'unit'!r}), "
                 f"which dresslog cannot scale; give the {quantity} units as one of "
@@ -186,10 +193,12 @@ def _unit_in(name: str, path: Path) -> str | None:
     """
     if name.strip() == "%time" or name.strip().endswith("header.stamp"):
         return "ns"  # rostopic echo -p / rosbag-to-CSV exports
-    brackets = [b.strip() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
-    if known := [b for b in brackets if b.lower() in _UNIT_NAMES]:
-        return _UNIT_NAMES[known[0].lower()]
-    if other := [b for b in brackets if b.lower() not in _NO_UNIT and _is_unit(b)]:
+    brackets = [b.strip().rstrip(".").lower() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
+    if known := [b for b in brackets if b in _UNIT_NAMES]:
+        return _UNIT_NAMES[known[0]]
+    if other := [
+        b for b in brackets if b in _OTHER_TIME_UNITS or (b not in _NO_UNIT and _is_unit(b))
+    ]:
         raise ConversionError(
             f"time column {name!r} is in {other[0]!r}, a unit dresslog does not read; give "
             "its values in s, ms, us or ns, or say which with --time-unit",
@@ -235,7 +244,11 @@ def _header(path: Path) -> tuple[int, list[str], str | None]:
                     continue
                 # a `;` or tab separates where commas may be decimal commas
                 delimiter = next((d for d in "\t;," if d in line), None)
-                cells = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
+                cells = (
+                    next(csv.reader([line], delimiter=delimiter, skipinitialspace=True))
+                    if delimiter
+                    else line.split()
+                )
                 cells = [c.strip() for c in cells]
                 filled = [c for c in cells if c]
                 numbers = sum(_is_number(c) for c in filled)
@@ -344,7 +357,7 @@ def _time_ns(
 
 def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.ndarray:
     """A text column as floats, or an error naming the first cell that is not a number."""
-    column = np.char.strip(column, '"')  # a logger that quotes every cell
+    column = np.char.strip(np.char.strip(column), '"')  # a logger that quotes every cell
     try:
         return column.astype(np.float64)
     except ValueError:
@@ -369,15 +382,16 @@ def _is_number(text: str) -> bool:
 
 
 def _check_guessed_unit(t_ns: np.ndarray, unit: str, name: str, path: Path) -> None:
-    """A unit guessed from the numbers must give a sensor's rate (10 Hz-100 kHz), or say so.
+    """A unit guessed from the numbers must give a sensor's rate (10 Hz-20 kHz), or say so.
 
     Milliseconds read as seconds would make a 1 kHz log 1,000 times too long (and a
-    file of mostly gap); microseconds read as nanoseconds, 1,000 times too short.
+    file of mostly gap); microseconds read as nanoseconds, 1,000 times too short (a
+    100 Hz log in microseconds would read as 100 kHz: above any F/T sensor's rate).
     """
     if len(t_ns) < 2:
         return
     step = float(np.median(np.diff(t_ns)))
-    if step <= 0 or 1e4 <= step <= 1e8:  # 100 kHz ... 10 Hz
+    if step <= 0 or 5e4 <= step <= 1e8:  # 20 kHz ... 10 Hz
         return
     raise ConversionError(
         f"time column {name!r} read as {unit} gives samples {step / 1e9:.3g} s apart "
@@ -437,7 +451,7 @@ def read_table(
                     path=path,
                 )
             column = values[role]
-            if len(odd := np.flatnonzero(column != np.round(column))):
+            if len(odd := np.flatnonzero(np.isfinite(column) & (column != np.round(column)))):
                 raise ConversionError(
                     f"column {names[found[role]]!r}, line {line + odd[0] + 2}: "
                     f"{column[odd[0]]:g} is not a count, though the preamble gives counts per "
