@@ -367,7 +367,7 @@ def test_microseconds_at_100_hz_with_no_unit_are_not_guessed_as_nanoseconds(
         ConversionError, match=r"read as ns gives samples 1e-05 s apart.*--time-unit"
     ):
         convert(path, tmp_path / "t.mcap", "gown")
-    assert convert(path, tmp_path / "t.mcap", "gown", time_unit="us").steps == 599
+    assert convert(path, tmp_path / "t.mcap", "gown", time_unit="us").steps == 600  # 6 s at 100 Hz
 
 
 def test_quoted_cells_are_read_as_their_numbers(tmp_path: Path) -> None:
