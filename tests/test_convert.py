@@ -319,6 +319,19 @@ def test_a_wrench_in_the_grippers_axes_is_turned_into_world_axes_by_the_pose(
         convert(bag, tmp_path / "no.mcap", "gown", sensor_rotation=mount)
 
 
+def test_naming_the_pose_topic_keeps_the_measured_twist(tmp_path: Path) -> None:
+    """--pose-topic picks the orientation; the velocity still comes from the twist."""
+    topics = standard_topics(1.0)
+    stamps = topics["/arm/ee_pose"][1]
+    topics["/arm/twist"] = ("twist", stamps, 2 * twist(seconds_of(stamps)))  # tells them apart
+    report = convert(make_bag(tmp_path, topics, "mcap"), tmp_path / "t.mcap", "gown",
+                     pose_topic="/arm/ee_pose")  # fmt: skip
+    assert report.source["processing"]["twist"] == "linear interpolation"
+    trial = read_trial(tmp_path / "t.mcap")
+    t = seconds_of(trial.twist.t_ns + report.source["start_ns"])
+    np.testing.assert_allclose(trial.twist.values, 2 * twist(t), atol=1e-3)
+
+
 def test_a_wrench_frame_of_pose_needs_an_orientation(tmp_path: Path) -> None:
     topics = standard_topics(1.0)
     stamps = topics.pop("/arm/ee_pose")[1]

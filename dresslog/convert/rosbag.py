@@ -158,9 +158,9 @@ def choose_topics(
 ) -> tuple[dict[str, str], list[str]]:
     """Topic per kind: the one asked for, or the only candidate; errors list the candidates.
 
-    Wrench is required; velocity needs a twist or a pose (a pose topic asked
-    for alone means velocity from that pose). When a twist is found and the
-    pose is ambiguous, the pose is left out with a note.
+    Wrench is required; velocity needs a twist or a pose (differentiated only when
+    there is no twist, whether or not a pose topic was named). When a twist is found
+    and the pose is ambiguous, the pose is left out with a note.
     """
     candidates = {
         kind: sorted(t for t, m in types.items() if m == msgtype)
@@ -187,8 +187,6 @@ def choose_topics(
         found = candidates[kind]
         if kind in chosen or (not found and kind != "wrench"):
             continue
-        if kind == "twist" and wanted["pose"] and not wanted["twist"]:
-            continue  # --pose-topic alone: velocity from that pose, as the option promises
         if len(found) == 1:
             chosen[kind] = found[0]
             continue
