@@ -351,6 +351,26 @@ def test_a_zero_quaternion_is_refused_not_read_as_no_rotation(tmp_path: Path) ->
         r"samples \(first: sample 20\)")  # fmt: skip
 
 
+def test_an_unset_pose_beside_a_twist_is_left_out_with_a_warning(tmp_path: Path) -> None:
+    topics = standard_topics(1.0)
+    kind, stamps, values = topics["/arm/ee_pose"]
+    topics["/arm/ee_pose"] = (kind, stamps, np.concatenate([values[:, :3], 0 * values[:, 3:]], 1))
+    topics["/arm/twist"] = ("twist", stamps, twist(seconds_of(stamps)))
+    with pytest.warns(ConversionWarning, match="orientation unset.*velocity comes from /arm/twist"):
+        convert(make_bag(tmp_path, topics, "mcap"), tmp_path / "t.mcap", "gown")
+    assert read_trial(tmp_path / "t.mcap").pose is None
+
+
+def test_turning_a_wrench_already_in_the_motions_frame_is_warned_about(tmp_path: Path) -> None:
+    frames = {"/ft_sensor/wrench": "/base_link", "/arm/ee_pose": "base_link"}
+    bag = write_bag(tmp_path / "b.bag", standard_topics(1.0), "ros1", frames=frames)
+    with pytest.warns(ConversionWarning, match="as the motion is.*turns the wrench a second"):
+        convert(bag, tmp_path / "t.mcap", "gown", wrench_frame="pose")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # same frame, left as is: nothing to say
+        convert(bag, tmp_path / "u.mcap", "gown")
+
+
 def test_a_stamp_repeated_with_other_values_is_refused(tmp_path: Path) -> None:
     topics = standard_topics(1.0)
     kind, stamps, values = topics["/ft_sensor/wrench"]

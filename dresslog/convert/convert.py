@@ -348,6 +348,7 @@ def convert(
     messages_in = source.message_count
     if wrench_frame == "pose":
         _check_turnable(source)
+    left_out = _unneeded_pose_without_orientation(source, wrench_frame)
     # one CSV's streams share its time column: one message for it
     reordered = list(
         dict.fromkeys(m for stream in source.streams if (m := put_in_time_order(stream, path)))
@@ -357,8 +358,8 @@ def convert(
     averaged = rs.averages(source.wrench.t_ns)
     grid = common_grid(source, averaged)
 
-    found = reordered + _warnings(source, grid, max_gap_s)
-    if wrench_frame == "world" and rotate is None and (message := _frames_differ(source)):
+    found = reordered + left_out + _warnings(source, grid, max_gap_s)
+    if message := _frames_differ(source, wrench_frame, rotate is not None):
         found.append(message)
     for message in found:
         warnings.warn(message, ConversionWarning, stacklevel=2)
@@ -426,17 +427,42 @@ def _clock_skew(streams: list[SourceStream]) -> str | None:
     )
 
 
-def _frames_differ(source: Source) -> str | None:
-    """The wrench in another named frame than the motion: a sensor's own axes, likely."""
+def _frames_differ(source: Source, wrench_frame: str, rotated: bool) -> str | None:
+    """Frame names that contradict the wrench's treatment: in another frame than the
+    motion and left as is (a sensor's own axes, likely), or in the motion's own frame
+    and turned by the pose (world axes turned a second time, likely)."""
     motion = source.twist or source.pose
     frames = (source.wrench.frame_id, motion.frame_id if motion is not None else "")
-    if not all(frames) or frames[0].lstrip("/") == frames[1].lstrip("/"):  # ROS 1's /base
+    if not all(frames):
+        return None
+    same = frames[0].lstrip("/") == frames[1].lstrip("/")  # ROS 1's /base is base
+    if wrench_frame == "pose" and same:
+        return (
+            f"the wrench is in frame {frames[0]!r}, as the motion is: if that frame's axes "
+            "are the world's, --wrench-frame pose turns the wrench a second time"
+        )
+    if wrench_frame == "pose" or same or rotated:
         return None
     return (
         f"the wrench is in frame {frames[0]!r}, the motion in {frames[1]!r}: the model reads "
         "both in world axes; if the sensor's axes turn with the gripper, give --wrench-frame "
         "pose, if they are fixed but turned, --rotate"
     )
+
+
+def _unneeded_pose_without_orientation(source: Source, wrench_frame: str) -> list[str]:
+    """A pose whose orientation was never set, beside a twist that gives the velocity,
+    is left out (with a warning) rather than refused: the trial does not need it."""
+    pose = source.pose
+    if pose is None or source.twist is None or wrench_frame == "pose":
+        return []
+    if not (np.linalg.norm(pose.values[:, 3:7], axis=1) < 1e-6).any():
+        return []
+    source.pose = None
+    return [
+        f"{pose.name}: orientation unset (zero quaternions), so the pose is left out; the "
+        f"velocity comes from {source.twist.name}"
+    ]
 
 
 def _check_turnable(source: Source) -> None:
