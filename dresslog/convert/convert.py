@@ -25,6 +25,7 @@ from pydantic import BaseModel
 from dresslog.convert import resample as rs
 from dresslog.convert.source import COMPONENTS, MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError, DresslogWarning
+from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
@@ -433,7 +434,7 @@ def _frames_differ(source: Source, wrench_frame: str, rotated: bool) -> str | No
     and turned by the pose (world axes turned a second time, likely)."""
     motion = source.twist or source.pose
     frames = (source.wrench.frame_id, motion.frame_id if motion is not None else "")
-    if not all(frames):
+    if not all(frames) or frames[0] == wk.FRAMES[wk.WRENCH]:  # a trial's own, world-aligned
         return None
     same = frames[0].lstrip("/") == frames[1].lstrip("/")  # ROS 1's /base is base
     if wrench_frame == "pose" and same:

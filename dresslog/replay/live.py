@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
+from dresslog.errors import DresslogError
 from dresslog.replay.engine import Estimator, Replay, Sink, Step, TrialContext, check_points
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.spec import TrialMetadata, TrialSpec
@@ -128,6 +129,14 @@ def record_live(
     from dresslog.sim import record_trial
 
     live = live_source(model, spec.task, recording=recording, connect=connect, vmax=vmax)
-    with live:
-        result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
+    try:
+        with live:
+            result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
+    except RuntimeError as err:  # Rerun's stream to a viewer that went away
+        if "grpc" not in str(err).lower():
+            raise
+        raise DresslogError(
+            "the Rerun viewer went away while the trial streamed to it, so nothing was "
+            "written; record again (without --live, or with --connect to a running viewer)"
+        ) from None
     return result, live.metrics.metrics

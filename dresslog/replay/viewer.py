@@ -36,10 +36,11 @@ VIEWER_STOP_S = 5.0
 POLL_S = 0.2
 
 
-#: Where `rr.spawn` starts a viewer, and how much longer than `rr.spawn` itself waits
-#: (about 10 s) it may take to listen there.
+#: Where `rr.spawn` starts a viewer, how much longer than `rr.spawn` itself waits (about
+#: 10 s) it may take to listen there, and for how long it must then go on listening.
 SPAWNED_URL = "rerun+http://127.0.0.1:9876/proxy"
-SPAWN_GRACE_S = 2.0
+SPAWN_GRACE_S = 3.0
+SPAWN_SETTLE_S = 1.0
 
 
 def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
@@ -62,20 +63,24 @@ def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
         rec.connect_grpc(connect, default_blueprint=default_blueprint())
         return rec
     rec.spawn(default_blueprint=default_blueprint())
-    deadline = time.monotonic() + SPAWN_GRACE_S
-    while True:  # a viewer that cannot open its window exits; the stream would hang on it
+    # A viewer that cannot open its window listens for a moment, then exits, and the
+    # stream to it fails: it must still listen SPAWN_SETTLE_S after it first did.
+    deadline, since = time.monotonic() + SPAWN_GRACE_S, None
+    while time.monotonic() < deadline:
         try:
             check_reachable(SPAWNED_URL, timeout=0.5)
-            return rec
+            since = since or time.monotonic()
+            if time.monotonic() - since >= SPAWN_SETTLE_S:
+                return rec
         except DresslogError:
-            if time.monotonic() > deadline:
-                rec.disconnect()
-                raise DresslogError(
-                    "the Rerun viewer did not start (is DISPLAY="
-                    f"{os.environ.get('DISPLAY', '')!r} a display you can open?); stream to a "
-                    "viewer elsewhere with --connect, or record without --live"
-                ) from None
-            time.sleep(0.2)
+            since = None
+        time.sleep(0.2)
+    rec.disconnect()
+    raise DresslogError(
+        f"the Rerun viewer did not start (is DISPLAY={os.environ.get('DISPLAY', '')!r} a "
+        "display you can open?); stream to a viewer elsewhere with --connect, or record "
+        "without --live"
+    )
 
 
 def check_reachable(url: str, timeout: float = 2.0) -> None:
