@@ -270,6 +270,11 @@ def read_bag(
         # unset header stamps (0): fall back to the recording time. A clock that starts at
         # 0, as simulation time does, may stamp the first message 0, and only that one.
         if clock == "log":
+            if not (stamps[1:] == 0).any() and (swapped := int((np.diff(stamps) < 0).sum())):
+                notes.append(
+                    f"{topic}: {swapped} message(s) arrived before one stamped earlier; on "
+                    "receive times (--clock log) they stay in arrival order"
+                )
             stamps, stream_clock = logged, "log"
         elif (stamps[1:] == 0).any():
             stamps, stream_clock = logged, "log"
