@@ -427,7 +427,10 @@ def test_decimal_commas_and_a_missing_header_are_named(tmp_path: Path) -> None:
 def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:
     """ATI's logger writes the sensor's serial number and calibration above the columns."""
     path = _with_velocity(tmp_path / "ati.csv", np.arange(500) / 1000.0)
-    preamble = "Serial Number:,FT12345\nCalibration:,FT12345 US-60-25\nCounts per Force:,1000000\n"
+    preamble = (
+        "Serial Number:,FT12345\nCalibration:,FT12345 US-60-25\nCounts per Force:,1000000\n"
+        "Tool Transform,0,0,0,0,0,0\n"  # a row of numbers, but not as wide as the data
+    )
     path.write_text(preamble + path.read_text())
     report = convert(path, tmp_path / "t.mcap", "gown")
     assert report.steps == 49 and "time column 'time' read as s" in report.source["notes"][0]

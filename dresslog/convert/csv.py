@@ -260,7 +260,10 @@ def _header(path: Path) -> tuple[int, list[str], str | None]:
                         path=path,
                     )
                 if header is not None and 2 * numbers > len(filled):  # mostly numbers: data
-                    if all(_is_number(c) for c in header[1] if c):  # numbers above numbers
+                    text_above = not all(_is_number(c) for c in header[1] if c)
+                    if text_above and abs(len(cells) - len(header[1])) > 1:
+                        continue  # numbers in the preamble (`Tool Transform,0,0,0,0,0,0`)
+                    if not text_above:  # numbers above numbers
                         raise ConversionError(
                             f"has no header row (line {header[0] + 1} is numbers); add a line "
                             "naming the columns, such as time,fx,fy,fz,tx,ty,tz,vx,vy,vz",
