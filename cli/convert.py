@@ -27,6 +27,8 @@ from .common import reports_errors
               "(turned by the pose's orientation).")  # fmt: skip
 @click.option("--sensor-rotation", nargs=4, type=float, metavar="QX QY QZ QW",
               help="With --wrench-frame pose: the sensor's axes in the gripper's.")  # fmt: skip
+@click.option("--sensor-offset", nargs=3, type=float, metavar="X Y Z",
+              help="With --wrench-frame pose: sensor origin from gripper centre (m).")  # fmt: skip
 @click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame.")  # fmt: skip
 @click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",

@@ -325,8 +325,16 @@ def test_a_wrench_in_the_grippers_axes_is_turned_into_world_axes_by_the_pose(
     convert(bag, tmp_path / "mounted.mcap", "gown", wrench_frame="pose", sensor_rotation=mount)
     got = read_trial(tmp_path / "mounted.mcap")
     np.testing.assert_allclose(got.wrench.values, want.wrench.values, atol=0.02)
-    with pytest.raises(ConversionError, match="--sensor-rotation turns a sensor's axes"):
+    with pytest.raises(ConversionError, match="--sensor-rotation places a sensor on the"):
         convert(bag, tmp_path / "no.mcap", "gown", sensor_rotation=mount)
+    offset = np.array([0.0, 0.02, 0.05])  # the sensor's origin 5 cm above the gripper centre
+    at_sensor = local.copy()  # torque about the sensor's origin: tau_C - r x F
+    at_sensor[:, 3:] = local[:, 3:] - np.cross(offset, local[:, :3])
+    topics["/ft_sensor/wrench"] = (kind, stamps, at_sensor)
+    bag = write_bag(tmp_path / "o", topics, "mcap", frames=frames)
+    convert(bag, tmp_path / "offset.mcap", "gown", wrench_frame="pose", sensor_offset=offset)
+    got = read_trial(tmp_path / "offset.mcap")
+    np.testing.assert_allclose(got.wrench.values, want.wrench.values, atol=0.02)
 
 
 def test_naming_the_pose_topic_keeps_the_measured_twist(tmp_path: Path) -> None:

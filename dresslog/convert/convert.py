@@ -299,6 +299,7 @@ def convert(
     clock: Literal["header", "log"] = "header",
     wrench_frame: Literal["world", "pose"] = "world",
     sensor_rotation: Quaternion | None = None,
+    sensor_offset: tuple[float, float, float] | None = None,
     rotate: Quaternion | None = None,
     tare_s: float = 0.0,
     max_gap_s: float = MAX_GAP_S,
@@ -309,7 +310,9 @@ def convert(
     `wrench_frame="pose"` says the sensor's axes turn with the gripper: each step's
     wrench is turned from the pose's orientation into its world axes (after the tare,
     which belongs to the sensor's own axes), first by `sensor_rotation` (x y z w; the
-    sensor's axes in the gripper's, as mounted) if given. `rotate` then turns every vector
+    sensor's axes in the gripper's, as mounted) if given, its torque moved from the
+    sensor's origin to the gripper centre by `sensor_offset` (m, where the sensor's
+    origin sits in the gripper's axes: tau + r x F). `rotate` then turns every vector
     (force, torque, velocities, pose) into the model's frame; `tare_s` subtracts the mean
     wrench of the first seconds. Gaps longer than `max_gap_s` are bridged by
     interpolation and reported as `ConversionWarning`s (and in the report).
@@ -324,11 +327,16 @@ def convert(
     for quat in (rotate, sensor_rotation):
         if quat is not None and not (np.isfinite(quat).all() and np.linalg.norm(quat) > 0):
             raise ConversionError("rotation quaternion must be finite and not zero")
-    if sensor_rotation is not None and wrench_frame != "pose":
+    mount = [
+        n for n, v in (("rotation", sensor_rotation), ("offset", sensor_offset)) if v is not None
+    ]
+    if mount and wrench_frame != "pose":
         raise ConversionError(
-            "--sensor-rotation turns a sensor's axes into the gripper's, with --wrench-frame "
-            "pose; a sensor fixed in the world is turned with --rotate"
+            f"--sensor-{mount[0]} places a sensor on the gripper, with --wrench-frame pose; a "
+            "sensor fixed in the world is turned with --rotate"
         )
+    if sensor_offset is not None and not np.isfinite(sensor_offset).all():
+        raise ConversionError("sensor offset must be finite (metres)")
     if not (np.isfinite(tare_s) and tare_s >= 0):
         raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
     if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
@@ -366,7 +374,7 @@ def convert(
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
     wrench, twist, pose, processing = _resample_all(
-        source, grid, tare_s, rotate, wrench_frame, sensor_rotation
+        source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset
     )
 
     info = _source_info(source, grid, processing, found, motion)
@@ -488,6 +496,7 @@ def _resample_all(
     rotate: Quaternion | None,
     wrench_frame: Literal["world", "pose"] = "world",
     sensor_rotation: Quaternion | None = None,
+    sensor_offset: tuple[float, float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
     """Wrench, twist and pose on the grid, tared and rotated, and how each was made."""
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
@@ -523,6 +532,12 @@ def _resample_all(
         if sensor_rotation is not None:  # the sensor's mount: its axes in the gripper's
             wrench = rs.rotate_vectors(wrench, sensor_rotation)
             via = f" (the sensor mounted at {[float(v) for v in sensor_rotation]})"
+        if sensor_offset is not None:  # torque about the gripper centre: tau + r x F
+            offset = np.asarray(sensor_offset, dtype=np.float64)
+            wrench = np.concatenate(
+                [wrench[:, :3], wrench[:, 3:] + np.cross(offset, wrench[:, :3])], 1
+            )
+            via += f" (torque moved by {offset.tolist()} m)"
         wrench = rs.rotate_by_orientation(wrench, pose[:, 3:7])
         processing["wrench_frame"] = f"from the gripper's axes{via} into world axes by the pose"
     if rotate is not None:
