@@ -123,6 +123,7 @@ def put_in_time_order(stream: SourceStream, path: Path) -> str | None:
     sorted_t, sorted_v = t_ns[order], values[order]
     same = np.diff(sorted_t) == 0
     equal = (sorted_v[1:] == sorted_v[:-1]) | (np.isnan(sorted_v[1:]) & np.isnan(sorted_v[:-1]))
+    equal = equal.all(axis=1)  # a row as its neighbour, NaN matching NaN
     behind = np.maximum.accumulate(t_ns) - t_ns
     if (worst := int(np.argmax(behind))) and behind[worst] > MAX_LATE_S * 1e9:
         raise ConversionError(
@@ -131,7 +132,7 @@ def put_in_time_order(stream: SourceStream, path: Path) -> str | None:
             "on its own",
             path=path,
         )
-    clash = np.flatnonzero(same & ~equal.all(axis=1))
+    clash = np.flatnonzero(same & ~equal)
     if len(clash):
         stamp, first, second = sorted_t[clash[0]], order[clash[0]], order[clash[0] + 1]
         raise ConversionError(
@@ -141,7 +142,7 @@ def put_in_time_order(stream: SourceStream, path: Path) -> str | None:
             path=path,
         )
     late = int(np.count_nonzero(behind > 0))
-    repeat = np.r_[False, same & equal.all(axis=1)]
+    repeat = np.r_[False, same & equal]
     done = [f"{late} stamped before one logged earlier, sorted"] if late else []
     done += [f"{np.count_nonzero(repeat)} logged twice, dropped"] if repeat.any() else []
     stream.t_ns, stream.values = sorted_t[~repeat], sorted_v[~repeat]
@@ -183,9 +184,14 @@ def check_stream(stream: SourceStream, path: Path) -> None:
         _check_orientation(stream, where, path)
 
 
+def _unset_orientations(pose: SourceStream) -> np.ndarray:
+    """Samples whose quaternion is zero: no rotation at all (ROS 1's unset value)."""
+    return np.flatnonzero(np.linalg.norm(pose.values[:, 3:7], axis=1) < 1e-6)
+
+
 def _check_orientation(stream: SourceStream, where: str, path: Path) -> None:
-    """A zero quaternion is no rotation at all (ROS 1's unset value), not the identity."""
-    zero = np.flatnonzero(np.linalg.norm(stream.values[:, 3:7], axis=1) < 1e-6)
+    """A zero quaternion is not the identity: normalised, it would pass for one."""
+    zero = _unset_orientations(stream)
     if len(zero):
         raise ConversionError(
             f"{where}pose orientation is the zero quaternion at {len(zero)} of {len(stream)} "
@@ -465,7 +471,7 @@ def _unneeded_pose_without_orientation(source: Source, wrench_frame: str) -> lis
     pose = source.pose
     if pose is None or source.twist is None or wrench_frame == "pose":
         return []
-    if not (np.linalg.norm(pose.values[:, 3:7], axis=1) < 1e-6).any():
+    if not len(_unset_orientations(pose)):
         return []
     source.pose = None
     return [

@@ -96,6 +96,19 @@ def _unit_key(unit: str) -> str:
     return "deg/s" if key == "dps" else key
 
 
+def _brackets(name: str) -> list[str]:
+    """What a header holds in round or square brackets: `Fx [sensor 1] (kN)` -> both."""
+    return [b.strip() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
+
+
+def _si_factor(written: str, group: str) -> float | None:
+    """The SI factor of a unit as written for a role group (`f`, `t`, ...), or None."""
+    if re.search(r"(?<![A-Za-z])M(?=[Nn])", written):  # MN is mega, not milli, newtons
+        return None
+    known = {_unit_key(unit): factor for unit, factor in _VALUE_UNITS[group].items()}
+    return known.get(_unit_key(written))
+
+
 def _is_unit(written: str) -> bool:
     parts = re.sub(r"\^-?\d", "", _unit_key(written)).split("/")
     return all(_UNIT_ATOMS.match(part) for part in parts)
@@ -108,15 +121,11 @@ def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
     `Tz [N-mm]` is scaled, since reading its numbers as SI would be silently wrong.
     Brackets holding a label rather than a unit are passed over.
     """
-    brackets = [b.strip() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
-    units = [b for b in brackets if b.lower() not in _NO_UNIT and _is_unit(b)]
+    units = [b for b in _brackets(name) if b.lower() not in _NO_UNIT and _is_unit(b)]
     if not units:
         return None
     written, known = units[0], _VALUE_UNITS[role[:-1]]
-    scale = {_unit_key(unit): factor for unit, factor in known.items()}.get(_unit_key(written))
-    if re.search(r"(?<![A-Za-z])M(?=[Nn])", written):  # MN is mega, not milli, newtons
-        scale = None
-    if scale is not None:
+    if (scale := _si_factor(written, role[:-1])) is not None:
         return written, scale
     hint = f"give the values in one of {', '.join(known)}" if known else "a quaternion has none"
     raise ConversionError(
@@ -125,20 +134,21 @@ def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
     )
 
 
-def _preamble(path: Path, header_line: int) -> dict[str, str]:
+def _preamble(path: Path, header_line: int) -> tuple[dict[str, str], str]:
     """`key: value` pairs of the lines above the header, each split by its own separator
-    (`Key,value`, `Key;value`, `Key: value`, `Key=value`); keys lower-cased."""
+    (`Key,value`, `Key;value`, `Key: value`, `Key=value`; keys lower-cased), and their text."""
     pairs: dict[str, str] = {}
-    with path.open(newline="", encoding="utf-8-sig") as stream:
-        for _, line in zip(range(header_line), stream, strict=False):
-            text = line.strip()
-            delimiter = next((d for d in "\t;," if d in text), None)
-            cells = next(csv.reader([text], delimiter=delimiter), []) if delimiter else [text]
-            if len(cells) < 2 or not cells[1].strip():
-                cells = re.split(r"\s*[:=]\s*", cells[0] if cells else "", maxsplit=1)
-            if len(cells) >= 2:
-                pairs[" ".join(cells[0].lower().rstrip(":= ").split())] = cells[1].strip()
-    return pairs
+    with path.open(newline="", encoding="utf-8-sig", errors="replace") as stream:
+        lines = [line for _, line in zip(range(header_line), stream, strict=False)]
+    for line in lines:
+        text = line.strip()
+        delimiter = next((d for d in "\t;," if d in text), None)
+        cells = next(csv.reader([text], delimiter=delimiter), []) if delimiter else [text]
+        if len(cells) < 2 or not cells[1].strip():
+            cells = re.split(r"\s*[:=]\s*", cells[0] if cells else "", maxsplit=1)
+        if len(cells) >= 2:
+            pairs[" ".join(cells[0].lower().rstrip(":= ").split())] = cells[1].strip()
+    return pairs, "".join(lines)
 
 
 def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
@@ -148,11 +158,9 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
     (likewise torque) above the header: read as newtons they are 10^6 times too large.
     It always gives both; a preamble that gives one, or that cannot be read, is refused.
     """
-    preamble = _preamble(path, header_line)
+    preamble, above = _preamble(path, header_line)
     given = [q for q in ("force", "torque") if f"counts per unit {q}" in preamble]
     if not given:
-        with path.open(encoding="utf-8-sig", errors="replace") as stream:
-            above = "".join(line for _, line in zip(range(header_line), stream, strict=False))
         if "counts per unit" in above.lower():
             raise ConversionError(
                 "the preamble mentions counts per unit, but not as `Counts per Unit Force,N` "
@@ -171,17 +179,16 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
     for group, quantity in (("f", "force"), ("t", "torque")):
         counts = preamble[f"counts per unit {quantity}"]
         unit = preamble.get(f"{quantity} units", "")
-        known = {_unit_key(u): factor for u, factor in _VALUE_UNITS[group].items()}
         per = float(counts) if _is_number(counts) else math.nan
-        mega = re.search(r"(?<![A-Za-z])M(?=[Nn])", unit)  # MN is mega, not milli, newtons
-        if mega or not (math.isfinite(per) and per > 0 and _unit_key(unit) in known):
+        factor = _si_factor(unit, group)
+        if factor is None or not (math.isfinite(per) and per > 0):
             raise ConversionError(
                 f"the {quantity} columns are in counts ({counts!r} per {unit or 'unit'!r}), "
                 f"which dresslog cannot scale; give the {quantity} units as one of "
                 f"{', '.join(_VALUE_UNITS[group])} and a positive count",
                 path=path,
             )
-        scales[group] = known[_unit_key(unit)] / per
+        scales[group] = factor / per
     return scales
 
 
@@ -193,7 +200,7 @@ def _unit_in(name: str, path: Path) -> str | None:
     """
     if name.strip() == "%time" or name.strip().endswith("header.stamp"):
         return "ns"  # rostopic echo -p / rosbag-to-CSV exports
-    brackets = [b.strip().rstrip(".").lower() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
+    brackets = [b.rstrip(".").lower() for b in _brackets(name)]
     if known := [b for b in brackets if b in _UNIT_NAMES]:
         return _UNIT_NAMES[known[0]]
     if other := [

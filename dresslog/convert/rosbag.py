@@ -269,14 +269,15 @@ def read_bag(
         logged = np.asarray(log_ns, dtype=np.int64)
         # unset header stamps (0): fall back to the recording time. A clock that starts at
         # 0, as simulation time does, may stamp the first message 0, and only that one.
+        unset = bool((stamps[1:] == 0).any())
         if clock == "log":
-            if not (stamps[1:] == 0).any() and (swapped := int((np.diff(stamps) < 0).sum())):
+            if not unset and (swapped := int((np.diff(stamps) < 0).sum())):
                 notes.append(
                     f"{topic}: {swapped} message(s) arrived before one stamped earlier; on "
                     "receive times (--clock log) they stay in arrival order"
                 )
             stamps, stream_clock = logged, "log"
-        elif (stamps[1:] == 0).any():
+        elif unset:
             stamps, stream_clock = logged, "log"
             notes.append(f"{topic}: header stamps unset, used the bag's log times")
         else:
