@@ -10,7 +10,6 @@ import pytest
 from dresslog.errors import TrialWriteError
 from dresslog.io import cdr, msgdefs
 from dresslog.io import well_known as wk
-from dresslog.io.files import temporary_path
 from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.writer import TrialWriter
@@ -253,9 +252,23 @@ def test_interrupted_write_leaves_nothing_under_the_final_name(tmp_path: Path) -
     path = tmp_path / "t.mcap"
     with pytest.raises(RuntimeError), TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
         writer.write_wrench(0, np.zeros(6))
-        assert temporary_path(path).exists()
+        assert list(tmp_path.glob(".t.mcap.*.partial"))
         raise RuntimeError("simulation blew up")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_two_writers_of_one_path_do_not_share_a_temporary(tmp_path: Path) -> None:
+    """Each writes its own file; the one that finishes last is the file, whole."""
+    path = tmp_path / "t.mcap"
+    first = TrialWriter(path, TrialMetadata(task=Task.GOWN), overwrite=True).open()
+    with TrialWriter(path, TrialMetadata(task=Task.SHORTS), overwrite=True) as second:
+        for writer, value in ((first, 0.0), (second, 1.0)):
+            writer.write_wrench(0, np.full(6, value))
+            writer.write_twist(0, np.full(6, value))
+    first.close()
+    trial = read_trial(path)
+    assert trial.metadata.task is Task.GOWN and np.all(trial.wrench.values == 0)
+    assert list(tmp_path.iterdir()) == [path]
 
 
 @pytest.mark.parametrize("stage", ["start", "finish"])

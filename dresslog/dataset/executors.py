@@ -21,7 +21,7 @@ from typing import Any, Literal, Protocol
 
 from dresslog.dataset.manifest import Entry, Split, Status, slot_file
 from dresslog.errors import DatasetError, DresslogError, SimulationError
-from dresslog.io.files import discard, sha256_file, temporary_path
+from dresslog.io.files import discard_temporaries, sha256_file
 from dresslog.spec import Outcome, TrialSpec
 
 RECORDER = "dresslog.sim:record_trial"
@@ -88,7 +88,7 @@ class _Worker:
     def _exit(cls, code: int) -> None:
         """Exit now, removing the temporary file of a trial still being recorded."""
         if cls.writing is not None:
-            discard(temporary_path(cls.writing))
+            discard_temporaries(cls.writing)
         os._exit(code)
 
     @classmethod

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+import glob
 import hashlib
+import itertools
 import os
 import socket
 import tempfile
@@ -63,9 +65,22 @@ def discard(path: Path) -> None:
         path.unlink(missing_ok=True)
 
 
+_serial = itertools.count()
+
+
 def temporary_path(path: Path) -> Path:
-    """The hidden name a file is written under before it is renamed into place."""
-    return path.with_name(f".{path.name}.{os.getpid()}.partial")
+    """A fresh hidden name to write `path` under before it is renamed into place.
+
+    Each call gives another name (process id and a serial), so two writers of one path
+    never share a temporary; the last to finish wins, whole.
+    """
+    return path.with_name(f".{path.name}.{os.getpid()}.{next(_serial)}.partial")
+
+
+def discard_temporaries(path: Path) -> None:
+    """Remove every temporary this process has open for `path` (an exit that cannot unwind)."""
+    for tmp in path.parent.glob(f".{glob.escape(path.name)}.{os.getpid()}.*.partial"):
+        discard(tmp)
 
 
 @contextmanager
