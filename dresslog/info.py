@@ -6,11 +6,13 @@ Public API
     The text `dresslog info` prints, and the problem that makes it exit non-zero: a
     model whose weights do not match its card is still described (the card says what it
     claims to be), with the mismatch as the problem; so is a dataset with trials missing
-    or of another size than its manifest records.
+    or of another size than its manifest records (as JSON: the manifest, with the
+    damaged trials under "damaged").
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import NamedTuple
 
@@ -58,8 +60,10 @@ def _dataset(path: Path, as_json: bool) -> Description:
     warn_if_incomplete(path, manifest)
     damaged = list(damaged_files(path, manifest))  # sizes only: hashing every trial is slow
     problem = damaged_error(path, *damaged[0]) if damaged else None
-    if as_json:
-        return Description(manifest.model_dump_json(indent=1), problem)
+    if as_json:  # the manifest, and the damaged trials as a list beside it
+        listed = json.loads(manifest.model_dump_json())
+        listed["damaged"] = [{"file": file, "problem": how} for file, how in damaged]
+        return Description(json.dumps(listed, indent=1), problem)
     lines = [f"{path}: {manifest.describe()}"]
     if damaged:
         names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])

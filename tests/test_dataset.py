@@ -356,6 +356,10 @@ def test_missing_or_corrupt_trials_are_named(copy: Path) -> None:
     shown = CliRunner().invoke(main, ["info", str(copy)])
     assert shown.exit_code == 1 and "damaged: train/000002.mcap (missing)" in shown.stdout
     assert "train/000002.mcap listed in the manifest is missing" in shown.stderr
+    as_json = CliRunner().invoke(main, ["info", str(copy), "--json"])
+    listed = json.loads(as_json.stdout)
+    assert as_json.exit_code == 1 and len(listed["trials"]) == len(load_manifest(copy).trials)
+    assert listed["damaged"] == [{"file": "train/000002.mcap", "problem": "missing"}]
     with pytest.raises(DatasetError, match=r"train/000002\.mcap listed in the manifest is missing"):
         load_dataset(copy, workers=1, progress=False)
 
