@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
@@ -351,6 +352,51 @@ def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferr
     for page in pages:
         with pytest.raises(OSError):  # the viewers are gone too
             urllib.request.urlopen(page, timeout=2)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the parent-death signal is Linux's")
+def test_view_web_killed_outright_takes_its_viewer_with_it(inferred) -> None:
+    """A kill -9 (or the OOM killer) runs no handler of dresslog's: the kernel stops the viewer."""
+    import re
+    import signal
+    import time
+    import urllib.request
+
+    _, _, rrd = inferred
+    run = subprocess.Popen(
+        [sys.executable, "-c", AS_FROM_A_TERMINAL, "view", str(rrd), "--web"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        assert run.stdout is not None
+        found = re.match(r"Web viewer: (http://127\.0\.0\.1:\d+/)", run.stdout.readline())
+        assert found
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            try:
+                urllib.request.urlopen(found.group(1), timeout=2).close()
+                break
+            except OSError:
+                time.sleep(0.5)
+        else:
+            pytest.fail("the web viewer never answered")
+        run.kill()
+        run.wait(timeout=10)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            try:
+                urllib.request.urlopen(found.group(1), timeout=2).close()
+                time.sleep(0.2)
+            except OSError:
+                break
+        else:
+            pytest.fail("the viewer went on serving after dresslog was killed")
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(run.pid, signal.SIGKILL)
 
 
 def test_view_web_on_a_port_in_use_says_so_before_starting(inferred) -> None:

@@ -279,9 +279,31 @@ def web_address(web_port: int, grpc_port: int) -> str:
     return f"http://127.0.0.1:{web_port}/?url={proxy}"
 
 
+#: Becomes the viewer binary (argv[2:]) once Linux is told to send it SIGTERM when its
+#: parent, dresslog (argv[1]), dies, however it dies: a kill -9 would otherwise leave a
+#: web viewer serving. exec keeps the parent-death signal; a parent already gone is seen.
+_LAUNCH_TIED = (
+    "import ctypes, os, signal, sys; "
+    "ctypes.CDLL(None).prctl(1, signal.SIGTERM); "  # PR_SET_PDEATHSIG
+    "os.getppid() == int(sys.argv[1]) or sys.exit('dresslog is gone'); "
+    "os.execv(sys.argv[2], sys.argv[2:])"
+)
+
+
+def _rerun_launcher() -> list[str]:
+    """How to start Rerun's viewer binary: tied to this process on Linux, else its wrapper."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("rerun_cli")
+    binary = Path(spec.origin).parent / "rerun" if spec and spec.origin else None
+    if sys.platform == "linux" and binary is not None and os.access(binary, os.X_OK):
+        return [sys.executable, "-c", _LAUNCH_TIED, str(os.getpid()), str(binary)]
+    return [sys.executable, "-m", "rerun"]
+
+
 def viewer_command(rrd: Path, *, web: bool, web_port: int, grpc_port: int) -> list[str]:
     """The `rerun` invocation: the native viewer, or a web viewer served on localhost only."""
-    cmd = [sys.executable, "-m", "rerun"]
+    cmd = _rerun_launcher()
     if web:
         cmd += ["--serve-web", "--bind", "127.0.0.1"]
         cmd += ["--web-viewer-port", str(web_port), "--port", str(grpc_port)]
@@ -301,7 +323,8 @@ def view_file(
 
     Without `web_port` the web viewer takes 9090, or a free port if that one is in use
     (a second `view --web`); its data port is always a free one. Ctrl-C, SIGTERM or
-    SIGHUP stop the viewer, then reach the caller as KeyboardInterrupt.
+    SIGHUP stop the viewer, then reach the caller as KeyboardInterrupt; on Linux the
+    viewer also stops when this process is killed outright.
     """
     path = Path(path)
     if web_port is not None and _free_port(web_port) != web_port:
