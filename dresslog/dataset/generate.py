@@ -192,7 +192,7 @@ def _job(
 
 
 #: The names generation writes in a split folder: slot files and their temporaries.
-_SLOT_NAME = re.compile(r"\.?\d{6}\.mcap(\.\d+\.partial)?")
+_SLOT_NAME = re.compile(r"\.?\d{6}\.mcap((\.\d+){1,2}\.partial)?")
 
 
 def _tidy(root: Path, manifest: Manifest) -> None:
