@@ -10,7 +10,15 @@ from __future__ import annotations
 from enum import StrEnum
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    FiniteFloat,
+    StrictInt,
+    field_validator,
+    model_validator,
+)
 
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 #: Longest trial a spec accepts, s: an hour at 100 Hz (a typo like 1e9 would need TBs).
@@ -140,12 +148,16 @@ class TrialSpec(BaseModel):
         )
 
 
+#: The version of the metadata a trial written now carries; a newer one is refused.
+TRIAL_FORMAT_VERSION = 1
+
+
 class TrialMetadata(BaseModel):
     """What a recording says about itself (the MCAP metadata record `dresslog`)."""
 
     model_config = ConfigDict(extra="forbid")
 
-    format_version: int = 1
+    format_version: StrictInt = TRIAL_FORMAT_VERSION
     task: Task
     spec: TrialSpec | None = Field(None, description="the spec of a simulated trial")
     outcome: Outcome = Outcome.UNKNOWN

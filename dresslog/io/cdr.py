@@ -264,6 +264,16 @@ def stamp_ns(messages: np.ndarray) -> np.ndarray:
     return sec * 1_000_000_000 + messages["header.stamp.nanosec"].astype(np.int64)
 
 
+def header_stamps_ns(payloads: Sequence[bytes]) -> np.ndarray:
+    """`header.stamp` of undecoded stamped messages (each begins with a std_msgs/Header).
+
+    The stamp is the first field after the encapsulation header: sec, then nanosec.
+    """
+    head = b"".join(p[4:12] for p in payloads)
+    stamp = np.frombuffer(head, dtype=[("sec", "<i4"), ("nanosec", "<u4")])
+    return stamp["sec"].astype(np.int64) * 1_000_000_000 + stamp["nanosec"].astype(np.int64)
+
+
 def to_payloads(messages: np.ndarray) -> list[bytes]:
     """One bytes object per message, cut from a single buffer."""
     buf = messages.tobytes()

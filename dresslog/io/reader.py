@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import json
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from types import TracebackType
-from typing import BinaryIO, Self
+from typing import BinaryIO, NoReturn, Self
 
 import numpy as np
 from mcap.exceptions import McapError
@@ -26,7 +26,7 @@ from zstandard import ZstdError
 from dresslog.errors import TrialFormatError, first_problem
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
-from dresslog.spec import TrialMetadata
+from dresslog.spec import TRIAL_FORMAT_VERSION, TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
     Contacts,
@@ -76,6 +76,11 @@ class TrialReader:
             raise TrialFormatError("no such file", path=self.path)
         if self.path.is_dir():
             raise TrialFormatError(f"is a folder, not an MCAP file; {CONVERT_HINT}", path=self.path)
+        if not self.path.is_file():  # read again from its start after the magic: not a pipe
+            raise TrialFormatError(
+                "is not a regular file (a pipe or a device); save it to a file first",
+                path=self.path,
+            )
         with self.path.open("rb") as stream:
             head = stream.read(len(MAGIC))
             if not head:
@@ -90,6 +95,7 @@ class TrialReader:
             stream.seek(0)
             self._raw, metadata = self._scan(stream)
         self._check(metadata)
+        self._put_in_stamp_order()
         return self
 
     def close(self) -> None:
@@ -139,18 +145,65 @@ class TrialReader:
                 "re-record it, or salvage it with `mcap recover`",
                 path=self.path,
             )
-        raw = {}
-        for cid, channel in channels.items():
+        raw: dict[str, _Raw] = {}
+        for cid, channel in sorted(channels.items()):  # a topic's channels are read as one
             times, payloads = messages.get(cid, ([], []))
             schema = schemas.get(channel.schema_id)
             info = ChannelInfo(
-                channel.topic,
-                schema.name if schema else "",
-                channel.message_encoding,
-                len(times),
+                channel.topic, schema.name if schema else "", channel.message_encoding, len(times)
             )
-            raw[channel.topic] = _Raw(info, times, payloads)
+            if (seen := raw.get(channel.topic)) is None:
+                raw[channel.topic] = _Raw(info, list(times), list(payloads))
+                continue
+            if (seen.info.schema, seen.info.encoding) != (info.schema, info.encoding):
+                raise TrialFormatError(
+                    f"two channels of this topic with other schemas ({seen.info.schema}, "
+                    f"{info.schema}); the file is not one trial",
+                    path=self.path,
+                    channel=channel.topic,
+                )
+            seen.times += times
+            seen.payloads += payloads
+            seen.info = replace(seen.info, count=len(seen.times))
         return raw, metadata
+
+    def _put_in_stamp_order(self) -> None:
+        """Order each of our channels by header stamp; refuse a stamp that repeats.
+
+        MCAP does not promise messages in time order (a merged or re-written file), and a
+        step is matched across channels by its stamp, so two messages of one stamp (a
+        driver that never set its headers, a message written twice) have no one meaning.
+        """
+        assert self._raw is not None
+        for topic, raw in self._raw.items():
+            if topic not in wk.SCHEMAS or not raw.payloads or min(map(len, raw.payloads)) < 12:
+                continue  # not ours, empty, or too short: decoding it says so
+            stamps = cdr.header_stamps_ns(raw.payloads)
+            order = np.argsort(stamps, kind="stable")
+            if (np.diff(order) != 1).any():
+                raw.times = [raw.times[i] for i in order]
+                raw.payloads = [raw.payloads[i] for i in order]
+                stamps = stamps[order]
+            if topic == wk.LIMB_POINTS:  # sent once; only the first is read
+                continue
+            repeated = np.flatnonzero(np.diff(stamps) == 0)
+            if len(stamps) > 1 and stamps[0] == stamps[-1]:
+                problem = f"all {len(stamps)} messages have the header stamp {stamps[0]} ns, unset"
+            elif len(repeated):
+                problem = (
+                    f"{len(repeated)} messages repeat another's header stamp (the first "
+                    f"{stamps[repeated[0]] / 1e9:.6g} s), and a step is one stamp"
+                )
+            elif stamps[0] < 0:
+                problem = f"header stamp {stamps[0]} ns is negative"
+            else:
+                continue
+            raise TrialFormatError(
+                f"{problem}; re-record it, or re-convert its log (`dresslog convert` drops "
+                "messages logged twice, and with --clock log takes receive times)",
+                path=self.path,
+                channel=topic,
+            )
 
     def _check(self, metadata: dict[str, str] | None) -> None:
         assert self._raw is not None
@@ -178,13 +231,25 @@ class TrialReader:
             raise TrialFormatError(
                 f"has no `{wk.METADATA_NAME}` metadata record; {CONVERT_HINT}", path=self.path
             )
+        if "trial" not in metadata:
+            raise TrialFormatError(
+                f"`{wk.METADATA_NAME}` metadata record has no `trial` entry", path=self.path
+            )
         try:
-            self._metadata = TrialMetadata.model_validate(json.loads(metadata["trial"]))
+            raw = json.loads(metadata["trial"])
+            version = raw.get("format_version") if isinstance(raw, dict) else None
+            if isinstance(version, int) and version > TRIAL_FORMAT_VERSION:
+                raise TrialFormatError(
+                    f"written by a newer dresslog (trial format {version}; this one reads "
+                    f"{TRIAL_FORMAT_VERSION}); upgrade dresslog",
+                    path=self.path,
+                )
+            self._metadata = TrialMetadata.model_validate(raw)
         except ValidationError as err:
             problem = first_problem(err, "metadata")
             message = f"metadata record is invalid: {problem}"
             raise TrialFormatError(message, path=self.path) from None
-        except (KeyError, json.JSONDecodeError) as err:
+        except json.JSONDecodeError as err:
             first = str(err).splitlines()[0]
             raise TrialFormatError(f"metadata record is invalid: {first}", path=self.path) from None
 
@@ -213,7 +278,7 @@ class TrialReader:
         return topic in self.channels and self.channels[topic].count > 0
 
     def messages(self, topic: str) -> tuple[np.ndarray, list[bytes]]:
-        """Raw log times (int64 ns) and CDR payloads of one channel, in file order."""
+        """Raw log times (int64 ns) and CDR payloads of one channel, in header-stamp order."""
         raw = self._channel(topic)
         return np.asarray(raw.times, dtype=np.int64), raw.payloads
 
@@ -324,6 +389,9 @@ class TrialReader:
         for run in self._decode(wk.CONTACTS):
             times.append(cdr.stamp_ns(run))
             items.extend(np.asarray(c, dtype=CONTACT_DTYPE) for c in run["contacts"])
+        numbers = ("position", "normal", "friction", "normal_force")
+        if not all(np.isfinite(c[n]).all() for c in items for n in numbers):
+            self._corrupt("NaN or infinite value in a contact", wk.CONTACTS)
         return Contacts(np.concatenate(times), items)
 
     @cached_property
@@ -334,6 +402,8 @@ class TrialReader:
         msg = self._decode(wk.LIMB_POINTS)[0][0]
         count = int(msg["segment_names.len"])
         names = tuple(msg[f"segment_names.{i}"].decode() for i in range(count))
+        if not np.isfinite(msg["points"]).all():
+            self._corrupt("NaN or infinite limb point", wk.LIMB_POINTS)
         return LimbPoints(msg["limb"].decode(), msg["points"].copy(), msg["segment"].copy(), names)
 
     @cached_property
@@ -350,15 +420,18 @@ class TrialReader:
             problem = f"{len(corners)} triangle corners, not a multiple of 3"
         if not problem and len(corners) and corners.max() >= counts[0]:
             problem = f"a triangle names vertex {corners.max()} of {counts[0]}"
+        if not problem and not all(np.isfinite(m["vertices"]).all() for m in msgs):
+            problem = "NaN or infinite vertex"
         if problem:
-            raise TrialFormatError(
-                f"{problem}; the recording is corrupt, re-record it",
-                path=self.path,
-                channel=wk.GARMENT,
-            )
+            self._corrupt(problem, wk.GARMENT)
         vertices = np.stack([m["vertices"] for m in msgs]).astype(np.float32)
         triangles = corners.reshape(-1, 3)
         return GarmentStates(np.concatenate([cdr.stamp_ns(r) for r in runs]), vertices, triangles)
+
+    def _corrupt(self, problem: str, topic: str) -> NoReturn:
+        raise TrialFormatError(
+            f"{problem}; the recording is corrupt, re-record it", path=self.path, channel=topic
+        )
 
     def read(self) -> Trial:
         """Every stream in memory at once (a trial with no step to run on is refused)."""

@@ -56,7 +56,7 @@ class TrialWriter:
             )
         self.metadata = metadata
         self.overwrite = overwrite
-        self._tmp = temporary_path(self.path)
+        self._tmp: Path | None = None  # named when opened, once the output is checked
         self._stream: IO[bytes] | None = None
         self._writer: Writer | None = None
         self._schemas: dict[str, int] = {}
@@ -70,6 +70,7 @@ class TrialWriter:
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
         check_output(self.path, suffix=".mcap", overwrite=self.overwrite)
+        self._tmp = temporary_path(self.path)
         self._stream = self._tmp.open("wb")
         self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._writer.start(profile=wk.PROFILE, library=f"{wk.LIBRARY} {__version__}")
@@ -84,8 +85,8 @@ class TrialWriter:
     def finish(self) -> Path:
         """Write the metadata and summary; the file stays under the temporary name returned
         (for a caller that puts several outputs in place together)."""
-        writer, stream = self._writer, self._stream
-        if writer is None or stream is None:
+        writer, stream, tmp = self._writer, self._stream, self._tmp
+        if writer is None or stream is None or tmp is None:
             raise TrialWriteError("writer is not open", path=self.path)
         metadata = self.metadata.model_copy(
             update={"software": self.metadata.software or software_versions()}
@@ -96,14 +97,15 @@ class TrialWriter:
         writer.finish()
         stream.close()
         self._writer = self._stream = None
-        return self._tmp
+        return tmp
 
     def abort(self) -> None:
         """Drop everything written so far; nothing appears under the final name."""
         if self._stream is not None:
             self._stream.close()
         self._writer = self._stream = None
-        discard(self._tmp)
+        if self._tmp is not None:
+            discard(self._tmp)
 
     def __enter__(self) -> Self:
         try:
