@@ -12,6 +12,9 @@ import numpy as np
 
 from dresslog.spec import TrialMetadata
 
+#: The rate of the steps every model reads (Hz): trials are simulated and converted at it.
+STEP_HZ = 100
+
 #: One garment-limb contact; the memory layout equals the CDR layout of
 #: `dresslog_msgs/msg/Contact`, so a contact array is encoded by a byte copy.
 CONTACT_DTYPE = np.dtype(

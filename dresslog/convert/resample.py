@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-RATE_HZ = 100
+from dresslog.trial import STEP_HZ as RATE_HZ
+
 PERIOD_NS = 1_000_000_000 // RATE_HZ
 #: Above this source rate (Hz) a stream is bin-averaged rather than interpolated.
 AVERAGE_ABOVE_HZ = 1.5 * RATE_HZ

@@ -11,6 +11,10 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
+from dresslog.errors import TrialFormatError
+from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
 from dresslog.io.reader import TrialReader
 from dresslog.model.bundled import resolve_model
@@ -19,6 +23,7 @@ from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
+from dresslog.trial import STEP_HZ, Trial
 
 
 @dataclass
@@ -43,6 +48,24 @@ class InferenceReport:
         if self.rmse is not None:
             line += f"; RMSE {self.rmse:.4g} N (all-zero estimate {self.zero_rmse:.4g} N)"
         return line
+
+
+def check_step_rate(trial: Trial, path: Path) -> None:
+    """Refuse wrench or twist at another rate than the models' 100 Hz steps.
+
+    Steps are matched by stamp, so a 1 kHz wrench beside a 100 Hz twist would run as
+    every tenth sample, unaveraged, and a 50 Hz trial at half the model's speed.
+    """
+    for topic, stream in ((wk.WRENCH, trial.wrench), (wk.TWIST, trial.twist)):
+        if len(stream) > 1:
+            step_s = float(np.median(np.diff(stream.t_ns))) / 1e9
+            if abs(step_s * STEP_HZ - 1) > 0.02:
+                raise TrialFormatError(
+                    f"is at {1 / step_s:.4g} Hz, and the model reads {STEP_HZ} Hz steps; "
+                    "resample the log onto them with `dresslog convert`",
+                    path=path,
+                    channel=topic,
+                )
 
 
 def replay_file(
@@ -83,6 +106,8 @@ def replay_file(
     # a trial without ground truth (a converted log) has nothing to show but an estimate
     need_model = require_model or trial.force_map is None
     loaded = resolve_model(model, task, n_points, required=need_model)
+    if loaded is not None:
+        check_step_rate(trial, Path(trial_path))
     estimator = loaded.estimator() if loaded is not None else None
     timings["load_model"] = clock() - t0
 
