@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -21,8 +22,11 @@ from dresslog.spec import Task, TrialMetadata
 from tests.conftest import SAMPLES
 
 
-def _raw_mcap(path: Path, channels: dict[str, tuple[str, list[bytes]]], metadata: bool) -> None:
-    """An MCAP written with mcap's own writer: topic -> (schema name, payloads)."""
+def _raw_mcap(
+    path: Path, channels: dict[str, tuple[str, list[bytes]]], metadata: bool | dict[str, str]
+) -> None:
+    """An MCAP written with mcap's own writer: topic -> (schema name, payloads); the
+    metadata record a new trial's, none, or the one given."""
     with path.open("wb") as stream:
         writer = Writer(stream)
         writer.start(profile="ros2", library="another tool")
@@ -31,9 +35,10 @@ def _raw_mcap(path: Path, channels: dict[str, tuple[str, list[bytes]]], metadata
             cid = writer.register_channel(topic, "cdr", sid)
             for i, payload in enumerate(payloads):
                 writer.add_message(cid, i * 10_000_000, payload, i * 10_000_000, i)
+        if metadata is True:
+            metadata = {"task": "gown", "trial": TrialMetadata(task=Task.GOWN).model_dump_json()}
         if metadata:
-            trial = TrialMetadata(task=Task.GOWN).model_dump_json()
-            writer.add_metadata(wk.METADATA_NAME, {"task": "gown", "trial": trial})
+            writer.add_metadata(wk.METADATA_NAME, metadata)
         writer.finish()
 
 
@@ -144,7 +149,9 @@ def robot_bag(tmp: Path, good: Path) -> Path:
     return path
 
 
-def _with_steps(path: Path, extra: dict[str, tuple[str, list[bytes]]], metadata: bool) -> Path:
+def _with_steps(
+    path: Path, extra: dict[str, tuple[str, list[bytes]]], metadata: bool | dict[str, str]
+) -> Path:
     """Three zero wrench and twist steps and the `extra` channels, by mcap's own writer."""
     channels = {
         wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
@@ -230,6 +237,75 @@ def nan_force_map(tmp: Path, good: Path) -> Path:
     return _with_steps(path, {wk.FORCE_MAP: (schema, cdr.to_payloads(maps))}, metadata=True)
 
 
+def _stamped_wrench(tmp: Path, name: str, stamps: list[int]) -> Path:
+    """Wrench messages with the given header stamps (twist at 0, 10, 20 ms)."""
+    msgs = cdr.new_messages(WRENCH[0], {"header.frame_id": 2}, len(stamps))
+    cdr.set_stamp(msgs, np.array(stamps), "ee")
+    channels = {
+        wk.WRENCH: (WRENCH[0], cdr.to_payloads(msgs)),
+        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+    }
+    _raw_mcap(path := tmp / name, channels, True)
+    return path
+
+
+def unset_stamps(tmp: Path, good: Path) -> Path:
+    """A driver that never fills its headers."""
+    return _stamped_wrench(tmp, "unset.mcap", [0, 0, 0])
+
+
+def logged_twice(tmp: Path, good: Path) -> Path:
+    return _stamped_wrench(tmp, "twice.mcap", [0, 0, 10_000_000, 10_000_000, 20_000_000])
+
+
+def _with_one(tmp: Path, name: str, topic: str, sizes: dict, **values: object) -> Path:
+    """Three good steps and one `topic` message with `values`, by mcap's own writer."""
+    schema = wk.SCHEMAS[topic]
+    msg = cdr.new_messages(schema, {"header.frame_id": len(wk.FRAMES[topic]), **sizes}, 1)
+    cdr.set_stamp(msg, np.zeros(1, np.int64), wk.FRAMES[topic])
+    for field, value in values.items():
+        msg[field.replace("__", ".")][0] = value
+    return _with_steps(tmp / name, {topic: (schema, cdr.to_payloads(msg))}, metadata=True)
+
+
+def nan_garment_vertex(tmp: Path, good: Path) -> Path:
+    vertices = np.zeros((3, 3))
+    vertices[1, 2] = np.nan
+    sizes = {"vertices": 3, "triangles": 3}
+    return _with_one(
+        tmp, "nan_cloth.mcap", wk.GARMENT, sizes, vertices=vertices, triangles=[0, 1, 2]
+    )
+
+
+def nan_limb_point(tmp: Path, good: Path) -> Path:
+    points = np.zeros((2, 3))
+    points[0, 0] = np.inf
+    sizes = {"limb": 3, "points": 2, "segment": 2, "segment_names": ()}
+    return _with_one(tmp, "nan_limb.mcap", wk.LIMB_POINTS, sizes, limb=b"arm", points=points)
+
+
+def nan_contact(tmp: Path, good: Path) -> Path:
+    from dresslog.trial import CONTACT_DTYPE
+
+    contact = np.zeros(1, CONTACT_DTYPE)
+    contact["normal_force"] = np.nan
+    return _with_one(tmp, "nan_contact.mcap", wk.CONTACTS, {"contacts": 1}, contacts=contact)
+
+
+def from_a_newer_dresslog(tmp: Path, good: Path) -> Path:
+    trial = '{"format_version": 2, "task": "gown", "new_field": 1}'
+    return _with_steps(tmp / "newer.mcap", {}, metadata={"task": "gown", "trial": trial})
+
+
+def metadata_without_the_trial(tmp: Path, good: Path) -> Path:
+    return _with_steps(tmp / "no_trial.mcap", {}, metadata={"task": "gown"})
+
+
+def a_pipe(tmp: Path, good: Path) -> Path:
+    os.mkfifo(path := tmp / "pipe.mcap")
+    return path
+
+
 CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (missing, "no such file"),
     (empty, "file is empty"),
@@ -252,6 +328,14 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (garment_changing_size, r"the garment changes size \(\[4, 6\] vertices\)"),
     (triangle_past_the_vertices, "a triangle names vertex 99 of 6"),
     (triangles_cut_short, "4 triangle corners, not a multiple of 3"),
+    (unset_stamps, "channel /ee/wrench: all 3 messages have the header stamp 0 ns, unset"),
+    (logged_twice, "channel /ee/wrench: 2 messages repeat another's header stamp.*convert"),
+    (nan_garment_vertex, "channel /garment/state: NaN or infinite vertex"),
+    (nan_limb_point, "channel /limb/points: NaN or infinite limb point"),
+    (nan_contact, "channel /limb/contacts: NaN or infinite value in a contact"),
+    (from_a_newer_dresslog, r"newer dresslog \(trial format 2; this one reads 1\); upgrade"),
+    (metadata_without_the_trial, "`dresslog` metadata record has no `trial` entry"),
+    (a_pipe, "not a regular file"),
 ]
 
 
@@ -353,3 +437,24 @@ def test_library_calls_with_a_bad_value_raise_the_dresslog_error_naming_it(
         convert(csv, tmp_path / "t.mcap", "gown", time_unit="min")
     with pytest.raises(TrialFormatError, match="has no channel /nope"), TrialReader(SAMPLE) as r:
         r.messages("/nope")
+
+
+@pytest.mark.parametrize(("topic", "step_ms", "hz"), [(wk.TWIST, 20, "50"), (wk.WRENCH, 1, "1000")])
+def test_a_trial_at_another_rate_than_the_models_is_refused_by_infer(
+    tmp_path: Path, topic: str, step_ms: int, hz: str
+) -> None:
+    """Steps pair by stamp: a 1 kHz wrench would run as every tenth sample, unaveraged."""
+    channels = {}
+    for name, schema in ((wk.WRENCH, WRENCH[0]), (wk.TWIST, TWIST[0])):
+        steps = 100 // step_ms if name == topic else 10  # 0.1 s either way
+        msgs = cdr.new_messages(schema, {"header.frame_id": 2}, steps)
+        cdr.set_stamp(msgs, np.arange(steps) * (step_ms if name == topic else 10) * 10**6, "ee")
+        channels[name] = (schema, cdr.to_payloads(msgs))
+    _raw_mcap(path := tmp_path / "rate.mcap", channels, metadata=True)
+    out = tmp_path / "out.rrd"
+    result = CliRunner().invoke(main, ["infer", str(path), "-o", str(out)])
+    assert result.exit_code == 1 and not out.exists()
+    assert result.output == (
+        f"Error: {path}: channel {topic}: is at {hz} Hz, and the model reads 100 Hz steps; "
+        "resample the log onto them with `dresslog convert`\n"
+    )
