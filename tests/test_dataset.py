@@ -201,6 +201,10 @@ def test_a_planted_or_damaged_cache_is_rebuilt_never_unpickled(copy: Path) -> No
     assert arrays.phi.shape == (4, 50, 9)
     path.write_bytes(path.read_bytes()[:1000])  # truncated
     assert load_dataset(copy, workers=1, progress=False).forces.shape == (4, 50, 300)
+    with path.open("r+b") as stream:  # an array's header, which numpy parses as Python
+        stream.seek(100)
+        stream.write(b"X" * 44)
+    assert load_dataset(copy, workers=1, progress=False).forces.shape == (4, 50, 300)
 
 
 @pytest.mark.slow
@@ -342,6 +346,11 @@ def test_a_folder_without_a_manifest_is_one_clear_error(tmp_path: Path) -> None:
     (tmp_path / "manifest.json").write_text("{not json")
     with pytest.raises(DatasetError, match="not readable JSON"):
         load_dataset(tmp_path)
+    for version, message in ((2, "format version 2, newer than"), ("2", "format_version")):
+        manifest = {"format": "dresslog-dataset", "format_version": version}
+        (tmp_path / "manifest.json").write_text(json.dumps(manifest))
+        with pytest.raises(DatasetError, match=message):
+            load_dataset(tmp_path)
 
 
 @pytest.mark.slow

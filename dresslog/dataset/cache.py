@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from tokenize import TokenError
 
 import numpy as np
 
@@ -168,8 +169,8 @@ def _read(path: Path, manifest: Manifest) -> dict[str, np.ndarray] | None:
     try:
         with np.load(path, allow_pickle=False) as npz:
             arrays = {k: npz[k] for k in _FIELDS}
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
-        return None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, SyntaxError, TokenError):
+        return None  # numpy parses a damaged array header as Python: it may fail as such
     info = arrays["info"]
     if info.shape != (3,) or list(info) != [
         str(CACHE_VERSION),

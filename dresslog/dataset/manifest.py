@@ -24,7 +24,7 @@ from enum import IntEnum, StrEnum
 from pathlib import Path
 from typing import Any, Final, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, model_validator
 
 from dresslog import __version__
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
@@ -100,7 +100,7 @@ class Manifest(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     format: Literal["dresslog-dataset"] = FORMAT
-    format_version: int = FORMAT_VERSION
+    format_version: StrictInt = FORMAT_VERSION  # "2" is no version: refused, not read as 2
     task: Task
     seed: int = 0
     n_train: int = Field(ge=0)
@@ -221,7 +221,8 @@ def load_manifest(root: str | Path) -> Manifest:
         raise DatasetError(f"{MANIFEST_FILE} is not readable JSON: {err}", path=root) from None
     if not isinstance(raw, dict) or raw.get("format") != FORMAT:
         raise DatasetError(f"{MANIFEST_FILE} is not a dresslog dataset manifest", path=root)
-    if raw.get("format_version", 0) > FORMAT_VERSION:
+    version = raw.get("format_version")
+    if isinstance(version, int) and version > FORMAT_VERSION:  # else pydantic names the type
         raise DatasetError(
             f"{MANIFEST_FILE} has format version {raw['format_version']}, newer than this "
             f"dresslog reads ({FORMAT_VERSION}); upgrade dresslog",
