@@ -243,6 +243,12 @@ def test_sweep_writes_a_table_and_a_plot(
     assert paths[0] == paths[1] == paths[2] and len(paths[0]) == 2
     code, output = invoke("sweep", model, "--speeds", "0.2", "-n", "1", "--duration", "0.3")
     assert code == 1 and "has 2 sweep trials, more than the 1 asked for (-n sets it)" in output
+    before = (out / "in-range" / "manifest.json").read_bytes()
+    code, output = invoke(
+        "generate", "--task", "gown", "--trials", "2", "-o", out / "in-range", "--duration", "0.3"
+    )
+    assert code == 1 and "holds 2 sweep trials, made by `dresslog sweep`" in output
+    assert (out / "in-range" / "manifest.json").read_bytes() == before
 
 
 def test_sweep_never_writes_into_a_dataset_or_a_model_folder(

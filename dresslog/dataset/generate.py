@@ -127,11 +127,18 @@ def _open_manifest(
                 "use another folder or the same options",
                 path=root,
             )
-    for split, wanted in counts.items():
-        if wanted < len(manifest.split(split)):
+    for split in Split:  # a split not asked for must be empty: else its trials would be lost
+        wanted, made = counts.get(split, 0), len(manifest.split(split))
+        if made and split not in counts:  # the other command's folder
+            maker = "dresslog sweep" if split == Split.SWEEP else "dresslog generate"
+            raise DatasetError(
+                f"folder holds {made} {split} trials, made by `{maker}`; use another folder",
+                path=root,
+            )
+        if wanted < made:
             options = "-n sets it" if split == Split.SWEEP else "--trials, --test-fraction set both"
             raise DatasetError(
-                f"folder already has {len(manifest.split(split))} {split} trials, more than "
+                f"folder already has {made} {split} trials, more than "
                 f"the {wanted} asked for ({options}); "
                 "ask for at least as many or use another folder",
                 path=root,
