@@ -383,6 +383,32 @@ def test_save_refuses_to_overwrite_unless_asked(saved: Path, trained):
         save_model(saved, weights, card)
     save_model(saved, weights, card, overwrite=True)
     assert sorted(p.name for p in saved.parent.iterdir()) == ["gown"]
+    (saved / "data").mkdir()  # a dataset generated into the model folder by mistake
+    (saved / "data" / "manifest.json").write_text("{}")
+    with pytest.raises(ModelError, match="also holds data, which replacing the model would"):
+        save_model(saved, weights, card, overwrite=True)
+    assert (saved / "data" / "manifest.json").exists()
+
+
+def test_more_files_go_into_the_model_folder_before_it_is_in_place(tmp_path: Path, trained):
+    """A run stopped between the model and its learning curve left a folder without it."""
+    weights, history = trained
+    path = tmp_path / "gown"
+
+    def stopped(folder: Path, card: ModelCard) -> None:
+        (folder / "training.png").write_bytes(b"half a plot")
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        save_model(path, weights, make_card(Task.GOWN, weights, history), also=stopped)
+    assert list(tmp_path.iterdir()) == []
+    card = save_model(
+        path,
+        weights,
+        make_card(Task.GOWN, weights, history),
+        also=lambda folder, card: (folder / "training.png").write_text(card.weights_sha256),
+    )
+    assert (path / "training.png").read_text() == card.weights_sha256
 
 
 def test_tampered_weights_are_refused(saved: Path):

@@ -11,6 +11,7 @@ from dresslog.errors import DatasetError
 from dresslog.io.files import exclusive
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import (
+    TRAINING_PLOT,
     DataProvenance,
     EpochRecord,
     ModelCard,
@@ -20,7 +21,6 @@ from dresslog.model.options import VAL_FRACTION, check_options, held_out
 from dresslog.plots import plot_training
 
 #: The learning curve `train_dataset` draws into the model folder.
-TRAINING_PLOT = "training.png"
 
 
 def train_dataset(
@@ -95,7 +95,12 @@ def train_dataset(
             metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
         provenance = DataProvenance(manifest_sha256=arrays.manifest_sha256, description=str(data))
         card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
-        card = save_model(out, weights, card, overwrite=overwrite)
-        plot_training(out / TRAINING_PLOT, card)
+        card = save_model(
+            out,
+            weights,
+            card,
+            overwrite=overwrite,
+            also=lambda folder, saved: plot_training(folder / TRAINING_PLOT, saved),
+        )
         checkpoint.unlink(missing_ok=True)
     return card

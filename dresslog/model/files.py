@@ -33,7 +33,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -51,6 +51,9 @@ from dresslog.spec import Task
 
 WEIGHTS_FILE = "model.safetensors"
 CARD_FILE = "card.json"
+TRAINING_PLOT = "training.png"
+#: What a model folder holds; --overwrite replaces these and nothing else.
+MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
 FORMAT: Final = "dresslog-model"
 FORMAT_VERSION = 1
 
@@ -192,6 +195,12 @@ def check_model_folder(path: Path, overwrite: bool) -> None:
         )
     if not overwrite:
         raise ModelError("model folder exists; pass --overwrite to replace it", path=path)
+    if others := sorted(p.name for p in path.iterdir() if p.name not in MODEL_FILES):
+        raise ModelError(
+            f"model folder also holds {', '.join(others[:3])}, which replacing the model "
+            "would delete; move that out or give another folder",
+            path=path,
+        )
 
 
 def save_model(
@@ -200,8 +209,13 @@ def save_model(
     card: ModelCard,
     *,
     overwrite: bool = False,
+    also: Callable[[Path, ModelCard], None] | None = None,
 ) -> ModelCard:
-    """Write a model folder atomically; returns the card with the weights hash filled in."""
+    """Write a model folder atomically; returns the card with the weights hash filled in.
+
+    `also(folder, card)` writes more into the folder (the learning curve) before it is
+    put in place, so a run stopped at any moment leaves the old folder or the whole new one.
+    """
     from safetensors.numpy import save
 
     path = Path(path)
@@ -216,6 +230,8 @@ def save_model(
         (tmp / WEIGHTS_FILE).write_bytes(save(arrays, metadata={"format": FORMAT}))
         card = card.model_copy(update={"weights_sha256": sha256_file(tmp / WEIGHTS_FILE)})
         (tmp / CARD_FILE).write_text(card.model_dump_json(indent=2) + "\n")
+        if also is not None:
+            also(tmp, card)
         if path.exists():
             old = path.with_name(f".{path.name}.{os.getpid()}.old")
             path.rename(old)
