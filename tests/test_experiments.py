@@ -411,6 +411,29 @@ def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -
     assert matplotlib.image.imread(tmp_path / "sweep.png").std() > 0.05
 
 
+def test_a_sweep_stopped_while_writing_leaves_the_last_table_and_plot_together(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from dresslog.experiments import sweeps
+
+    def report(speed: float) -> SweepReport:
+        settings = sweep_settings(Task.GOWN, [speed], [])
+        scores = Scores(8, 0.01, 0.02, 0.5, 0.8, 0.6, 0.3, 0.4)
+        return SweepReport("gown", "m", 8, 0.01, [replace(s, scores=scores) for s in settings])
+
+    sweeps._write_sweep(tmp_path, report(0.2))
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert sorted(before) == ["sweep.csv", "sweep.json", "sweep.png"]
+
+    def stopped(path: Path, report: SweepReport) -> None:  # matplotlib's import takes a second
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweeps, "plot_sweep", stopped)
+    with pytest.raises(KeyboardInterrupt):
+        sweeps._write_sweep(tmp_path, report(0.25))
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 @pytest.mark.slow
 def test_a_model_reading_the_signals_change_still_infers_from_the_9d_signal(
     data: Path, tmp_path: Path

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 from collections.abc import Sequence
@@ -212,10 +213,13 @@ def _write_sweep(out: Path, report: SweepReport) -> None:
             f"{s.name},{s.kind},{s.axis},{value},{s.scores.n},{s.scores.rmse:.6g},"
             f"{s.scores.zero_rmse:.6g},{report.ratio(s):.4g}"
         )
-    for name, text in (
-        ("sweep.csv", "\n".join(rows) + "\n"),
-        ("sweep.json", json.dumps(finite(asdict(report)), indent=2) + "\n"),
-    ):
-        with atomic_path(out / name) as tmp:
-            tmp.write_text(text)
-    plot_sweep(out / "sweep.png", report)
+    # all three written in full before any is put in place: a stopped or failing run
+    # leaves the last sweep's table and plot together, never one beside the other's
+    with contextlib.ExitStack() as stack:
+        table, summary, plot = (
+            stack.enter_context(atomic_path(out / name))
+            for name in ("sweep.csv", "sweep.json", "sweep.png")
+        )
+        table.write_text("\n".join(rows) + "\n")
+        summary.write_text(json.dumps(finite(asdict(report)), indent=2) + "\n")
+        plot_sweep(plot, report)
