@@ -301,6 +301,12 @@ def metadata_without_the_trial(tmp: Path, good: Path) -> Path:
     return _with_steps(tmp / "no_trial.mcap", {}, metadata={"task": "gown"})
 
 
+def big_endian(tmp: Path, good: Path) -> Path:
+    """CDR's other byte order, which neither ROS 2 on x86/ARM nor dresslog writes."""
+    wrench = [b"\x00\x00" + p[2:] for p in _vectors(*WRENCH, np.zeros((3, 6)))]
+    return _with_steps(tmp / "big.mcap", {wk.WRENCH: (WRENCH[0], wrench)}, metadata=True)
+
+
 def a_pipe(tmp: Path, good: Path) -> Path:
     os.mkfifo(path := tmp / "pipe.mcap")
     return path
@@ -336,6 +342,7 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (from_a_newer_dresslog, r"newer dresslog \(trial format 2; this one reads 1\); upgrade"),
     (metadata_without_the_trial, "`dresslog` metadata record has no `trial` entry"),
     (a_pipe, "not a regular file"),
+    (big_endian, "channel /ee/wrench: message 0 is not little-endian CDR"),
 ]
 
 
@@ -458,3 +465,20 @@ def test_a_trial_at_another_rate_than_the_models_is_refused_by_infer(
         f"Error: {path}: channel {topic}: is at {hz} Hz, and the model reads 100 Hz steps; "
         "resample the log onto them with `dresslog convert`\n"
     )
+
+
+def test_view_shows_a_trial_at_another_rate_with_ground_truth_alone(tmp_path: Path) -> None:
+    """Only an asked-for model refuses it: `view` falls back as for a task without a model."""
+    from dresslog.sim.record import record_trial
+    from dresslog.spec import TrialSpec
+
+    spec = {"task": "gown", "seed": 1, "duration": 0.3, "sim": {"record_hz": 50}}
+    record_trial(TrialSpec.model_validate(spec), trial := tmp_path / "hz50.mcap")
+    out = tmp_path / "view.rrd"
+    shown = CliRunner().invoke(main, ["view", str(trial), "--save", str(out)])
+    assert shown.exit_code == 0 and out.is_file(), shown.output
+    assert "Warning: " in shown.stderr and "is at 50 Hz" in shown.stderr
+    assert "shown with ground truth alone" in shown.stderr
+    model = str(SAMPLES / "models" / "gown")
+    asked = CliRunner().invoke(main, ["view", str(trial), "--save", str(out), "--model", model])
+    assert asked.exit_code == 1 and "is at 50 Hz" in asked.output

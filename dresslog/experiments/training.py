@@ -20,8 +20,6 @@ from dresslog.model.files import (
 from dresslog.model.options import VAL_FRACTION, check_options, held_out
 from dresslog.plots import plot_training
 
-#: The learning curve `train_dataset` draws into the model folder.
-
 
 def train_dataset(
     data: str | Path,

@@ -155,7 +155,8 @@ class TrialReader:
             if (seen := raw.get(channel.topic)) is None:
                 raw[channel.topic] = _Raw(info, list(times), list(payloads))
                 continue
-            if (seen.info.schema, seen.info.encoding) != (info.schema, info.encoding):
+            ours = channel.topic in wk.SCHEMAS  # another tool's topics are only counted
+            if ours and (seen.info.schema, seen.info.encoding) != (info.schema, info.encoding):
                 raise TrialFormatError(
                     f"two channels of this topic with other schemas ({seen.info.schema}, "
                     f"{info.schema}); the file is not one trial",
@@ -178,6 +179,15 @@ class TrialReader:
         for topic, raw in self._raw.items():
             if topic not in wk.SCHEMAS or not raw.payloads or min(map(len, raw.payloads)) < 12:
                 continue  # not ours, empty, or too short: decoding it says so
+            foreign = next((i for i, p in enumerate(raw.payloads) if p[:2] != b"\x00\x01"), None)
+            if foreign is not None:
+                raise TrialFormatError(
+                    f"message {foreign} is not little-endian CDR (its encapsulation header is "
+                    f"{raw.payloads[foreign][:2].hex(' ')}); write it little-endian, as "
+                    "ROS 2 does on x86 and ARM",
+                    path=self.path,
+                    channel=topic,
+                )
             stamps = cdr.header_stamps_ns(raw.payloads)
             order = np.argsort(stamps, kind="stable")
             if (np.diff(order) != 1).any():
@@ -278,7 +288,8 @@ class TrialReader:
         return topic in self.channels and self.channels[topic].count > 0
 
     def messages(self, topic: str) -> tuple[np.ndarray, list[bytes]]:
-        """Raw log times (int64 ns) and CDR payloads of one channel, in header-stamp order."""
+        """Raw log times (int64 ns) and CDR payloads of one channel (dresslog's own in
+        header-stamp order, another tool's as in the file)."""
         raw = self._channel(topic)
         return np.asarray(raw.times, dtype=np.int64), raw.payloads
 

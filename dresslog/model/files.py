@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -195,7 +196,10 @@ def check_model_folder(path: Path, overwrite: bool) -> None:
         )
     if not overwrite:
         raise ModelError("model folder exists; pass --overwrite to replace it", path=path)
-    if others := sorted(p.name for p in path.iterdir() if p.name not in MODEL_FILES):
+    temporary = re.compile(r"\..+\.partial")  # left by a save that was killed
+    if others := sorted(
+        p.name for p in path.iterdir() if p.name not in MODEL_FILES and not temporary.match(p.name)
+    ):
         raise ModelError(
             f"model folder also holds {', '.join(others[:3])}, which replacing the model "
             "would delete; move that out or give another folder",

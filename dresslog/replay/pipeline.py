@@ -8,12 +8,13 @@ and hands the steps to the one replay engine; it also times its stages, which
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from dresslog.errors import TrialFormatError
+from dresslog.errors import DresslogWarning, TrialFormatError
 from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
 from dresslog.io.reader import TrialReader
@@ -50,8 +51,8 @@ class InferenceReport:
         return line
 
 
-def check_step_rate(trial: Trial, path: Path) -> None:
-    """Refuse wrench or twist at another rate than the models' 100 Hz steps.
+def step_rate_problem(trial: Trial, path: Path) -> TrialFormatError | None:
+    """Wrench or twist at another rate than the models' 100 Hz steps, as the error to raise.
 
     Steps are matched by stamp, so a 1 kHz wrench beside a 100 Hz twist would run as
     every tenth sample, unaveraged, and a 50 Hz trial at half the model's speed.
@@ -60,12 +61,13 @@ def check_step_rate(trial: Trial, path: Path) -> None:
         if len(stream) > 1:
             step_s = float(np.median(np.diff(stream.t_ns))) / 1e9
             if abs(step_s * STEP_HZ - 1) > 0.02:
-                raise TrialFormatError(
+                return TrialFormatError(
                     f"is at {1 / step_s:.4g} Hz, and the model reads {STEP_HZ} Hz steps; "
                     "resample the log onto them with `dresslog convert`",
                     path=path,
                     channel=topic,
                 )
+    return None
 
 
 def replay_file(
@@ -80,7 +82,8 @@ def replay_file(
     """Stream a trial file step by step through a model into .rrd / MCAP / extra sinks.
 
     With `require_model=False` and no model given or bundled, a trial with ground
-    truth is replayed with it alone (what `dresslog view` shows without a model).
+    truth is replayed with it alone (what `dresslog view` shows without a model), as
+    is one at another rate than the models' (with a warning).
     """
     clock = time.perf_counter
     timings: dict[str, float] = {}
@@ -106,8 +109,11 @@ def replay_file(
     # a trial without ground truth (a converted log) has nothing to show but an estimate
     need_model = require_model or trial.force_map is None
     loaded = resolve_model(model, task, n_points, required=need_model)
-    if loaded is not None:
-        check_step_rate(trial, Path(trial_path))
+    if loaded is not None and (problem := step_rate_problem(trial, Path(trial_path))):
+        if need_model:
+            raise problem
+        warnings.warn(f"{problem}; shown with ground truth alone", DresslogWarning, stacklevel=2)
+        loaded = None
     estimator = loaded.estimator() if loaded is not None else None
     timings["load_model"] = clock() - t0
 

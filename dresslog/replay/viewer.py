@@ -191,8 +191,9 @@ def verify_rrd(path: Path) -> None:
 def _stop(process: subprocess.Popen, group: bool) -> None:
     """Terminate the viewer's whole group; kill what is left after 5 s, or at a second Ctrl-C.
 
-    `python -m rerun` is a wrapper that dies at once: what must be waited for is the
-    viewer binary it started, which only the group still names.
+    Where the viewer is started by `python -m rerun` (not Linux), that is a wrapper that
+    dies at once: what must be waited for is the viewer binary it started, which only
+    the group still names.
     """
 
     def send(sig: int) -> None:
@@ -296,6 +297,8 @@ def _rerun_launcher() -> list[str]:
 
     spec = importlib.util.find_spec("rerun_cli")
     binary = Path(spec.origin).parent / "rerun" if spec and spec.origin else None
+    if "RERUN_CLI_PATH" in os.environ:  # the override `python -m rerun` honours
+        binary = Path(os.environ["RERUN_CLI_PATH"])
     if sys.platform == "linux" and binary is not None and os.access(binary, os.X_OK):
         return [sys.executable, "-c", _LAUNCH_TIED, str(os.getpid()), str(binary)]
     return [sys.executable, "-m", "rerun"]
