@@ -264,14 +264,24 @@ def stamp_ns(messages: np.ndarray) -> np.ndarray:
     return sec * 1_000_000_000 + messages["header.stamp.nanosec"].astype(np.int64)
 
 
-def header_stamps_ns(payloads: Sequence[bytes]) -> np.ndarray:
-    """`header.stamp` of undecoded stamped messages (each begins with a std_msgs/Header).
+#: How every stamped message begins: encapsulation header, then std_msgs/Header's stamp.
+_HEAD = np.dtype(
+    [("kind", "u1", (2,)), ("options", "u1", (2,)), ("sec", "<i4"), ("nanosec", "<u4")]
+)
 
-    The stamp is the first field after the encapsulation header: sec, then nanosec.
-    """
-    head = b"".join(p[4:12] for p in payloads)
-    stamp = np.frombuffer(head, dtype=[("sec", "<i4"), ("nanosec", "<u4")])
-    return stamp["sec"].astype(np.int64) * 1_000_000_000 + stamp["nanosec"].astype(np.int64)
+
+def heads(payloads: Sequence[bytes]) -> np.ndarray | None:
+    """The undecoded messages' encapsulation and header stamp (fields of `_HEAD`); None if
+    one is too short to hold them. One pass over the payloads: it runs on every trial read."""
+    joined = b"".join(p[:12] for p in payloads)
+    if len(joined) != 12 * len(payloads):
+        return None
+    return np.frombuffer(joined, dtype=_HEAD)
+
+
+def head_stamps_ns(head: np.ndarray) -> np.ndarray:
+    """`heads`' stamps as integer nanoseconds (little-endian CDR)."""
+    return head["sec"].astype(np.int64) * 1_000_000_000 + head["nanosec"].astype(np.int64)
 
 
 def to_payloads(messages: np.ndarray) -> list[bytes]:

@@ -177,18 +177,18 @@ class TrialReader:
         """
         assert self._raw is not None
         for topic, raw in self._raw.items():
-            if topic not in wk.SCHEMAS or not raw.payloads or min(map(len, raw.payloads)) < 12:
-                continue  # not ours, empty, or too short: decoding it says so
-            foreign = next((i for i, p in enumerate(raw.payloads) if p[:2] != b"\x00\x01"), None)
-            if foreign is not None:
+            head = cdr.heads(raw.payloads) if topic in wk.SCHEMAS and raw.payloads else None
+            if head is None:
+                continue  # not ours, empty, or a message too short: decoding says so
+            if len(foreign := np.flatnonzero((head["kind"] != (0, 1)).any(axis=1))):
                 raise TrialFormatError(
-                    f"message {foreign} is not little-endian CDR (its encapsulation header is "
-                    f"{raw.payloads[foreign][:2].hex(' ')}); write it little-endian, as "
+                    f"message {foreign[0]} is not little-endian CDR (its encapsulation header "
+                    f"is {raw.payloads[foreign[0]][:2].hex(' ')}); write it little-endian, as "
                     "ROS 2 does on x86 and ARM",
                     path=self.path,
                     channel=topic,
                 )
-            stamps = cdr.header_stamps_ns(raw.payloads)
+            stamps = cdr.head_stamps_ns(head)
             order = np.argsort(stamps, kind="stable")
             if (np.diff(order) != 1).any():
                 raw.times = [raw.times[i] for i in order]
