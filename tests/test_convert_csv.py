@@ -196,14 +196,28 @@ def test_a_time_unit_in_any_bracket_is_read_and_one_not_read_is_refused(
 
 
 @pytest.mark.parametrize(
-    "header", ["vx (km/h)", "Fx (dN)", "Fz [daN]", "Tx (kgf cm)", "wx (rev/s)", "Fx (MN)"]
-)
+    "header",
+    ["vx (km/h)", "Fx (dN)", "Fz [daN]", "Tx (kgf cm)", "wx (rev/s)", "Fx (MN)", "Fx (dyn)",
+     "Fy (kip)", "vx (ips)"],
+)  # fmt: skip
 def test_a_prefixed_unit_not_converted_is_refused_not_read_as_si(header: str) -> None:
     """`km/h` read as m/s would be 3.6x wrong, silently: a unit, though not one converted."""
     role = role_of(header)
     assert role is not None
     with pytest.raises(ConversionError, match="a unit dresslog does not convert"):
         _value_scale(header, role, Path("x.csv"))
+
+
+@pytest.mark.parametrize("bracket", ["raw", "counts", "ADC"])
+def test_raw_readings_without_counts_per_unit_are_refused(tmp_path: Path, bracket: str) -> None:
+    """`Fx (raw)` is no label: read as newtons, a sensor's counts would be silently wrong."""
+    path = _with_velocity(tmp_path / "raw.csv", np.arange(500) / 1000.0)
+    lines = path.read_text().splitlines()
+    header = lines[0].replace("fx", f"fx ({bracket})")
+    path.write_text("\n".join([header, *lines[1:]]) + "\n")
+    with pytest.raises(ConversionError, match=rf"'fx \({bracket}\)' holds '{bracket}' readings"):
+        convert(path, tmp_path / "t.mcap", "gown")
+    assert not (tmp_path / "t.mcap").exists()
 
 
 def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:

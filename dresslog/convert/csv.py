@@ -80,10 +80,13 @@ _VALUE_UNITS: dict[str, dict[str, float]] = {
 #: prefix (`dN`, `km/h`), so a unit not converted is refused, never read as SI.
 _UNIT_ATOMS = re.compile(
     r"^((da|[kmcdunµμhg])?(n|m|s|g|h|hr|min|rad|deg)"
-    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?)+$"
+    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?"
+    r"|dyn|dynes?|kips?|pdl|fps|ips)+$"
 )
 #: Brackets that say a column has no unit.
 _NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
+#: Brackets that say a column holds a sensor's raw readings, not a physical unit.
+_RAW = {"raw", "counts", "count", "cnt", "cnts", "adc", "lsb", "bits"}
 
 
 def _unit_key(unit: str) -> str:
@@ -452,6 +455,13 @@ def read_table(
     scaled = []
     counts = _counts_scales(path, line)
     for role in values:
+        raw = [b for b in _brackets(names[found[role]]) if b.lower() in _RAW]
+        if raw and role[:-1] not in counts:
+            raise ConversionError(
+                f"column {names[found[role]]!r} holds {raw[0]!r} readings, not a unit; scale "
+                "them to SI first (an ATI Net F/T log's counts per unit in its preamble are read)",
+                path=path,
+            )
         unit_scale = _value_scale(names[found[role]], role, path)
         if role[:-1] in counts:
             if unit_scale is not None:
