@@ -41,6 +41,12 @@ def convert(source: str, output: str, columns: tuple[str, ...], **options: objec
 
     if bad := [c for c in columns if "=" not in c]:
         raise click.BadParameter(f"{bad[0]!r} is not ROLE=HEADER", param_hint="'--column'")
+    mount = [o for o in ("sensor_rotation", "sensor_offset") if options[o] is not None]
+    if mount and options["wrench_frame"] != "pose":  # the library says so too, for its callers
+        raise click.UsageError(
+            f"--{mount[0].replace('_', '-')} places a sensor on the gripper: use it with "
+            "--wrench-frame pose (a sensor fixed in the world is turned with --rotate)"
+        )
     mapping = dict(c.split("=", 1) for c in columns)
     report = run(source, output, columns=mapping, **options)  # type: ignore[arg-type]
     click.echo(f"{output}: {report.steps} steps ({report.duration_s:.2f} s at 100 Hz) "

@@ -107,6 +107,20 @@ def test_record_model_without_live_and_an_upper_case_suffix(tmp_path: Path) -> N
     assert upper.exit_code == 0 and read_trial(tmp_path / "B.MCAP").metadata.spec.duration == 0.1
 
 
+@pytest.mark.parametrize(
+    "mount", [["--sensor-offset", "0", "0", "0.05"], ["--sensor-rotation", "0", "0", "0", "1"]]
+)
+def test_a_sensor_mount_without_a_gripper_frame_is_a_usage_error(tmp_path: Path, mount) -> None:
+    out = tmp_path / "t.mcap"
+    args = ["convert", str(SAMPLE), "--task", "gown", "-o", str(out), *mount]
+    result = CliRunner().invoke(main, [*args, "--wrench-frame", "world"])
+    assert result.exit_code == 2 and "Usage:" in result.output
+    assert f"{mount[0]} places a sensor on the gripper: use it with --wrench-frame pose" in (
+        result.output
+    )
+    assert not out.exists()
+
+
 def test_record_options_reach_the_spec(tmp_path: Path) -> None:
     out = tmp_path / "t.mcap"
     args = ["record", "--task", "shorts", "--seed", "2", "--speed", "0.2", "--duration", "0.1"]

@@ -196,6 +196,13 @@ def test_train_into_the_current_folder(
     code, output = invoke("train", data, "-o", ".", "--epochs", "1", "--hidden", "4", "-q")
     assert code == 0, output
     assert load_model(here).card.task == Task.GOWN
+    # the README's `-o models/gown` on a fresh checkout: the folders are made
+    code, output = invoke("train", data, "-o", "models/g", "--epochs", "1", "--hidden", "4", "-q")
+    assert code == 0, output
+    assert sorted(p.name for p in (here / "models").iterdir()) == ["g"]
+    (here / "file").write_text("")
+    code, output = invoke("train", data, "-o", "file/g", "--epochs", "1", "--hidden", "4")
+    assert code == 1 and "file is a file, not a folder" in output
 
 
 def test_eval_bounds_say_so_when_the_split_has_no_force_to_place(tmp_path: Path) -> None:

@@ -54,6 +54,7 @@ def train_dataset(
         steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
     )  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)  # the checkpoint and the lock go beside it
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
     # a second run on the same output would share (and garble) the checkpoint
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):

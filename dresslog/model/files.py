@@ -178,14 +178,16 @@ def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard
 
 
 def check_model_folder(path: Path, overwrite: bool) -> None:
-    """Fail before any work unless `path` may become a model folder.
+    """Fail before any work unless `path` may become a model folder (its missing parent
+    folders are made when it is saved).
 
     --overwrite replaces a model, never anything else: a dataset or any other folder
     given as the output by mistake is refused, with or without it.
     """
-    if not path.parent.is_dir():
-        raise ModelError(f"parent folder {path.parent} does not exist", path=path)
-    check_writable(path.parent)
+    made = next(p for p in (path.parent, *path.parent.parents) if p.exists())  # the rest is made
+    if not made.is_dir():
+        raise ModelError(f"{made} is a file, not a folder", path=path)
+    check_writable(made)
     if path.exists() and not path.is_dir():
         raise ModelError("is a file; give a folder for the model", path=path)
     if not path.exists() or not any(path.iterdir()):
@@ -226,8 +228,8 @@ def save_model(
     check_model_folder(path, overwrite)
     arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in weights.items()}
     _check_shapes(path, arrays, card)
+    path.parent.mkdir(parents=True, exist_ok=True)  # `-o models/gown` on a fresh checkout
     tmp = temporary_path(path)
-    shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
     try:
         # written by Python, so the file gets the usual permissions (safetensors' own is 0600)
@@ -236,16 +238,29 @@ def save_model(
         (tmp / CARD_FILE).write_text(card.model_dump_json(indent=2) + "\n")
         if also is not None:
             also(tmp, card)
-        if path.exists():
+        if not path.exists():
+            tmp.rename(path)
+        elif _holds_the_working_folder(path):  # `-o .`: a swap would leave the shell in a
+            for name in sorted(MODEL_FILES, key=lambda n: n == CARD_FILE):  # deleted folder
+                if (tmp / name).exists():  # the card last: until then, the old one stands
+                    (tmp / name).replace(path / name)  # and names the old weights' hash
+                else:
+                    (path / name).unlink(missing_ok=True)
+        else:
             old = path.with_name(f".{path.name}.{os.getpid()}.old")
             path.rename(old)
             tmp.rename(path)
             shutil.rmtree(old, ignore_errors=True)
-        else:
-            tmp.rename(path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return card
+
+
+def _holds_the_working_folder(path: Path) -> bool:
+    try:
+        return Path.cwd().resolve().is_relative_to(path.resolve())
+    except OSError:  # the working folder is gone already
+        return False
 
 
 def read_card(path: str | Path) -> ModelCard:
