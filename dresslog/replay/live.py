@@ -129,9 +129,8 @@ def record_live(
     from dresslog.sim import record_trial
 
     live = live_source(model, spec.task, recording=recording, connect=connect, vmax=vmax)
-    try:
-        with live:
-            result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
+    try:  # record_trial leaves `live` (flushing the stream) before the file is in place
+        result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
     except RuntimeError as err:  # Rerun's stream to a viewer that went away
         if "grpc" not in str(err).lower():
             raise
