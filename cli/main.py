@@ -61,7 +61,9 @@ def main() -> None:
 
 
 def run() -> None:
-    """The console script: a kill (SIGTERM) stops a command as Ctrl-C does, so what it
-    was writing is removed rather than left as a temporary file."""
-    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    """The console script: a kill (SIGTERM) or a closed terminal (SIGHUP) stops a command
+    as Ctrl-C does, so what it was writing is removed rather than left as a temporary."""
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):  # Windows has no SIGHUP
+            signal.signal(getattr(signal, name), signal.default_int_handler)
     main()

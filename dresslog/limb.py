@@ -15,6 +15,7 @@ from functools import cached_property
 
 import numpy as np
 
+from dresslog.errors import SimulationError
 from dresslog.spec import LimbRotation, Task, Vec3
 from dresslog.trial import LimbPoints
 
@@ -324,7 +325,10 @@ def _part_points(limb: Limb, part: str, target: int) -> np.ndarray:
                 keep = keep[idx]
             return keep
         raw += max(1, (target - len(keep)) // 2)
-    raise ValueError(f"cannot place {target} points on {part}")
+    raise SimulationError(  # a forearm turned 86-90 deg about y lays the fist on the shoulder
+        f"the {part} lies inside the rest of the {limb.name}, so no force map can be placed "
+        "on it: the rotation folds the limb onto itself; rotate it less"
+    )
 
 
 def limb_points(limb: Limb) -> LimbPoints:

@@ -255,6 +255,7 @@ def test_record_connect_to_something_not_a_viewer_keeps_the_earlier_trial(
             ["--rotation", "z", "999"],
             "invalid limb_rotation.degrees: Input should be less than or equal to 90",
         ),
+        (["--rotation", "y", "88"], "the fist lies inside the rest of the arm"),
     ],
     ids=[
         "speed",
@@ -266,6 +267,7 @@ def test_record_connect_to_something_not_a_viewer_keeps_the_earlier_trial(
         "offset-nan",
         "offset-huge",
         "rotation",
+        "fist-on-the-shoulder",
     ],
 )
 def test_record_refuses_a_setting_out_of_range_before_simulating(
@@ -278,8 +280,10 @@ def test_record_refuses_a_setting_out_of_range_before_simulating(
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM ends a process outright there")
-def test_a_killed_record_leaves_no_file(tmp_path: Path) -> None:
-    """`kill PID` (a scheduler's timeout, `docker stop`) stops a command as Ctrl-C does."""
+@pytest.mark.parametrize("sent", ["SIGTERM", "SIGHUP"])
+def test_a_killed_record_leaves_no_file(tmp_path: Path, sent: str) -> None:
+    """`kill PID` (a scheduler's timeout, `docker stop`) or a closed terminal stops a
+    command as Ctrl-C does."""
     import os
     import signal
     import time
@@ -292,7 +296,7 @@ def test_a_killed_record_leaves_no_file(tmp_path: Path) -> None:
     while not list(tmp_path.glob(".t.mcap.*.partial")) and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(0.5)  # into the simulation, with messages written
-    os.kill(run.pid, signal.SIGTERM)
+    os.kill(run.pid, getattr(signal, sent))
     _, err = run.communicate(timeout=30)
     assert run.returncode != 0 and b"Traceback" not in err, err
     assert list(tmp_path.iterdir()) == []

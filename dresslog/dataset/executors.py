@@ -66,6 +66,8 @@ class _Worker:
     @classmethod
     def start(cls) -> None:
         signal.signal(signal.SIGINT, cls._on_interrupt)
+        if hasattr(signal, "SIGHUP"):  # a closed terminal reaches the workers as Ctrl-C does
+            signal.signal(signal.SIGHUP, cls._on_interrupt)
         signal.signal(signal.SIGTERM, cls._on_terminate)
         threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
 
