@@ -46,13 +46,14 @@ def record(
     """Simulate one trial (random spec from --seed, or set explicitly) and record it."""
     from dresslog.sim import random_spec, record_trial
 
-    if model is not None and not (live or connect):
+    streamed = live or connect is not None  # `--connect ""` (an unset $VIEWER) is refused
+    if model is not None and not streamed:
         raise click.UsageError("--model is the live view's; use it with --live or --connect")
     turn = dict(zip(("axis", "degrees"), rotation, strict=True)) if rotation else None
     spec = random_spec(
         task, seed, speed=speed, duration=duration, limb_offset=offset or None, limb_rotation=turn
     )
-    if live or connect:
+    if streamed:
         from dresslog.replay.live import record_live
 
         result, metrics = record_live(

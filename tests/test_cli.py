@@ -202,8 +202,9 @@ def test_record_connect_streams_to_a_viewer_elsewhere_without_a_display(
         ("127.0.0.1:{port}", "is not a Rerun address; give rerun+http://HOST:9876/proxy"),
         ("rerun+http://127.0.0.1:port/proxy", "is not a Rerun address"),
         ("rerun+http://127.0.0.1:99999/proxy", "is not a Rerun address"),
+        ("", "'' is not a Rerun address"),
     ],
-    ids=["nobody-listens", "no-scheme", "port-not-a-number", "port-too-large"],
+    ids=["nobody-listens", "no-scheme", "port-not-a-number", "port-too-large", "empty"],
 )
 def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
     tmp_path: Path, url: str, message: str

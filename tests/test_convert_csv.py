@@ -302,6 +302,9 @@ def test_velocity_from_pose_matches_the_derivative() -> None:
     np.testing.assert_allclose(
         rs.twist_from_pose(t_ns, pose(seconds_of(t_ns))), twist(seconds_of(t_ns)), atol=1e-4
     )
+    two = np.array([0, 50_000_000])  # two poses 5 cm apart: 1 m/s, not the zero it was
+    moved = np.array([[0, 0, 0, 0, 0, 0, 1], [0.05, 0, 0, 0, 0, 0, 1]], dtype=float)
+    np.testing.assert_allclose(rs.twist_from_pose(two, moved)[:, 0], [1.0, 1.0])
 
 
 def test_quaternion_sign_flips_do_not_disturb_interpolation() -> None:
@@ -566,3 +569,13 @@ def test_a_nan_timestamp_is_named_by_its_line(tmp_path: Path) -> None:
     source.write_text("".join(lines))
     with pytest.raises(ConversionError, match=r"'Time \(s\)', line 7: time 'nan' is not a finite"):
         convert(source, tmp_path / "t.mcap", "gown")
+
+
+def test_a_log_spanning_more_than_a_trial_is_refused_not_gridded(tmp_path: Path) -> None:
+    """A first stamp of 0 before clock times asked for a grid of 10^11 steps (1.2 TiB)."""
+    t = 1.7e9 + np.arange(200) / 100.0
+    t[0] = 0.0
+    path = _with_velocity(tmp_path / "zero_first.csv", t)
+    with pytest.raises(ConversionError, match=r"the log spans 1\.7e\+09 s, more than a trial's"):
+        convert(path, tmp_path / "t.mcap", "gown")
+    assert list(tmp_path.iterdir()) == [path]

@@ -28,7 +28,7 @@ from dresslog.errors import ConversionError, DresslogWarning
 from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
 from dresslog.io.writer import TrialWriter
-from dresslog.spec import Outcome, Task, TrialMetadata
+from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata
 
 MAX_GAP_S = 0.1
 CSV_SUFFIXES = (".csv", ".tsv", ".txt")
@@ -219,6 +219,13 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
         t = source.wrench.t_ns
         phase = int(t[0]) + half + int(np.median(np.diff(t))) // 2
         start += (phase - start) % rs.PERIOD_NS
+    if (stop - start) / 1e9 > MAX_DURATION:  # else a grid of billions of steps, or junk
+        raise ConversionError(
+            f"the log spans {(stop - start) / 1e9:.3g} s, more than a trial's "
+            f"{MAX_DURATION:g} s ({'; '.join(dict.fromkeys(map(_span, source.streams)))}; a "
+            "stamp of 0 among clock times, or two logs in one); cut out the part to convert",
+            path=source.path,
+        )
     grid = rs.grid(start, stop)
     if len(grid) < 2:
         first = max(int(s.t_ns[0]) for s in source.streams)

@@ -15,6 +15,8 @@ in float64, exact to the nanosecond for spans up to about 100 days.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 
 from dresslog.trial import STEP_HZ as RATE_HZ
@@ -142,15 +144,16 @@ def _conjugate(q: np.ndarray) -> np.ndarray:
 def twist_from_pose(t_ns: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """Linear (m/s) and angular (rad/s, world frame) velocity (T, 6) on the pose's own times.
 
-    Second-order differences on the (possibly irregular) source times; the
-    angular velocity is the vector part of 2 dq/dt q^-1.
+    Second-order differences on the (possibly irregular) source times (first-order for
+    a pose of two samples); the angular velocity is the vector part of 2 dq/dt q^-1.
     """
-    if len(t_ns) < 3:
+    if len(t_ns) < 2:
         return np.zeros((len(t_ns), 6))
+    order: Literal[1, 2] = 2 if len(t_ns) > 2 else 1
     seconds = (t_ns - t_ns[0]).astype(np.float64) * 1e-9
-    linear = np.gradient(pose[:, :3], seconds, axis=0, edge_order=2)
+    linear = np.gradient(pose[:, :3], seconds, axis=0, edge_order=order)
     quat = continuous_quaternions(normalize(pose[:, 3:7]))
-    dquat = np.gradient(quat, seconds, axis=0, edge_order=2)
+    dquat = np.gradient(quat, seconds, axis=0, edge_order=order)
     angular = 2.0 * _multiply(dquat, _conjugate(quat))[:, :3]
     return np.concatenate([linear, angular], axis=1)
 
