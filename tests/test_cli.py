@@ -301,3 +301,11 @@ def test_a_killed_record_leaves_no_file(tmp_path: Path, sent: str) -> None:
     _, err = run.communicate(timeout=30)
     assert run.returncode != 0 and b"Traceback" not in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_name_too_long_for_its_temporary_is_one_line_naming_the_output(tmp_path: Path) -> None:
+    """The file is written under a longer hidden name first: that one must fit too."""
+    out = tmp_path / ("a" * 240 + ".rrd")
+    result = CliRunner().invoke(main, ["infer", str(SAMPLE), "-o", str(out)])
+    assert result.exit_code == 1 and result.output.startswith(f"Error: {out}: file name is too")
+    assert list(tmp_path.iterdir()) == []

@@ -41,10 +41,24 @@ def check_output(
         raise TrialWriteError(
             f"is inside {source.name}, the folder being read; write it elsewhere", path=path
         )
+    if len(temporary_path(path).name.encode()) > _name_max(path.parent):
+        raise TrialWriteError(
+            "file name is too long once the temporary name it is written under adds its "
+            "process id; shorten it",
+            path=path,
+        )
     if suffix is not None and path.suffix.lower() != suffix:
         raise TrialWriteError(_NAMES[suffix], path=path)
     if not overwrite and path.exists():
         raise TrialWriteError("file exists; pass --overwrite to replace it", path=path)
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name `folder`'s file system takes (255 where it cannot say)."""
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):  # AttributeError: no pathconf on Windows
+        return 255
 
 
 def check_writable(folder: Path) -> None:
