@@ -61,9 +61,10 @@ def main() -> None:
 
 
 def run() -> None:
-    """The console script: a kill (SIGTERM) or a closed terminal (SIGHUP) stops a command
-    as Ctrl-C does, so what it was writing is removed rather than left as a temporary."""
-    for name in ("SIGTERM", "SIGHUP"):
-        if hasattr(signal, name):  # Windows has no SIGHUP
-            signal.signal(getattr(signal, name), signal.default_int_handler)
+    """The console script: a kill (SIGTERM) or a closed terminal (SIGHUP, unless `nohup`
+    ignores it) stops a command as Ctrl-C does, so what it was writing is removed."""
+    from dresslog.stops import stop_signals
+
+    for number in stop_signals():
+        signal.signal(number, signal.default_int_handler)
     main()

@@ -281,24 +281,32 @@ def test_record_refuses_a_setting_out_of_range_before_simulating(
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM ends a process outright there")
-@pytest.mark.parametrize("sent", ["SIGTERM", "SIGHUP"])
+@pytest.mark.parametrize("sent", ["SIGTERM", "SIGHUP", "SIGHUP-under-nohup"])
 def test_a_killed_record_leaves_no_file(tmp_path: Path, sent: str) -> None:
     """`kill PID` (a scheduler's timeout, `docker stop`) or a closed terminal stops a
-    command as Ctrl-C does."""
+    command as Ctrl-C does; one started with `nohup` (SIGHUP ignored) goes on."""
     import os
     import signal
     import time
 
     out = tmp_path / "t.mcap"
-    entry = "import sys; from dresslog.cli.main import run; sys.argv[0] = 'dresslog'; run()"
-    args = ["record", "--task", "gown", "--duration", "30", "-o", str(out)]
+    nohup = "signal.signal(signal.SIGHUP, signal.SIG_IGN); " if "nohup" in sent else ""
+    entry = (
+        f"import signal, sys; {nohup}from dresslog.cli.main import run; "
+        "sys.argv[0] = 'dresslog'; run()"
+    )
+    duration = "3" if nohup else "30"
+    args = ["record", "--task", "gown", "--duration", duration, "-o", str(out)]
     run = subprocess.Popen([sys.executable, "-c", entry, *args], stderr=subprocess.PIPE)
     deadline = time.monotonic() + 60
     while not list(tmp_path.glob(".t.mcap.*.partial")) and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(0.5)  # into the simulation, with messages written
-    os.kill(run.pid, getattr(signal, sent))
-    _, err = run.communicate(timeout=30)
+    os.kill(run.pid, getattr(signal, sent.split("-")[0]))
+    _, err = run.communicate(timeout=60)
+    if nohup:
+        assert run.returncode == 0 and read_trial(out).metadata.spec.duration == 3, err
+        return
     assert run.returncode != 0 and b"Traceback" not in err, err
     assert list(tmp_path.iterdir()) == []
 

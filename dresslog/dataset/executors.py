@@ -23,6 +23,7 @@ from dresslog.dataset.manifest import Entry, Split, Status, slot_file
 from dresslog.errors import DatasetError, DresslogError, SimulationError
 from dresslog.io.files import discard_temporaries, sha256_file
 from dresslog.spec import Outcome, TrialSpec
+from dresslog.stops import stop_signals
 
 RECORDER = "dresslog.sim:record_trial"
 ExecutorName = Literal["process", "ray"]
@@ -66,8 +67,8 @@ class _Worker:
     @classmethod
     def start(cls) -> None:
         signal.signal(signal.SIGINT, cls._on_interrupt)
-        if hasattr(signal, "SIGHUP"):  # a closed terminal reaches the workers as Ctrl-C does
-            signal.signal(signal.SIGHUP, cls._on_interrupt)
+        if hangup := stop_signals()[1:]:  # a closed terminal: as Ctrl-C (unless nohup)
+            signal.signal(hangup[0], cls._on_interrupt)
         signal.signal(signal.SIGTERM, cls._on_terminate)
         threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
 

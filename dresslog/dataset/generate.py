@@ -46,6 +46,7 @@ from dresslog.dataset.manifest import (
 from dresslog.errors import DatasetError, first_problem
 from dresslog.io.files import exclusive
 from dresslog.spec import Task, TrialSpec
+from dresslog.stops import stop_signals
 
 #: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
 MAX_ATTEMPTS = 5
@@ -54,7 +55,6 @@ SAVE_EVERY_S = 2.0
 #: Seconds between checks for Ctrl-C while waiting on the workers.
 POLL_S = 0.2
 #: Signals that stop a generation cleanly: Ctrl-C, and a kill (SIGTERM).
-_STOPS = (signal.SIGINT, signal.SIGTERM)
 LOCK_FILE = ".generate.lock"
 SPEC_FACTORY = "dresslog.sim:random_spec"
 
@@ -273,7 +273,7 @@ def generate(
 
 @contextmanager
 def _stop_at_safe_points() -> Iterator[threading.Event]:
-    """Ctrl-C or SIGTERM in the main process sets the event the loop checks;
+    """Ctrl-C, SIGTERM or SIGHUP in the main process sets the event the loop checks;
     KeyboardInterrupt is raised on leaving, after the bookkeeping. Raised mid-loop, it
     dropped a trial a worker had just reported (its file was then removed as unaccounted
     for).
@@ -282,7 +282,8 @@ def _stop_at_safe_points() -> Iterator[threading.Event]:
     if threading.current_thread() is not threading.main_thread():  # signals need the main one
         yield stop
         return
-    previous = {s: signal.signal(s, lambda signum, frame: stop.set()) for s in _STOPS}
+    stops = (signal.SIGINT, *stop_signals())
+    previous = {s: signal.signal(s, lambda signum, frame: stop.set()) for s in stops}
     try:
         yield stop
     finally:

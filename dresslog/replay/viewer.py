@@ -26,6 +26,7 @@ from dresslog.errors import DresslogError, TrialWriteError
 from dresslog.io.files import atomic_path, check_output
 from dresslog.io.reader import RRD_MAGIC
 from dresslog.replay.pipeline import InferenceReport, replay_file
+from dresslog.stops import stop_signals
 
 if TYPE_CHECKING:
     import rerun as rr
@@ -257,7 +258,8 @@ def _free_port(preferred: int = 0) -> int:
 
 @contextlib.contextmanager
 def _stopped_by_hangup_and_term() -> Iterator[None]:
-    """A closed terminal (SIGHUP) or a kill (SIGTERM) stops the viewer as Ctrl-C does.
+    """A closed terminal (SIGHUP, unless ignored) or a kill (SIGTERM) stops the viewer as
+    Ctrl-C does.
 
     The viewer runs in its own session, so these no longer reach it by themselves.
     """
@@ -265,13 +267,12 @@ def _stopped_by_hangup_and_term() -> Iterator[None]:
     def interrupt(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
-    names = [n for n in ("SIGHUP", "SIGTERM") if hasattr(signal, n)]
-    previous = {n: signal.signal(getattr(signal, n), interrupt) for n in names}
+    previous = {n: signal.signal(n, interrupt) for n in stop_signals()}
     try:
         yield
     finally:
         for n, handler in previous.items():
-            signal.signal(getattr(signal, n), handler)
+            signal.signal(n, handler)
 
 
 def web_address(web_port: int, grpc_port: int) -> str:
