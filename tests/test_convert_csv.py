@@ -151,6 +151,7 @@ HEADER_MILLI = ["Fx [sensor 1] (kN)", "Fy [kN]", "Fz (kN)", "Tx (N-mm)", "Ty (N.
 @pytest.mark.parametrize(
     ("header", "unit"),
     [("Fx (tool)", None), ("Fx [sensor 2]", None), ("Fx (-)", None), ("Fx (N)", "N"),
+     ("Fz (hips)", None), ("vx (skip)", None), ("Fx (N) [raw]", "N"),
      ("Fx [sensor 1] (kN)", "kN"), ("Tx (lbf-in)", "lbf-in"), ("wx (°/s)", "°/s")],
 )  # fmt: skip
 def test_a_bracket_is_a_unit_only_when_it_reads_as_one(header: str, unit: str | None) -> None:
@@ -208,7 +209,7 @@ def test_a_prefixed_unit_not_converted_is_refused_not_read_as_si(header: str) ->
         _value_scale(header, role, Path("x.csv"))
 
 
-@pytest.mark.parametrize("bracket", ["raw", "counts", "ADC"])
+@pytest.mark.parametrize("bracket", ["raw", "counts", "ADC", "raw counts"])
 def test_raw_readings_without_counts_per_unit_are_refused(tmp_path: Path, bracket: str) -> None:
     """`Fx (raw)` is no label: read as newtons, a sensor's counts would be silently wrong."""
     path = _with_velocity(tmp_path / "raw.csv", np.arange(500) / 1000.0)
@@ -218,6 +219,8 @@ def test_raw_readings_without_counts_per_unit_are_refused(tmp_path: Path, bracke
     with pytest.raises(ConversionError, match=rf"'fx \({bracket}\)' holds '{bracket}' readings"):
         convert(path, tmp_path / "t.mcap", "gown")
     assert not (tmp_path / "t.mcap").exists()
+    path.write_text("\n".join([lines[0].replace("fx", f"fx (N) [{bracket}]"), *lines[1:]]) + "\n")
+    assert convert(path, tmp_path / "t.mcap", "gown").steps > 40  # unfiltered, in newtons
 
 
 def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:

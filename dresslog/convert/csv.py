@@ -80,9 +80,10 @@ _VALUE_UNITS: dict[str, dict[str, float]] = {
 #: prefix (`dN`, `km/h`), so a unit not converted is refused, never read as SI.
 _UNIT_ATOMS = re.compile(
     r"^((da|[kmcdunµμhg])?(n|m|s|g|h|hr|min|rad|deg)"
-    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?"
-    r"|dyn|dynes?|kips?|pdl|fps|ips)+$"
+    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?)+$"
 )
+#: Units written only whole: as atoms they would make words of others (`h` + `ips`).
+_WHOLE_UNITS = {"dyn", "dyne", "dynes", "kip", "kips", "pdl", "fps", "ips"}
 #: Brackets that say a column has no unit.
 _NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
 #: Brackets that say a column holds a sensor's raw readings, not a physical unit.
@@ -114,7 +115,7 @@ def _si_factor(written: str, group: str) -> float | None:
 
 def _is_unit(written: str) -> bool:
     parts = re.sub(r"\^-?\d", "", _unit_key(written)).split("/")
-    return all(_UNIT_ATOMS.match(part) for part in parts)
+    return all(_UNIT_ATOMS.match(part) or part in _WHOLE_UNITS for part in parts)
 
 
 def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
@@ -455,8 +456,10 @@ def read_table(
     scaled = []
     counts = _counts_scales(path, line)
     for role in values:
-        raw = [b for b in _brackets(names[found[role]]) if b.lower() in _RAW]
-        if raw and role[:-1] not in counts:
+        brackets = _brackets(names[found[role]])
+        raw = [b for b in brackets if _RAW & set(re.findall(r"[a-z]+", b.lower()))]
+        has_unit = any(b.lower() not in _NO_UNIT and _is_unit(b) for b in brackets)
+        if raw and not has_unit and role[:-1] not in counts:  # `Fx (N) [raw]` is unfiltered N
             raise ConversionError(
                 f"column {names[found[role]]!r} holds {raw[0]!r} readings, not a unit; scale "
                 "them to SI first (an ATI Net F/T log's counts per unit in its preamble are read)",
