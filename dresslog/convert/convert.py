@@ -221,9 +221,10 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
         start += (phase - start) % rs.PERIOD_NS
     if (stop - start) / 1e9 > MAX_DURATION:  # else a grid of billions of steps, or junk
         raise ConversionError(
-            f"the log spans {(stop - start) / 1e9:.3g} s, more than a trial's "
-            f"{MAX_DURATION:g} s ({'; '.join(dict.fromkeys(map(_span, source.streams)))}; a "
-            "stamp of 0 among clock times, or two logs in one); cut out the part to convert",
+            f"the log spans {(stop - start) / 1e9:.3g} s "
+            f"({'; '.join(dict.fromkeys(map(_span, source.streams)))}), more than the "
+            f"{MAX_DURATION:g} s a trial may last: convert it in parts of an hour or less (or, "
+            "if it is short, look for a stamp of 0 among clock times, or two logs in one)",
             path=source.path,
         )
     grid = rs.grid(start, stop)

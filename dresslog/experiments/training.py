@@ -8,7 +8,7 @@ from typing import Literal
 
 from dresslog.dataset import Split, load_dataset, load_manifest
 from dresslog.errors import DatasetError
-from dresslog.io.files import exclusive
+from dresslog.io.files import check_name_fits, exclusive
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import (
     TRAINING_PLOT,
@@ -54,8 +54,9 @@ def train_dataset(
         steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
     )  # fmt: skip
-    out.parent.mkdir(parents=True, exist_ok=True)  # the checkpoint and the lock go beside it
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
+    check_name_fits(out, checkpoint.name)  # the longest name written beside the model
+    out.parent.mkdir(parents=True, exist_ok=True)  # the checkpoint and the lock go beside it
     # a second run on the same output would share (and garble) the checkpoint
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
         arrays = load_dataset(data, workers=workers, progress=progress)

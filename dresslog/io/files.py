@@ -41,12 +41,7 @@ def check_output(
         raise TrialWriteError(
             f"is inside {source.name}, the folder being read; write it elsewhere", path=path
         )
-    if len(temporary_path(path).name.encode()) > _name_max(path.parent):
-        raise TrialWriteError(
-            "file name is too long once the temporary name it is written under adds its "
-            "process id; shorten it",
-            path=path,
-        )
+    check_name_fits(path, temporary_path(path).name)
     if suffix is not None and path.suffix.lower() != suffix:
         raise TrialWriteError(_NAMES[suffix], path=path)
     if not overwrite and path.exists():
@@ -56,9 +51,21 @@ def check_output(
 def _name_max(folder: Path) -> int:
     """The longest file name `folder`'s file system takes (255 where it cannot say)."""
     try:
-        return os.pathconf(folder, "PC_NAME_MAX")
+        limit = os.pathconf(folder, "PC_NAME_MAX")
     except (OSError, ValueError, AttributeError):  # AttributeError: no pathconf on Windows
         return 255
+    return limit if limit > 0 else 2**31  # -1: no limit it will tell
+
+
+def check_name_fits(path: Path, longest: str) -> None:
+    """Fail before any work if `longest`, a name written beside `path` (its temporary, a
+    checkpoint), is too long for the folder's file system: the error names `path`."""
+    if len(longest.encode()) > _name_max(path.parent):
+        raise TrialWriteError(
+            f"file name is too long once dresslog's working name beside it ({longest[:12]}...) "
+            "is made from it; shorten it",
+            path=path,
+        )
 
 
 def check_writable(folder: Path) -> None:

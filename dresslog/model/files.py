@@ -200,7 +200,9 @@ def check_model_folder(path: Path, overwrite: bool) -> None:
         raise ModelError("model folder exists; pass --overwrite to replace it", path=path)
     temporary = re.compile(r"\..+\.partial")  # left by a save that was killed
     if others := sorted(
-        p.name for p in path.iterdir() if p.name not in MODEL_FILES and not temporary.match(p.name)
+        p.name
+        for p in path.iterdir()
+        if p.name not in MODEL_FILES and not temporary.fullmatch(p.name)
     ):
         raise ModelError(
             f"model folder also holds {', '.join(others[:3])}, which replacing the model "
