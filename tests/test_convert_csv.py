@@ -579,6 +579,6 @@ def test_a_log_spanning_more_than_a_trial_is_refused_not_gridded(tmp_path: Path)
     t = 1.7e9 + np.arange(200) / 100.0
     t[0] = 0.0
     path = _with_velocity(tmp_path / "zero_first.csv", t)
-    with pytest.raises(ConversionError, match=r"the log spans 1\.7e\+09 s, more than a trial's"):
+    with pytest.raises(ConversionError, match=r"the log spans 1\.7e\+09 s .* more than the 3600 s"):
         convert(path, tmp_path / "t.mcap", "gown")
     assert list(tmp_path.iterdir()) == [path]
