@@ -287,6 +287,7 @@ def test_a_sweep_value_given_twice_is_one_setting() -> None:
         ("--rotations", "q:5", "is not AXIS:DEGREES"),
         ("--rotations", "z:10,z:999", "rot:z:999: invalid limb_rotation.degrees"),
         ("--speeds", "0.2,-1", "speed:-1: invalid speed"),
+        ("--rotations", "z:10,y:88", "rot:y:88: the fist lies inside the rest of the arm"),
     ],
 )
 def test_sweep_rejects_a_bad_setting_before_making_its_folder(

@@ -16,9 +16,10 @@ from dresslog.dataset import Split, generate, load_dataset
 from dresslog.dataset.executors import check_executor
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE
-from dresslog.errors import DatasetError, first_problem
+from dresslog.errors import DatasetError, SimulationError, first_problem
 from dresslog.experiments.evaluation import check_data_task, finite, score_rows
 from dresslog.io.files import atomic_path
+from dresslog.limb import build_limb, limb_points
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,
@@ -119,9 +120,12 @@ def sweep_settings(
     settings = list(unique.values())
     for setting in settings:
         try:
-            TrialSpec.model_validate({"task": task, **setting.overrides})
+            spec = TrialSpec.model_validate({"task": task, **setting.overrides})
+            limb_points(build_limb(task, rotation=spec.limb_rotation))  # folded onto itself?
         except ValidationError as err:
             raise DatasetError(f"{setting.name}: invalid {first_problem(err)}") from None
+        except SimulationError as err:  # the same for every seed: not one trial runs
+            raise DatasetError(f"{setting.name}: {err}") from None
     return settings
 
 
