@@ -9,6 +9,7 @@ through the same code as `dresslog infer`. Only `record_live` imports the simula
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -16,7 +17,7 @@ from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
-from dresslog.errors import DresslogError
+from dresslog.errors import DresslogError, DresslogWarning
 from dresslog.replay.engine import Estimator, Replay, Sink, Step, TrialContext, check_points
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.spec import TrialMetadata, TrialSpec
@@ -129,13 +130,23 @@ def record_live(
     from dresslog.sim import record_trial
 
     live = live_source(model, spec.task, recording=recording, connect=connect, vmax=vmax)
-    try:  # record_trial leaves `live` (flushing the stream) before the file is in place
-        result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
+    result: SimResult | None = None
+    try:
+        with live:
+            result = record_trial(spec, path, overwrite=overwrite, sinks=[live])
     except RuntimeError as err:  # Rerun's stream to a viewer that went away
         if "grpc" not in str(err).lower():
             raise
-        raise DresslogError(
-            "the Rerun viewer went away while the trial streamed to it, so nothing was "
-            "written; record again (without --live, or with --connect to a running viewer)"
-        ) from None
+        if result is None:  # during the simulation: its file was removed with it
+            raise DresslogError(
+                "the Rerun viewer went away while the trial streamed to it, so nothing was "
+                "written; record again (without --live, or with --connect to a running viewer)"
+            ) from None
+        # the stream fails only as it is flushed at the end: the trial is whole, keep it
+        warnings.warn(
+            f"the Rerun viewer went away before the live view ended; the trial itself was "
+            f"recorded in full to {path}",
+            DresslogWarning,
+            stacklevel=2,
+        )
     return result, live.metrics.metrics

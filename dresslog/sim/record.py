@@ -6,7 +6,6 @@ path removes its temporary file, so no file appears under the final name.
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -128,19 +127,10 @@ def record_trial(
 ) -> SimResult:
     """Simulate `spec` and write it to `path` (atomically); `sinks` see every step too.
 
-    A sink that is a context manager (a live view) is left before the file is put in
-    place, so one that fails to finish leaves no file, and an earlier one as it was.
     `progress` draws the steps on a progress bar when stderr is a terminal.
     """
     metadata = TrialMetadata(task=spec.task, spec=spec)
-    with (
-        TrialWriter(path, metadata, overwrite=overwrite) as writer,
-        ProgressBar() as bar,
-        contextlib.ExitStack() as entered,
-    ):
-        for extra in sinks:
-            if isinstance(extra, contextlib.AbstractContextManager):
-                entered.enter_context(extra)
+    with TrialWriter(path, metadata, overwrite=overwrite) as writer, ProgressBar() as bar:
         sink = WriterSink(writer)
         sinks = [sink, *sinks, *([bar] if progress else [])]
         result = simulate(spec, FanOut(*sinks) if len(sinks) > 1 else sink)
