@@ -342,7 +342,7 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (from_a_newer_dresslog, r"newer dresslog \(trial format 2; this one reads 1\); upgrade"),
     (metadata_without_the_trial, "`dresslog` metadata record has no `trial` entry"),
     (a_pipe, "not a regular file"),
-    (big_endian, "channel /ee/wrench: message 0 is not little-endian CDR"),
+    (big_endian, "channel /ee/wrench: message 0 is not plain little-endian CDR"),
 ]
 
 

@@ -196,6 +196,11 @@ def test_train_into_the_current_folder(
     code, output = invoke("train", data, "-o", ".", "--epochs", "1", "--hidden", "4", "-q")
     assert code == 0, output
     assert load_model(here).card.task == Task.GOWN
+    inode = Path().stat().st_ino  # over the model here: its files replaced, not the folder
+    code, output = invoke("train", data, "-o", ".", "--epochs", "2", "--hidden", "4", "-q",
+                          "--overwrite")  # fmt: skip
+    assert code == 0 and Path().stat().st_ino == inode == here.stat().st_ino, output
+    assert len(load_model(here).card.history) == 2
     # the README's `-o models/gown` on a fresh checkout: the folders are made
     code, output = invoke("train", data, "-o", "models/g", "--epochs", "1", "--hidden", "4", "-q")
     assert code == 0, output

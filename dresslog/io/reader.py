@@ -192,9 +192,9 @@ class TrialReader:
                 continue  # not ours, empty, or a message too short: decoding says so
             if len(foreign := np.flatnonzero((head["kind"] != (0, 1)).any(axis=1))):
                 raise TrialFormatError(
-                    f"message {foreign[0]} is not little-endian CDR (its encapsulation header "
-                    f"is {raw.payloads[foreign[0]][:2].hex(' ')}); write it little-endian, as "
-                    "ROS 2 does on x86 and ARM",
+                    f"message {foreign[0]} is not plain little-endian CDR (its encapsulation "
+                    f"header is {raw.payloads[foreign[0]][:2].hex(' ')}, not 00 01); write it "
+                    "as ROS 2 does on x86 and ARM",
                     path=self.path,
                     channel=topic,
                 )
