@@ -80,10 +80,11 @@ _VALUE_UNITS: dict[str, dict[str, float]] = {
 #: prefix (`dN`, `km/h`), so a unit not converted is refused, never read as SI.
 _UNIT_ATOMS = re.compile(
     r"^((da|[kmcdunµμhg])?(n|m|s|g|h|hr|min|rad|deg)"
-    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?)+$"
+    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?"
+    r"|dyn|dynes?|kips?|pdl)+$"  # these combine too: kip-ft, dyn-cm
 )
 #: Units written only whole: as atoms they would make words of others (`h` + `ips`).
-_WHOLE_UNITS = {"dyn", "dyne", "dynes", "kip", "kips", "pdl", "fps", "ips"}
+_WHOLE_UNITS = {"fps", "ips"}
 #: Brackets that say a column has no unit.
 _NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
 #: Brackets that say a column holds a sensor's raw readings, not a physical unit.

@@ -54,7 +54,6 @@ MAX_ATTEMPTS = 5
 SAVE_EVERY_S = 2.0
 #: Seconds between checks for Ctrl-C while waiting on the workers.
 POLL_S = 0.2
-#: Signals that stop a generation cleanly: Ctrl-C, and a kill (SIGTERM).
 LOCK_FILE = ".generate.lock"
 SPEC_FACTORY = "dresslog.sim:random_spec"
 

@@ -8,7 +8,7 @@ from typing import Literal
 
 from dresslog.dataset import Split, load_dataset, load_manifest
 from dresslog.errors import DatasetError
-from dresslog.io.files import check_name_fits, exclusive
+from dresslog.io.files import check_name_fits, exclusive, temporary_path
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import (
     TRAINING_PLOT,
@@ -55,7 +55,7 @@ def train_dataset(
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
     )  # fmt: skip
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
-    check_name_fits(out, checkpoint.name)  # the longest name written beside the model
+    check_name_fits(out, temporary_path(checkpoint).name)  # the longest name beside it
     out.parent.mkdir(parents=True, exist_ok=True)  # the checkpoint and the lock go beside it
     # a second run on the same output would share (and garble) the checkpoint
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
