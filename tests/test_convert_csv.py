@@ -166,7 +166,7 @@ def test_a_bracket_is_a_unit_only_when_it_reads_as_one(header: str, unit: str | 
     [("vx (mm s-1)", 1e-3), ("vx [mm·s⁻¹]", 1e-3), ("wx (degree/s)", np.pi / 180),
      ("wx (dps)", np.pi / 180), ("Tx (in-lb)", 0.1129848290276167), ("Tx (NM)", 1.0),
      ("Fx (mN)", 1e-3), ("vx (mm/second)", 1e-3), ("wx (degrees per second)", np.pi / 180),
-     ("Tx (N⋅mm)", 1e-3)],
+     ("Tx (N⋅mm)", 1e-3), ("Fx (kilonewtons)", 1e3), ("Fy (newtons)", 1.0)],
 )  # fmt: skip
 def test_units_written_the_other_usual_ways_are_scaled_alike(header: str, factor: float) -> None:
     role = role_of(header)
@@ -199,7 +199,8 @@ def test_a_time_unit_in_any_bracket_is_read_and_one_not_read_is_refused(
 @pytest.mark.parametrize(
     "header",
     ["vx (km/h)", "Fx (dN)", "Fz [daN]", "Tx (kgf cm)", "wx (rev/s)", "Fx (MN)", "Fx (dyn)",
-     "Fy (kip)", "vx (ips)", "Tx (kip-ft)", "Tx (dyn cm)", "Tx (ft-pdl)"],
+     "Fy (kip)", "vx (ips)", "Tx (kip-ft)", "Tx (dyn cm)", "Tx (ft-pdl)", "Fx (V)", "Fz (mV)",
+     "Fy (pounds)"],
 )  # fmt: skip
 def test_a_prefixed_unit_not_converted_is_refused_not_read_as_si(header: str) -> None:
     """`km/h` read as m/s would be 3.6x wrong, silently: a unit, though not one converted."""

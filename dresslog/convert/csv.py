@@ -75,6 +75,8 @@ _VALUE_UNITS: dict[str, dict[str, float]] = {
     "": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
     "q": {},
 }  # fmt: skip
+#: Units spelt out, by the key of their symbol.
+_SPELLED = {"newton": "n", "newtons": "n", "kilonewton": "kn", "kilonewtons": "kn"}
 #: What a unit is written with: a bracket made only of these (and `/`) names a unit,
 #: anything else (`Fx (tool)`, `Fx [sensor 2]`) is a label. SI bases take any common
 #: prefix (`dN`, `km/h`), so a unit not converted is refused, never read as SI.
@@ -84,7 +86,21 @@ _UNIT_ATOMS = re.compile(
     r"|dyn|dynes?|kips?|pdl)+$"  # these combine too: kip-ft, dyn-cm
 )
 #: Units written only whole: as atoms they would make words of others (`h` + `ips`).
-_WHOLE_UNITS = {"fps", "ips"}
+#: Volts are a DAQ's reading before calibration, never newtons.
+_WHOLE_UNITS = {
+    "fps",
+    "ips",
+    "v",
+    "mv",
+    "volt",
+    "volts",
+    "newton",
+    "newtons",
+    "kilonewton",
+    "kilonewtons",
+    "pound",
+    "pounds",
+}
 #: Brackets that say a column has no unit.
 _NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
 #: Brackets that say a column holds a sensor's raw readings, not a physical unit.
@@ -111,7 +127,8 @@ def _si_factor(written: str, group: str) -> float | None:
     if re.search(r"(?<![A-Za-z])M(?=[Nn])", written):  # MN is mega, not milli, newtons
         return None
     known = {_unit_key(unit): factor for unit, factor in _VALUE_UNITS[group].items()}
-    return known.get(_unit_key(written))
+    key = _unit_key(written)
+    return known.get(_SPELLED.get(key, key))
 
 
 def _is_unit(written: str) -> bool:
