@@ -257,21 +257,23 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT are POSIX")
-@pytest.mark.parametrize("stop", ["ctrl-c", "sigterm", "sigterm-group"])
+@pytest.mark.parametrize("stop", ["ctrl-c", "sigterm", "sigterm-group", "sighup-group"])
 def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path, stop: str) -> None:
     """A terminal's Ctrl-C reaches the whole process group; `kill PID` the main process
-    alone; a batch scheduler's timeout SIGTERMs every process of the job."""
+    alone; a batch scheduler's timeout SIGTERMs every process of the job; a closed
+    terminal hangs up every process (multiprocessing's resource tracker too)."""
     run = _generation_under_way(tmp_path, 12)
     if stop == "ctrl-c":
         os.killpg(run.pid, signal.SIGINT)
     elif stop == "sigterm":
         os.kill(run.pid, signal.SIGTERM)
     else:
-        os.killpg(run.pid, signal.SIGTERM)
+        os.killpg(run.pid, signal.SIGTERM if stop == "sigterm-group" else signal.SIGHUP)
     assert run.wait(timeout=60) != 0
     assert run.stderr is not None
     said = run.stderr.read().decode()
     assert "KeyboardInterrupt" in said and "BrokenProcessPool" not in said, said[-3000:]
+    assert "resource_tracker" not in said and "KeyError" not in said, said[-3000:]
     manifest = load_manifest(tmp_path)
     on_disk = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.glob("*/*.mcap"))
     assert sorted(str(e.file) for e in manifest.trials) == on_disk

@@ -152,12 +152,32 @@ class Executor(Protocol):
     def shutdown(self) -> list[Entry]: ...
 
 
+def _start_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker deaf to SIGHUP, as it is to Ctrl-C and kill.
+
+    A closed terminal hangs up the whole process group: the tracker died of it, and its
+    replacement printed a traceback for each of the pool's semaphores. It still ends when
+    dresslog does (its pipe closes).
+    """
+    from multiprocessing import resource_tracker
+
+    hangup = getattr(signal, "SIGHUP", None)
+    if hangup is None:  # Windows: no tracker to protect
+        return
+    before = signal.signal(hangup, signal.SIG_IGN)  # inherited across the tracker's exec
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.signal(hangup, before)
+
+
 class ProcessExecutor:
     """A local process pool (spawned workers: no pybullet or torch state is forked)."""
 
     def __init__(self, workers: int) -> None:
         import multiprocessing
 
+        _start_resource_tracker()
         self._pool = ProcessPoolExecutor(
             workers, mp_context=multiprocessing.get_context("spawn"), initializer=_Worker.start
         )
