@@ -260,6 +260,7 @@ def test_a_wrench_csv_without_motion_is_refused(tmp_path: Path) -> None:
     [
         ("backwards", "samples 10 and 50 of 100 share the stamp 10000000 ns (time column clock)"),
         ("nan", "nan wrench force z at sample 30 (0.030 s in); drop or fill that sample"),
+        ("1e39", "1e+39 wrench force z at sample 30 (0.030 s in)"),  # past float32: infinite
     ],
 )
 def test_a_csv_with_times_going_backwards_or_a_nan_is_refused_in_one_line(
@@ -270,7 +271,7 @@ def test_a_csv_with_times_going_backwards_or_a_nan_is_refused_in_one_line(
     if fault == "backwards":
         t[50] = t[10]
     else:
-        forces[30, 2] = np.nan
+        forces[30, 2] = float(fault)
     header = ["time", "fx", "fy", "fz", "tx", "ty", "tz", "x", "y", "z"]
     path = write_csv(tmp_path / "w.csv", header, [t, *forces.T, *pose(t)[:, :3].T])
     out = tmp_path / "t.mcap"

@@ -152,7 +152,8 @@ def put_in_time_order(stream: SourceStream, path: Path) -> str | None:
 
 
 def check_stream(stream: SourceStream, path: Path) -> None:
-    """Enough samples, finite values, strictly increasing times: else a ConversionError."""
+    """Enough samples, finite values (in float32), strictly increasing times: else a
+    ConversionError."""
     where = _where(stream, path)
     if len(stream) < 2:
         raise ConversionError(
@@ -172,8 +173,10 @@ def check_stream(stream: SourceStream, path: Path) -> None:
             f"({stream.t_ns[bad - 1]} then {stream.t_ns[bad]} ns, {stream.clock} clock)",
             path=path,
         )
-    if not np.isfinite(stream.values).all():
-        row, col = (int(i[0]) for i in np.nonzero(~np.isfinite(stream.values)))
+    # the model reads float32: a value past its range would reach it as infinite
+    unreadable = ~(np.abs(stream.values) <= np.finfo(np.float32).max)  # NaN too
+    if unreadable.any():
+        row, col = (int(i[0]) for i in np.nonzero(unreadable))
         seconds = (stream.t_ns[row] - stream.t_ns[0]) / 1e9
         raise ConversionError(
             f"{where}{stream.values[row, col]} {stream.kind} {COMPONENTS[stream.kind][col]} at "
