@@ -313,6 +313,13 @@ def test_a_killed_record_leaves_no_file(tmp_path: Path, sent: str) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_an_output_named_only_by_its_suffix_is_told_to_have_a_name(tmp_path: Path) -> None:
+    out = tmp_path / ".rrd"
+    result = CliRunner().invoke(main, ["infer", str(SAMPLE), "-o", str(out)])
+    assert result.output == f"Error: {out}: give the file a name before .rrd\n"
+    assert result.exit_code == 1 and list(tmp_path.iterdir()) == []
+
+
 def test_a_name_too_long_for_its_temporary_is_one_line_naming_the_output(tmp_path: Path) -> None:
     """The file is written under a longer hidden name first: that one must fit too."""
     out = tmp_path / ("a" * 240 + ".rrd")

@@ -42,6 +42,8 @@ def check_output(
             f"is inside {source.name}, the folder being read; write it elsewhere", path=path
         )
     check_name_fits(path, temporary_path(path).name)
+    if suffix is not None and path.name.lower() == suffix:  # `.mcap` is all suffix, no name
+        raise TrialWriteError(f"give the file a name before {suffix}", path=path)
     if suffix is not None and path.suffix.lower() != suffix:
         raise TrialWriteError(_NAMES[suffix], path=path)
     if not overwrite and path.exists():
