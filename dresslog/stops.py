@@ -6,7 +6,10 @@ started to outlive it: `nohup` leaves SIGHUP ignored, and so must we.
 
 from __future__ import annotations
 
+import contextlib
 import signal
+import threading
+from collections.abc import Iterator
 
 
 def stop_signals() -> tuple[signal.Signals, ...]:
@@ -15,3 +18,24 @@ def stop_signals() -> tuple[signal.Signals, ...]:
     if hangup is None or signal.getsignal(hangup) is signal.SIG_IGN:
         return (signal.SIGTERM,)
     return (signal.SIGTERM, hangup)
+
+
+@contextlib.contextmanager
+def ignored_in_children() -> Iterator[None]:
+    """Ignore Ctrl-C, kill and hang-up while worker processes are started, which inherit it.
+
+    A terminal's Ctrl-C reaches the whole group; a worker still importing when it came
+    printed its own KeyboardInterrupt traceback. The parent alone stops them. Off the main
+    thread (where no handler can be set) this does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    names = ("SIGINT", "SIGTERM", "SIGHUP")
+    numbers = [getattr(signal, n) for n in names if hasattr(signal, n)]
+    before = {n: signal.signal(n, signal.SIG_IGN) for n in numbers}
+    try:
+        yield
+    finally:
+        for number, handler in before.items():
+            signal.signal(number, handler)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import shutil
 import signal
@@ -458,3 +459,25 @@ def test_a_manifest_edited_to_the_other_task_is_refused(copy: Path) -> None:
     (copy / "manifest.json").write_text(json.dumps(raw))
     with pytest.raises(DatasetError, match=r"/000000\.mcap is a gown trial in a shorts dataset"):
         load_dataset(copy, workers=1, progress=False)
+
+
+def _dispositions(queue: multiprocessing.Queue) -> None:
+    queue.put([signal.getsignal(s) == signal.SIG_IGN for s in (signal.SIGINT, signal.SIGTERM)])
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signal dispositions")
+def test_workers_started_while_stops_are_ignored_leave_them_to_the_parent() -> None:
+    """A Ctrl-C to the group while decoding workers were still importing printed one
+    KeyboardInterrupt traceback per worker; started under `ignored_in_children`, they
+    ignore it (and kill), and the parent, which stops them, has its handlers back."""
+    from dresslog.stops import ignored_in_children
+
+    before = signal.getsignal(signal.SIGINT)
+    context = multiprocessing.get_context("spawn")
+    queue = context.Queue()
+    with ignored_in_children():
+        worker = context.Process(target=_dispositions, args=(queue,))
+        worker.start()
+    assert queue.get(timeout=60) == [True, True]
+    worker.join(timeout=60)
+    assert signal.getsignal(signal.SIGINT) is before

@@ -35,6 +35,7 @@ from dresslog.dataset.manifest import (
 from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
+from dresslog.stops import ignored_in_children
 
 CACHE_DIR = ".cache"
 CACHE_VERSION = 2
@@ -121,11 +122,16 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
         import multiprocessing
 
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context) as pool:
+        pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context)
+        try:
+            with ignored_in_children():  # the workers start as the jobs are submitted
+                results = pool.map(_decode, jobs, chunksize=4)
             decoded = []
-            for item in pool.map(_decode, jobs, chunksize=4):
+            for item in results:
                 decoded.append(item)
                 bar.update()
+        finally:  # stopped: the trials not begun are dropped, not decoded first
+            pool.shutdown(cancel_futures=True)
     else:
         decoded = []
         for job in jobs:
