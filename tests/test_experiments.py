@@ -488,6 +488,8 @@ def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
     assert code == 1 and "needs at least 2 training trials, has 1" in output
     code, output = invoke("eval", _fake_model(tmp_path / "gown", "gown"), data)
     assert code == 1 and f"{data}: the dataset has no test trials" in output
+    assert "it holds train trials: pass --split train" in output  # said before decoding
+    assert not (data / ".cache").exists()
 
 
 @pytest.mark.parametrize(

@@ -100,12 +100,21 @@ def evaluate_dataset(
     if split not in set(Split):
         raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
     loaded = load_model(model)
-    check_data_task(loaded, load_manifest(data).task)
+    manifest = load_manifest(data)
+    check_data_task(loaded, manifest.task)
+    if not manifest.split(Split(split)):  # said from the manifest, before any decoding
+        held = [s.value for s in Split if manifest.split(s)]
+        hint = (
+            "; a sweep setting's trials are scored by `dresslog sweep`"
+            if held == [Split.SWEEP.value]
+            else f"; it holds {', '.join(held)} trials: pass --split {held[0]}"
+            if held
+            else ""
+        )
+        raise DatasetError(f"the dataset has no {Split(split)} trials{hint}", path=data)
     arrays = load_dataset(data, workers=workers, progress=progress)
     check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
-    if not len(rows):
-        raise DatasetError(f"the dataset has no {Split(split)} trials", path=data)
     per_outcome = {}
     for outcome in sorted(set(arrays.outcomes[rows].tolist())):
         per_outcome[outcome] = score_rows(loaded, arrays, arrays.rows(split, outcome))
