@@ -447,6 +447,10 @@ def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
         generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)
     generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)  # free again
     assert len(load_manifest(tmp_path / "d").trials) == 1
+    tmp_path.joinpath("s").mkdir()  # a sweep's setting: the message names the sweep
+    lock = exclusive(tmp_path / "s" / ".generate.lock", "dresslog sweep")
+    with lock, pytest.raises(DresslogError, match=r"another `dresslog sweep` .* is writing it"):
+        generate("gown", 0, tmp_path / "s", workers=1, splits={"sweep": 1}, recorder=FAKE)
 
 
 @pytest.mark.slow

@@ -256,7 +256,8 @@ def generate(
     _check_folder(root)
     check_executor(executor)
     root.mkdir(parents=True, exist_ok=True)
-    with exclusive(root / LOCK_FILE, "dresslog generate"):
+    command = "dresslog sweep" if Split.SWEEP in counts else "dresslog generate"  # its folders
+    with exclusive(root / LOCK_FILE, command):
         manifest = _open_manifest(root, task, seed, counts, overrides)
         for split in Split:
             if manifest.wanted(split):
