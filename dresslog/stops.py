@@ -12,12 +12,15 @@ import threading
 from collections.abc import Iterator
 
 
+def hangup() -> signal.Signals | None:
+    """SIGHUP where it exists (not on Windows) and is not ignored (as under `nohup`)."""
+    number = getattr(signal, "SIGHUP", None)
+    return None if number is None or signal.getsignal(number) is signal.SIG_IGN else number
+
+
 def stop_signals() -> tuple[signal.Signals, ...]:
     """SIGTERM, and SIGHUP where it exists and is not ignored."""
-    hangup = getattr(signal, "SIGHUP", None)
-    if hangup is None or signal.getsignal(hangup) is signal.SIG_IGN:
-        return (signal.SIGTERM,)
-    return (signal.SIGTERM, hangup)
+    return (signal.SIGTERM,) if (number := hangup()) is None else (signal.SIGTERM, number)
 
 
 @contextlib.contextmanager

@@ -15,6 +15,14 @@ from dresslog.spec import TrialMetadata
 #: The rate of the steps every model reads (Hz): trials are simulated and converted at it.
 STEP_HZ = 100
 
+
+def median_rate(t_ns: np.ndarray) -> float:
+    """Typical sample rate in Hz (0 for fewer than two samples)."""
+    if len(t_ns) < 2:
+        return 0.0
+    return float(1e9 / np.median(np.diff(t_ns)))
+
+
 #: One garment-limb contact; the memory layout equals the CDR layout of
 #: `dresslog_msgs/msg/Contact`, so a contact array is encoded by a byte copy.
 CONTACT_DTYPE = np.dtype(

@@ -20,17 +20,11 @@ from typing import Literal
 import numpy as np
 
 from dresslog.trial import STEP_HZ as RATE_HZ
+from dresslog.trial import median_rate
 
 PERIOD_NS = 1_000_000_000 // RATE_HZ
 #: Above this source rate (Hz) a stream is bin-averaged rather than interpolated.
 AVERAGE_ABOVE_HZ = 1.5 * RATE_HZ
-
-
-def median_rate(t_ns: np.ndarray) -> float:
-    """Typical sample rate in Hz (0 for fewer than two samples)."""
-    if len(t_ns) < 2:
-        return 0.0
-    return float(1e9 / np.median(np.diff(t_ns)))
 
 
 def grid(start_ns: int, stop_ns: int, period_ns: int = PERIOD_NS) -> np.ndarray:

@@ -23,7 +23,7 @@ from dresslog.dataset.manifest import Entry, Split, Status, slot_file
 from dresslog.errors import DatasetError, DresslogError, SimulationError
 from dresslog.io.files import discard_temporaries, sha256_file
 from dresslog.spec import Outcome, TrialSpec
-from dresslog.stops import stop_signals
+from dresslog.stops import hangup, ignored_in_children
 
 RECORDER = "dresslog.sim:record_trial"
 ExecutorName = Literal["process", "ray"]
@@ -67,8 +67,8 @@ class _Worker:
     @classmethod
     def start(cls) -> None:
         signal.signal(signal.SIGINT, cls._on_interrupt)
-        if hangup := stop_signals()[1:]:  # a closed terminal: as Ctrl-C (unless nohup)
-            signal.signal(hangup[0], cls._on_interrupt)
+        if (number := hangup()) is not None:  # a closed terminal: as Ctrl-C (unless nohup)
+            signal.signal(number, cls._on_interrupt)
         signal.signal(signal.SIGTERM, cls._on_terminate)
         threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
 
@@ -161,14 +161,8 @@ def _start_resource_tracker() -> None:
     """
     from multiprocessing import resource_tracker
 
-    hangup = getattr(signal, "SIGHUP", None)
-    if hangup is None:  # Windows: no tracker to protect
-        return
-    before = signal.signal(hangup, signal.SIG_IGN)  # inherited across the tracker's exec
-    try:
+    with ignored_in_children():  # inherited across the tracker's exec
         resource_tracker.ensure_running()
-    finally:
-        signal.signal(hangup, before)
 
 
 class ProcessExecutor:

@@ -44,7 +44,7 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, first_problem
-from dresslog.io.files import exclusive
+from dresslog.io.files import exclusive, is_temporary
 from dresslog.spec import Task, TrialSpec
 from dresslog.stops import stop_signals
 
@@ -73,8 +73,9 @@ def _check_folder(root: Path) -> None:
     ours = {LOCK_FILE, *(split.value for split in Split)}
 
     def foreign(p: Path) -> bool:
-        temporary = p.name.startswith(".") and p.name.endswith(".partial")  # a killed save
-        return not temporary and (p.name not in ours or (p.is_dir() and any(p.iterdir())))
+        return not is_temporary(p.name) and (  # a killed save's temporary is ours
+            p.name not in ours or (p.is_dir() and any(p.iterdir()))
+        )
 
     if any(foreign(p) for p in root.iterdir()):
         raise DatasetError(

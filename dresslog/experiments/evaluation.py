@@ -104,13 +104,9 @@ def evaluate_dataset(
     check_data_task(loaded, manifest.task)
     if not manifest.split(Split(split)):  # said from the manifest, before any decoding
         held = [s.value for s in Split if manifest.split(s)]
-        hint = (
-            "; a sweep setting's trials are scored by `dresslog sweep`"
-            if held == [Split.SWEEP.value]
-            else f"; it holds {', '.join(held)} trials: pass --split {held[0]}"
-            if held
-            else ""
-        )
+        hint = f"; it holds {', '.join(held)} trials: pass --split {held[0]}" if held else ""
+        if held == [Split.SWEEP.value]:
+            hint = "; a sweep setting's trials are scored by `dresslog sweep`"
         raise DatasetError(f"the dataset has no {Split(split)} trials{hint}", path=data)
     arrays = load_dataset(data, workers=workers, progress=progress)
     check_data_task(loaded, arrays.task, arrays.n_points)

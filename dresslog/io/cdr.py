@@ -264,9 +264,14 @@ def stamp_ns(messages: np.ndarray) -> np.ndarray:
     return sec * 1_000_000_000 + messages["header.stamp.nanosec"].astype(np.int64)
 
 
-#: How every stamped message begins: encapsulation header, then std_msgs/Header's stamp.
+#: How every stamped message begins: encapsulation header, then std_msgs/Header's stamp
+#: (named as decoded, so `stamp_ns` reads it).
 _HEAD = np.dtype(
-    [("kind", "u1", (2,)), ("options", "u1", (2,)), ("sec", "<i4"), ("nanosec", "<u4")]
+    [
+        ("encapsulation", "u1", (4,)),
+        ("header.stamp.sec", "<i4"),
+        ("header.stamp.nanosec", "<u4"),
+    ]
 )
 
 
@@ -277,11 +282,6 @@ def heads(payloads: Sequence[bytes]) -> np.ndarray | None:
     if len(joined) != 12 * len(payloads):
         return None
     return np.frombuffer(joined, dtype=_HEAD)
-
-
-def head_stamps_ns(head: np.ndarray) -> np.ndarray:
-    """`heads`' stamps as integer nanoseconds (little-endian CDR)."""
-    return head["sec"].astype(np.int64) * 1_000_000_000 + head["nanosec"].astype(np.int64)
 
 
 def to_payloads(messages: np.ndarray) -> list[bytes]:

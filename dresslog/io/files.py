@@ -7,6 +7,7 @@ import glob
 import hashlib
 import itertools
 import os
+import re
 import socket
 import tempfile
 from collections.abc import Iterator
@@ -98,6 +99,12 @@ def temporary_path(path: Path) -> Path:
     never share a temporary; the last to finish wins, whole.
     """
     return path.with_name(f".{path.name}.{os.getpid()}.{next(_serial)}.partial")
+
+
+def is_temporary(name: str) -> bool:
+    """Whether a file name is a temporary of `temporary_path` (this or an older dresslog's),
+    such as a killed run leaves."""
+    return re.fullmatch(r"\..+\.partial", name) is not None
 
 
 def discard_temporaries(path: Path) -> None:

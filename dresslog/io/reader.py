@@ -190,7 +190,8 @@ class TrialReader:
             head = cdr.heads(raw.payloads) if topic in wk.SCHEMAS and raw.payloads else None
             if head is None:
                 continue  # not ours, empty, or a message too short: decoding says so
-            if len(foreign := np.flatnonzero((head["kind"] != (0, 1)).any(axis=1))):
+            kind = head["encapsulation"][:, :2]
+            if len(foreign := np.flatnonzero((kind != (0, 1)).any(axis=1))):
                 raise TrialFormatError(
                     f"message {foreign[0]} is not plain little-endian CDR (its encapsulation "
                     f"header is {raw.payloads[foreign[0]][:2].hex(' ')}, not 00 01); write it "
@@ -198,7 +199,7 @@ class TrialReader:
                     path=self.path,
                     channel=topic,
                 )
-            stamps = cdr.head_stamps_ns(head)
+            stamps = cdr.stamp_ns(head)
             order = np.argsort(stamps, kind="stable")
             if (np.diff(order) != 1).any():
                 raw.times = [raw.times[i] for i in order]

@@ -5,12 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from pydantic import BaseModel
 
 from dresslog.io import well_known as wk
 from dresslog.io.reader import TrialReader
 from dresslog.spec import TrialMetadata
+from dresslog.trial import median_rate
 
 
 class ChannelSummary(BaseModel):
@@ -46,7 +46,7 @@ def summarize(path: str | Path) -> TrialSummary:
         t_ns = reader.measurements.t_ns
         steps = len(t_ns)
         duration = (t_ns[-1] - t_ns[0]) / 1e9 if steps > 1 else 0.0
-        rate = float(1e9 / np.median(np.diff(t_ns))) if steps > 1 else 0.0
+        rate = median_rate(t_ns)
         limb = reader.limb_points
         return TrialSummary(
             path=str(path),

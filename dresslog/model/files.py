@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -45,7 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
-from dresslog.io.files import check_writable, sha256_file, temporary_path
+from dresslog.io.files import check_writable, is_temporary, sha256_file, temporary_path
 from dresslog.model.inputs import PHI_DIM
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
@@ -198,11 +197,8 @@ def check_model_folder(path: Path, overwrite: bool) -> None:
         )
     if not overwrite:
         raise ModelError("model folder exists; pass --overwrite to replace it", path=path)
-    temporary = re.compile(r"\..+\.partial")  # left by a save that was killed
-    if others := sorted(
-        p.name
-        for p in path.iterdir()
-        if p.name not in MODEL_FILES and not temporary.fullmatch(p.name)
+    if others := sorted(  # a killed save's temporary is no foreign file
+        p.name for p in path.iterdir() if p.name not in MODEL_FILES and not is_temporary(p.name)
     ):
         raise ModelError(
             f"model folder also holds {', '.join(others[:3])}, which replacing the model "
