@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -463,6 +464,22 @@ def test_a_manifest_edited_to_the_other_task_is_refused(copy: Path) -> None:
     (copy / "manifest.json").write_text(json.dumps(raw))
     with pytest.raises(DatasetError, match=r"/000000\.mcap is a gown trial in a shorts dataset"):
         load_dataset(copy, workers=1, progress=False)
+
+
+def test_a_dataset_at_another_rate_than_the_models_read_is_refused(
+    copy: Path, tmp_path: Path
+) -> None:
+    """A 50 Hz dataset would train a model that `infer` then refuses on its own data."""
+    with pytest.raises(DatasetError, match=r"sim.record_hz 50: a dataset is recorded at 100 Hz"):
+        generate("gown", 2, tmp_path / "d", workers=1, overrides={"sim": {"record_hz": 50}})
+    assert not (tmp_path / "d").exists()  # refused before the folder is made
+    raw = json.loads((copy / "manifest.json").read_text())
+    raw["trials"][1]["spec"]["sim"] = {"record_hz": 50}  # made by another version, say
+    (copy / "manifest.json").write_text(json.dumps(raw))
+    name = re.escape(raw["trials"][1]["file"])
+    with pytest.raises(DatasetError, match=rf"trial {name} is recorded at 50 Hz; "):
+        load_dataset(copy, workers=1, progress=False)
+    assert not (copy / ".cache").exists()  # refused from the manifest, before any decoding
 
 
 def _dispositions(queue: multiprocessing.Queue) -> None:

@@ -36,6 +36,7 @@ from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
 from dresslog.stops import ignored_in_children
+from dresslog.trial import STEP_HZ
 
 CACHE_DIR = ".cache"
 CACHE_VERSION = 2
@@ -204,13 +205,19 @@ def load_dataset(
     """All trials of the dataset at `root` as arrays, from the cache when it is current.
 
     Raises `DatasetError` (one line, naming the folder and the trial) for a folder
-    without a manifest, a manifest with no trials, and a missing, truncated,
-    modified or unreadable trial.
+    without a manifest, a manifest with no trials, a trial recorded at another rate than
+    the models' `STEP_HZ`, and a missing, truncated, modified or unreadable trial.
     """
     root = Path(root)
     manifest = load_manifest(root)
     if not manifest.trials:
         raise DatasetError("the manifest lists no completed trials", path=root)
+    for entry in manifest.trials:  # models read STEP_HZ steps; generate makes no other
+        if (hz := entry.spec.sim.record_hz) != STEP_HZ:
+            raise DatasetError(
+                f"trial {entry.file} is recorded at {hz} Hz; models read {STEP_HZ} Hz steps",
+                path=root,
+            )
     warn_if_incomplete(root, manifest)
     check_files(root, manifest)
     path = cache_path(root, manifest)

@@ -47,6 +47,7 @@ from dresslog.errors import DatasetError, first_problem
 from dresslog.io.files import exclusive, is_temporary
 from dresslog.spec import Task, TrialSpec
 from dresslog.stops import stop_signals
+from dresslog.trial import STEP_HZ
 
 #: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
 MAX_ATTEMPTS = 5
@@ -251,9 +252,14 @@ def generate(
     workers = workers or os.cpu_count() or 1
     overrides = dict(overrides or {})
     try:  # a bad override stops here, before a manifest records it
-        TrialSpec.model_validate({"task": task, **overrides})
+        fixed = TrialSpec.model_validate({"task": task, **overrides})
     except ValidationError as err:
         raise DatasetError(f"invalid {first_problem(err)}") from None
+    if fixed.sim.record_hz != STEP_HZ:  # no model could train on it
+        raise DatasetError(
+            f"sim.record_hz {fixed.sim.record_hz}: a dataset is recorded at {STEP_HZ} Hz, "
+            "the rate every model reads"
+        )
     _check_folder(root)
     check_executor(executor)
     root.mkdir(parents=True, exist_ok=True)
