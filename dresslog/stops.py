@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import signal
-import threading
 from collections.abc import Iterator
 
 
@@ -23,22 +22,34 @@ def stop_signals() -> tuple[signal.Signals, ...]:
     return (signal.SIGTERM,) if (number := hangup()) is None else (signal.SIGTERM, number)
 
 
-@contextlib.contextmanager
-def ignored_in_children() -> Iterator[None]:
-    """Ignore Ctrl-C, kill and hang-up while worker processes are started, which inherit it.
+def _stops() -> list[signal.Signals]:
+    """Ctrl-C, kill and hang-up, those this platform has."""
+    names = ("SIGINT", "SIGTERM", "SIGHUP")
+    return [getattr(signal, n) for n in names if hasattr(signal, n)]
 
-    A terminal's Ctrl-C reaches the whole group; a worker still importing when it came
-    printed its own KeyboardInterrupt traceback. The parent alone stops them. Off the main
-    thread (where no handler can be set) this does nothing.
+
+@contextlib.contextmanager
+def deferred_in_children() -> Iterator[None]:
+    """Block Ctrl-C, kill and hang-up while worker processes are started; they inherit it.
+
+    A terminal's Ctrl-C reaches the whole group: a worker still importing when it came
+    printed its own KeyboardInterrupt traceback. Blocked, not ignored, a signal waits:
+    this process takes its own as the block ends, a worker that handles its stops takes
+    them once it calls `unblock_stops` (after its imports), and one that never does is
+    stopped by its parent (multiprocessing starts its resource tracker the same way).
+    Where signals cannot be blocked (Windows) this does nothing.
     """
-    if threading.current_thread() is not threading.main_thread():
+    if not hasattr(signal, "pthread_sigmask"):
         yield
         return
-    names = ("SIGINT", "SIGTERM", "SIGHUP")
-    numbers = [getattr(signal, n) for n in names if hasattr(signal, n)]
-    before = {n: signal.signal(n, signal.SIG_IGN) for n in numbers}
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, _stops())
     try:
         yield
     finally:
-        for number, handler in before.items():
-            signal.signal(number, handler)
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def unblock_stops() -> None:
+    """Take the stops blocked since `deferred_in_children` started this process."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _stops())

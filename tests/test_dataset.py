@@ -10,6 +10,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -482,23 +483,36 @@ def test_a_dataset_at_another_rate_than_the_models_read_is_refused(
     assert not (copy / ".cache").exists()  # refused from the manifest, before any decoding
 
 
-def _dispositions(queue: multiprocessing.Queue) -> None:
-    queue.put([signal.getsignal(s) == signal.SIG_IGN for s in (signal.SIGINT, signal.SIGTERM)])
+def _worker_starting(queue: multiprocessing.Queue, imported: threading.Event) -> None:
+    """A generate worker whose Ctrl-C comes before its imports are done."""
+    from dresslog.dataset.executors import _Worker
+
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    queue.put(sorted(int(s) for s in blocked))
+    imported.wait(timeout=60)  # the parent signals meanwhile
+    _Worker.start()
+    queue.put(_Worker.interrupted)
 
 
-@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signal dispositions")
-def test_workers_started_while_stops_are_ignored_leave_them_to_the_parent() -> None:
-    """A Ctrl-C to the group while decoding workers were still importing printed one
-    KeyboardInterrupt traceback per worker; started under `ignored_in_children`, they
-    ignore it (and kill), and the parent, which stops them, has its handlers back."""
-    from dresslog.stops import ignored_in_children
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signal masks")
+def test_a_stop_while_workers_start_is_deferred_not_printed_nor_lost() -> None:
+    """A Ctrl-C to the group while workers were still importing printed one
+    KeyboardInterrupt traceback per worker. Started under `deferred_in_children`, a
+    worker holds it until it can handle it (a generate worker then starts no trial), and
+    the parent takes its own as the block ends; ignoring it instead lost both."""
+    from dresslog.stops import deferred_in_children
 
-    before = signal.getsignal(signal.SIGINT)
     context = multiprocessing.get_context("spawn")
-    queue = context.Queue()
-    with ignored_in_children():
-        worker = context.Process(target=_dispositions, args=(queue,))
+    queue, imported = context.Queue(), context.Event()
+    with pytest.raises(KeyboardInterrupt), deferred_in_children():
+        worker = context.Process(target=_worker_starting, args=(queue, imported))
         worker.start()
-    assert queue.get(timeout=60) == [True, True]
+        os.kill(os.getpid(), signal.SIGINT)  # the terminal's Ctrl-C, to us
+        time.sleep(0.1)  # nothing raised here: it waits for the block's end
+    stops = sorted(int(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP))
+    assert queue.get(timeout=60) == stops  # the worker was started with them blocked
+    os.kill(worker.pid, signal.SIGINT)  # ... and to the worker, still importing
+    imported.set()
+    assert queue.get(timeout=60) is True  # taken once it handles it: no trial starts
     worker.join(timeout=60)
-    assert signal.getsignal(signal.SIGINT) is before
+    assert worker.exitcode == 0

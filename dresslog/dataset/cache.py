@@ -35,7 +35,7 @@ from dresslog.dataset.manifest import (
 from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
-from dresslog.stops import ignored_in_children
+from dresslog.stops import deferred_in_children
 from dresslog.trial import STEP_HZ
 
 CACHE_DIR = ".cache"
@@ -125,7 +125,7 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
         context = multiprocessing.get_context("spawn")
         pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context)
         try:
-            with ignored_in_children():  # the workers start as the jobs are submitted
+            with deferred_in_children():  # the workers start as the jobs are submitted
                 results = pool.map(_decode, jobs, chunksize=4)
             decoded = []
             for item in results:

@@ -23,7 +23,7 @@ from dresslog.dataset.manifest import Entry, Split, Status, slot_file
 from dresslog.errors import DatasetError, DresslogError, SimulationError
 from dresslog.io.files import discard_temporaries, sha256_file
 from dresslog.spec import Outcome, TrialSpec
-from dresslog.stops import hangup, ignored_in_children
+from dresslog.stops import deferred_in_children, hangup, unblock_stops
 
 RECORDER = "dresslog.sim:record_trial"
 ExecutorName = Literal["process", "ray"]
@@ -70,6 +70,7 @@ class _Worker:
         if (number := hangup()) is not None:  # a closed terminal: as Ctrl-C (unless nohup)
             signal.signal(number, cls._on_interrupt)
         signal.signal(signal.SIGTERM, cls._on_terminate)
+        unblock_stops()  # one that came while this worker imported is taken now
         threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
 
     @classmethod
@@ -161,7 +162,7 @@ def _start_resource_tracker() -> None:
     """
     from multiprocessing import resource_tracker
 
-    with ignored_in_children():  # inherited across the tracker's exec
+    with deferred_in_children():  # inherited across the tracker's exec
         resource_tracker.ensure_running()
 
 
@@ -178,7 +179,8 @@ class ProcessExecutor:
         self._futures: set[Future[Entry]] = set()
 
     def submit(self, job: Job) -> None:
-        self._futures.add(self._pool.submit(run_job, job))
+        with deferred_in_children():  # a submission may start a worker
+            self._futures.add(self._pool.submit(run_job, job))
 
     def done(self, timeout: float) -> list[Entry]:
         """Finished entries; a job that raised (a bug) raises once the others are out."""
