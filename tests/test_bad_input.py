@@ -16,8 +16,7 @@ from dresslog.errors import TrialFormatError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
 from dresslog.io.msgdefs import schema_text
-from dresslog.io.reader import TrialReader, read_trial
-from dresslog.io.writer import TrialWriter
+from dresslog.io.reader import TrialReader
 from dresslog.spec import Task, TrialMetadata
 from tests.conftest import SAMPLES
 
@@ -166,36 +165,40 @@ def no_metadata(tmp: Path, good: Path) -> Path:
     return _with_steps(tmp / "bare.mcap", {}, metadata=False)
 
 
-def _rewritten(tmp: Path, good: Path, name: str, **changes: np.ndarray) -> Path:
-    """`good` written again through TrialWriter with some streams changed."""
-    trial = read_trial(good)
-    path = tmp / name
-    with TrialWriter(path, trial.metadata) as writer:
-        assert trial.limb_points is not None and trial.garment is not None
-        writer.write_limb_points(int(trial.wrench.t_ns[0]), trial.limb_points)
-        writer.write_wrench(trial.wrench.t_ns, trial.wrench.values)
-        writer.write_twist(changes.get("twist_t_ns", trial.twist.t_ns), trial.twist.values)
-        if "forces" in changes:
-            writer.write_force_map(trial.wrench.t_ns, changes["forces"])
-        g = trial.garment
-        vertices = changes.get("vertices", g.vertices)
-        for i, t in enumerate(g.t_ns.tolist()):
-            writer.write_garment(t, vertices[i], g.triangles if i == 0 else None)
-    return path
+def _encoded(topic: str, stamps_ns: list[int], sizes: dict, **values: object) -> list[bytes]:
+    """`topic` messages of one layout at these stamps, each field given for all of them."""
+    schema = wk.SCHEMAS[topic]
+    sizes = {"header.frame_id": len(wk.FRAMES[topic]), **sizes}
+    msgs = cdr.new_messages(schema, sizes, len(stamps_ns))
+    cdr.set_stamp(msgs, np.array(stamps_ns, np.int64), wk.FRAMES[topic])
+    for field, value in values.items():
+        msgs[field] = value
+    return cdr.to_payloads(msgs)
 
 
 def no_common_stamp(tmp: Path, good: Path) -> Path:
-    return _rewritten(tmp, good, "apart.mcap", twist_t_ns=read_trial(good).twist.t_ns + 1)
+    """Our writer refuses it; another tool's need not."""
+    twist = _encoded(wk.TWIST, [1, 10_000_001, 20_000_001], {})
+    return _with_steps(tmp / "apart.mcap", {wk.TWIST: (TWIST[0], twist)}, metadata=True)
 
 
 def force_map_too_narrow(tmp: Path, good: Path) -> Path:
-    return _rewritten(tmp, good, "narrow.mcap", forces=read_trial(good).force_map.forces[:, :200])
+    sizes = {"limb": 3, "points": 3, "segment": 3, "segment_names": ()}
+    points = _encoded(wk.LIMB_POINTS, [0], sizes, limb=b"arm")
+    forces = _encoded(wk.FORCE_MAP, [0, 10_000_000, 20_000_000], {"forces": 2, "contact": 0})
+    extra = {
+        wk.LIMB_POINTS: (wk.SCHEMAS[wk.LIMB_POINTS], points),
+        wk.FORCE_MAP: (wk.SCHEMAS[wk.FORCE_MAP], forces),
+    }
+    return _with_steps(tmp / "narrow.mcap", extra, metadata=True)
 
 
 def garment_changing_size(tmp: Path, good: Path) -> Path:
-    vertices = list(read_trial(good).garment.vertices)
-    vertices[-1] = vertices[-1][:4]
-    return _rewritten(tmp, good, "torn.mcap", vertices=vertices)
+    first = _encoded(wk.GARMENT, [0], {"vertices": 6, "triangles": 3}, triangles=[[0, 1, 2]])
+    torn = _encoded(wk.GARMENT, [10_000_000], {"vertices": 4, "triangles": 0})
+    return _with_steps(
+        tmp / "torn.mcap", {wk.GARMENT: (wk.SCHEMAS[wk.GARMENT], first + torn)}, metadata=True
+    )
 
 
 def _garment_with(tmp: Path, name: str, corners: list[int]) -> Path:
@@ -330,7 +333,7 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (no_wrench_messages, "channel /ee/wrench has no messages, so there is no step"),
     (no_common_stamp, "no /ee/wrench message has a /ee/twist message of the same stamp"),
     (nan_force_map, "channel /limb/force_map: NaN or infinite value in message 1 of 3"),
-    (force_map_too_narrow, "force maps have 200 values but /limb/points has 300 points"),
+    (force_map_too_narrow, "force maps have 2 values but /limb/points has 3 points"),
     (garment_changing_size, r"the garment changes size \(\[4, 6\] vertices\)"),
     (triangle_past_the_vertices, "a triangle names vertex 99 of 6"),
     (triangles_cut_short, "4 triangle corners, not a multiple of 3"),

@@ -14,7 +14,7 @@ from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
-from dresslog.trial import CONTACT_DTYPE
+from dresslog.trial import CONTACT_DTYPE, LimbPoints
 
 
 @pytest.mark.parametrize("task", list(Task))
@@ -285,6 +285,7 @@ def test_ctrl_c_while_opening_or_finishing_leaves_no_file(
     metadata = TrialMetadata(task=Task.GOWN)
     with pytest.raises(KeyboardInterrupt), TrialWriter(tmp_path / "t.mcap", metadata) as writer:
         writer.write_wrench(0, np.zeros(6))
+        writer.write_twist(0, np.zeros(6))
     assert list(tmp_path.iterdir()) == []
 
 
@@ -309,6 +310,81 @@ def test_writer_rejects_nan(tmp_path: Path) -> None:
     ):
         writer.write_wrench(0, [0, 0, np.nan, 0, 0, 0])
     assert not (tmp_path / "t.mcap").exists()
+
+
+def _steps(writer: TrialWriter, t_ns: list[int] | None = None) -> None:
+    times = np.array(t_ns or [0, 10_000_000])
+    writer.write_wrench(times, np.zeros((len(times), 6)))
+    writer.write_twist(times, np.zeros((len(times), 6)))
+
+
+def _limb(points: int, *, nan: bool = False) -> LimbPoints:
+    at = np.full((points, 3), np.nan if nan else 0.0)
+    return LimbPoints("arm", at, np.zeros(points, np.uint32), ("fist",))
+
+
+WRITTEN_WRONG = {  # what the reader refuses, refused as it is written
+    "no twist": (
+        lambda w: w.write_wrench(0, np.zeros(6)),
+        "a trial needs /ee/wrench and /ee/twist at one or more common times",
+    ),
+    "no common time": (
+        lambda w: (w.write_wrench([0, 2], np.zeros((2, 6))), w.write_twist(1, np.zeros(6))),
+        "at one or more common times",
+    ),
+    "limb points with NaN": (
+        lambda w: w.write_limb_points(0, _limb(3, nan=True)),
+        "/limb/points have NaN or infinite positions",
+    ),
+    "maps narrower than the limb": (
+        lambda w: (w.write_limb_points(0, _limb(3)), w.write_force_map(0, np.zeros(2))),
+        "/limb/force_map maps of 2 points for 3 limb points",
+    ),
+    "limb wider than the maps": (
+        lambda w: (w.write_force_map(0, np.zeros(2)), w.write_limb_points(0, _limb(3))),
+        "/limb/points are 3, for maps of 2 points",
+    ),
+    "garment resized": (
+        lambda w: (w.write_garment(0, np.zeros((4, 3))), w.write_garment(1, np.zeros((5, 3)))),
+        "/garment/state keeps its 4 vertices",
+    ),
+    "triangles after the first message": (
+        lambda w: (
+            w.write_garment(0, np.zeros((4, 3))),
+            w.write_garment(1, np.zeros((4, 3)), [[0, 1, 2]]),
+        ),
+        "its triangles go in the first message only",
+    ),
+    "a time past int32 seconds": (
+        lambda w: _steps(w, [0, 2**31 * 1_000_000_000]),
+        "past what a ROS 2 stamp holds",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", WRITTEN_WRONG)
+def test_writer_refuses_what_its_reader_would_refuse(tmp_path: Path, case: str) -> None:
+    """Found only on reading, after a whole recording; a triangle list was lost silently."""
+    write, message = WRITTEN_WRONG[case]
+    with (
+        pytest.raises(TrialWriteError, match=message),
+        TrialWriter(tmp_path / "t.mcap", TrialMetadata(task=Task.GOWN)) as writer,
+    ):
+        write(writer)
+        if case not in ("no twist", "no common time"):
+            _steps(writer, [2**40, 2**40 + 10_000_000])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_writer_used_twice_refuses_rather_than_overwrite_a_good_trial(tmp_path: Path) -> None:
+    """Its second file named channels registered only in the first: no reader opened it."""
+    writer = TrialWriter(path := tmp_path / "t.mcap", TrialMetadata(task=Task.GOWN))
+    with writer:
+        _steps(writer)
+    writer.overwrite = True
+    with pytest.raises(TrialWriteError, match="a TrialWriter writes one file"), writer:
+        _steps(writer, [20_000_000])
+    assert len(read_trial(path).wrench) == 2 and [*tmp_path.iterdir()] == [path]
 
 
 def test_metadata_json_schema_in_schemas_is_current() -> None:

@@ -28,6 +28,8 @@ CHUNK_SIZE = 4 * 1024 * 1024
 #: Layouts of the Contacts header stamp (sec int32, nanosec uint32) and count (uint32).
 _HEAD_STAMP = struct.Struct("<iI")
 _HEAD_LEN = struct.Struct("<I")
+#: The last time a ROS 2 stamp (int32 seconds) holds.
+MAX_STAMP_NS = (2**31 - 1) * 1_000_000_000 + 999_999_999
 
 
 def software_versions() -> dict[str, str]:
@@ -65,10 +67,18 @@ class TrialWriter:
         self._contact_head: bytes | None = None
         self._last_stamp: dict[str, int] = {}  # per topic: stamps must increase
         self._widths: dict[str, int] = {}  # per force-map topic: one width throughout
+        self._points: int | None = None  # limb points written: every map's width
+        self._garment_size: int | None = None  # vertices of the first garment message
+        self._steps: dict[str, list[np.ndarray]] = {wk.WRENCH: [], wk.TWIST: []}
         self._contact_stamp_at = self._contact_len_at = 0
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
+        if self._tmp is not None:  # its channels belong to the first file
+            raise TrialWriteError(
+                "this writer was opened before; a TrialWriter writes one file, so make another",
+                path=self.path,
+            )
         check_output(self.path, suffix=".mcap", overwrite=self.overwrite)
         self._tmp = temporary_path(self.path)
         self._stream = self._tmp.open("wb")
@@ -88,6 +98,12 @@ class TrialWriter:
         writer, stream, tmp = self._writer, self._stream, self._tmp
         if writer is None or stream is None or tmp is None:
             raise TrialWriteError("writer is not open", path=self.path)
+        wrench, twist = (np.concatenate([*self._steps[t], []]) for t in (wk.WRENCH, wk.TWIST))
+        if not len(np.intersect1d(wrench, twist)):  # the model's steps: read, it is refused
+            raise TrialWriteError(
+                f"a trial needs {wk.WRENCH} and {wk.TWIST} at one or more common times",
+                path=self.path,
+            )
         metadata = self.metadata.model_copy(
             update={"software": self.metadata.software or software_versions()}
         )
@@ -170,6 +186,8 @@ class TrialWriter:
             after = self._last_stamp.get(topic, -1)
             if times[0] <= after or (np.diff(times) <= 0).any():
                 problem = "times must increase from message to message, and not be negative"
+            elif times[-1] > MAX_STAMP_NS:
+                problem = f"time {times[-1]} ns is past what a ROS 2 stamp holds (2**31 s)"
             self._last_stamp[topic] = int(times[-1])
         if problem:
             raise TrialWriteError(f"{topic}: {problem}", path=self.path)
@@ -216,6 +234,8 @@ class TrialWriter:
         first, second = wk.VECTOR_FIELDS[topic]
         msgs[first], msgs[second] = rows[:, :3], rows[:, 3:]
         self._write(topic, times, msgs)
+        if topic in self._steps:
+            self._steps[topic].append(times)
 
     def write_force_map(
         self,
@@ -237,6 +257,8 @@ class TrialWriter:
             problem = "has NaN or infinite values"
         elif self._widths.setdefault(topic, forces.shape[1]) != forces.shape[1]:
             problem = f"maps of {forces.shape[1]} points after maps of {self._widths[topic]}"
+        elif self._points not in (None, forces.shape[1]):
+            problem = f"maps of {forces.shape[1]} points for {self._points} limb points"
         if problem:
             raise TrialWriteError(f"{topic} {problem}", path=self.path)
         n_contact = 0 if contact is None else forces.shape[1]
@@ -296,6 +318,14 @@ class TrialWriter:
 
     def write_limb_points(self, t_ns: int, limb_points: LimbPoints) -> None:
         """The force-map sites, once at the start."""
+        problem = ""
+        if widths := set(self._widths.values()) - {len(limb_points)}:
+            problem = f"are {len(limb_points)}, for maps of {widths.pop()} points"
+        elif not np.isfinite(limb_points.points).all():
+            problem = "have NaN or infinite positions"
+        if problem:
+            raise TrialWriteError(f"{wk.LIMB_POINTS} {problem}", path=self.path)
+        self._points = len(limb_points)
         names = tuple(n.encode() for n in limb_points.segment_names)
         sizes = {
             "limb": len(limb_points.limb),
@@ -321,6 +351,13 @@ class TrialWriter:
             raise TrialWriteError(f"{wk.GARMENT} needs finite (V, 3) vertices", path=self.path)
         if len(tris) % 3 or (len(tris) and (tris.min() < 0 or tris.max() >= len(vertices))):
             raise TrialWriteError(f"{wk.GARMENT} triangles must index its vertices", path=self.path)
+        if self._garment_size is not None and (len(tris) or len(vertices) != self._garment_size):
+            raise TrialWriteError(
+                f"{wk.GARMENT} keeps its {self._garment_size} vertices, and its triangles go "
+                "in the first message only",
+                path=self.path,
+            )
+        self._garment_size = len(vertices)
         sizes = {"vertices": len(vertices), "triangles": len(tris)}
         times, msgs = self._stamped(wk.GARMENT, t_ns, sizes, 1)
         msgs["vertices"][0] = vertices
