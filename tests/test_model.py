@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import matplotlib.image
@@ -109,12 +110,17 @@ def test_a_nan_step_is_refused_and_leaves_the_state_as_it_was(trained):
         if k == 2:
             with pytest.raises(ModelError, match="finite"):
                 bad.step(np.full(9, np.nan, np.float32))
-            with pytest.raises(ModelError, match="9 finite numbers"):
+            with pytest.raises(ModelError, match="finite"):  # finite, but not as float32
+                bad.step(np.full(9, 1e39))
+            with pytest.raises(ModelError, match="9 finite float32 numbers"):
                 bad.step(np.zeros(8, np.float32))
         got.append(bad.step(p)[0])
     np.testing.assert_array_equal(np.stack(got), np.stack(expected))
-    with pytest.raises(ModelError, match="NaN or infinite"):
-        NumpyEstimator(weights).run(np.full((4, 9), np.nan, np.float32))
+    for wrong in (np.nan, 1e39):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # numpy's overflow warning stays unprinted
+            with pytest.raises(ModelError, match="NaN or infinite"):
+                NumpyEstimator(weights).run(np.full((4, 9), wrong))
 
 
 def test_run_applies_eq2_to_the_raw_output():

@@ -37,6 +37,7 @@ from dresslog.model.inputs import PHI_DIM, network_inputs, reads_differences
 from dresslog.model.postprocess import apply_contact, split_output
 
 F32 = np.float32
+_F32_MAX = float(np.finfo(F32).max)
 
 
 def expected_shapes(
@@ -149,9 +150,12 @@ class NumpyEstimator:
 
     def step_raw(self, phi: np.ndarray) -> np.ndarray:
         """Advance one step; the unprocessed (2N,) output in a reused buffer."""
-        if np.shape(phi) != (PHI_DIM,) or not np.isfinite(phi).all():
+        if np.shape(phi) != (PHI_DIM,) or not (np.abs(phi) <= _F32_MAX).all():
             # checked before the state moves: one bad step must not poison the ones after
-            raise ModelError(f"phi must be {PHI_DIM} finite numbers, got {np.asarray(phi)!r}")
+            # (1e39 is finite, but not once it is float32: NaN and inf fail `<=` too)
+            raise ModelError(
+                f"phi must be {PHI_DIM} finite float32 numbers, got {np.asarray(phi)!r}"
+            )
         h, d = self.hidden, self.input_dim
         x = self._state[:d]
         if self.differences:  # [phi, its change since the last step], as network_inputs
@@ -196,7 +200,8 @@ class NumpyEstimator:
     # -- whole sequences -----------------------------------------------------------------
     def forward(self, phi: np.ndarray) -> np.ndarray:
         """Unprocessed output for whole sequence(s) (T, 9) or (B, T, 9), from a zero state."""
-        phi = np.asarray(phi, F32)
+        with np.errstate(over="ignore"):  # past float32's range: inf, refused below
+            phi = np.asarray(phi, F32)
         single = phi.ndim == 2
         if single:
             phi = phi[None]
