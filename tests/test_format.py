@@ -387,6 +387,18 @@ def test_a_writer_used_twice_refuses_rather_than_overwrite_a_good_trial(tmp_path
     assert len(read_trial(path).wrench) == 2 and [*tmp_path.iterdir()] == [path]
 
 
+def test_a_reader_opened_again_reads_the_file_as_it_is_now(tmp_path: Path) -> None:
+    """It served the streams it had decoded before, beside the new file's channels."""
+    path = tmp_path / "t.mcap"
+    reader = TrialReader(path)
+    for value in (1.0, 2.0):
+        with TrialWriter(path, TrialMetadata(task=Task.GOWN), overwrite=True) as writer:
+            writer.write_wrench([0, 10_000_000], np.full((2, 6), value))
+            writer.write_twist([0, 10_000_000], np.full((2, 6), value))
+        with reader:
+            assert (reader.measurements.phi == value).all()
+
+
 def test_metadata_json_schema_in_schemas_is_current() -> None:
     import json
     from importlib import resources

@@ -82,6 +82,9 @@ class TrialReader:
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
+        for name, member in vars(TrialReader).items():  # reopened: the file may be another
+            if isinstance(member, cached_property):
+                self.__dict__.pop(name, None)
         if not self.path.exists():
             raise TrialFormatError("no such file", path=self.path)
         if self.path.is_dir():
