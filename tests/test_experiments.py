@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -17,6 +18,7 @@ from click.testing import CliRunner
 
 from dresslog.cli.main import main
 from dresslog.dataset import generate, load_manifest
+from dresslog.errors import DatasetError
 from dresslog.experiments import (
     Scores,
     SweepReport,
@@ -284,6 +286,29 @@ def test_sweep_never_writes_into_a_dataset_or_a_model_folder(
 def test_a_sweep_value_given_twice_is_one_setting() -> None:
     settings = sweep_settings(Task.GOWN, ["0.2", "0.20", "0.25"], ["z:-0", "z:0", "z:0.0"])
     assert [s.name for s in settings] == ["in-range", "speed:0.2", "speed:0.25", "rot:z:0"]
+
+
+def test_a_sweep_called_from_a_script_says_what_is_wrong_with_its_arguments(
+    model: Path, tmp_path: Path
+) -> None:
+    """A zero duration was dropped (every trial ran 7 s), a str swept letter by letter,
+    and an output that is a file was a FileExistsError traceback."""
+    from dresslog.experiments import sweep
+
+    wrong = [
+        ({"speeds": [0.2], "duration": 0}, "in-range: invalid duration"),
+        ({"speeds": "0.2"}, "speeds must be a list of values, not the one '0.2'"),
+        ({"speeds": 0.2}, "speeds must be a list of values"),
+        ({"rotations": "z:15"}, "rotations must be a list of values"),
+    ]
+    for arguments, message in wrong:
+        with pytest.raises(DatasetError, match=re.escape(message)):
+            sweep(model, tmp_path / "s", n=1, **arguments)
+        assert not (tmp_path / "s").exists()
+    (taken := tmp_path / "taken").write_text("mine")
+    with pytest.raises(DatasetError, match="is a file; give the sweep a folder of its own"):
+        sweep(model, taken, speeds=[0.2], n=1)
+    assert taken.read_text() == "mine"
 
 
 @pytest.mark.parametrize(

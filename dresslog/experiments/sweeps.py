@@ -102,7 +102,10 @@ def sweep_settings(
     Every setting's fields are checked as a spec here, so a bad value stops the sweep
     before its first trial, not after the settings before it.
     """
-    extra = {"duration": duration} if duration else {}
+    for name, values in (("speeds", speeds), ("rotations", rotations)):
+        if isinstance(values, str | int | float):  # a str would be swept letter by letter
+            raise DatasetError(f"{name} must be a list of values, not the one {values!r}")
+    extra = {} if duration is None else {"duration": duration}  # 0 is refused, not dropped
     settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
     for speed in map(parse_speed, speeds):
         settings.append(Setting(f"speed:{speed:g}", "speed", speed, "", {"speed": speed, **extra}))
@@ -174,6 +177,8 @@ def sweep(
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     check_executor(executor)
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise DatasetError("is a file; give the sweep a folder of its own", path=out)
     resolved = out.resolve()
     for folder in (resolved, *resolved.parents):  # nor anywhere inside one
         what = _dresslog_folder(folder)
