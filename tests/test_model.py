@@ -335,6 +335,9 @@ def test_options_the_data_make_meaningless_are_refused_not_recorded():
     longest = max(len(p) for p in phis)
     with pytest.raises(ModelError, match=f"the longest has {longest}"):
         train(phis, forces, window=longest, **kwargs)
+    for window in (1, 0, -5):  # torch's own error, after the data had been decoded
+        with pytest.raises(ModelError, match=f"2 steps or more, not {window}"):
+            train(phis, forces, window=window, **kwargs)
     _, history = train(phis, forces, window=longest - 1, **kwargs)
     assert history.settings.window == longest - 1
 

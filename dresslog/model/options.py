@@ -44,6 +44,8 @@ def check_options(
             "more trials, or keep the last epoch"
         )
     longest = max(lengths, default=0)
+    if window is not None and window < 2:  # as `train --window` says
+        raise ModelError(f"a crop window must be 2 steps or more, not {window}")
     if window is not None and window >= longest:
         raise ModelError(
             f"a crop window of {window} steps is not shorter than any training sequence "
