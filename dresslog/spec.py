@@ -70,19 +70,21 @@ class SimParams(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
-    physics_hz: int = Field(300, description="physics steps per second")
-    record_hz: int = Field(100, description="recorded measurements per second")
-    settle_s: float = Field(1.0, description="time the garment hangs before the motion")
-    wind_s: float = Field(0.3, description="duration of the random perturbing force")
-    wind_accel: float = Field(2.0, description="peak random acceleration per vertex, m/s^2")
-    garment_mass: float = Field(0.25, description="kg")
-    elastic_stiffness: float = 40.0
+    physics_hz: int = Field(300, gt=0, description="physics steps per second")
+    record_hz: int = Field(100, gt=0, description="recorded measurements per second")
+    settle_s: float = Field(1.0, ge=0, description="time the garment hangs before the motion")
+    wind_s: float = Field(0.3, ge=0, description="duration of the random perturbing force")
+    wind_accel: float = Field(2.0, ge=0, description="peak random acceleration per vertex, m/s^2")
+    garment_mass: float = Field(0.25, gt=0, description="kg")
+    elastic_stiffness: float = Field(40.0, gt=0)
     damping_stiffness: float = Field(
-        1.0, description="spring damping; at 0.1 the cloth rings and its limb contacts chatter"
+        1.0,
+        ge=0,
+        description="spring damping; at 0.1 the cloth rings and its limb contacts chatter",
     )
-    bending_stiffness: float = 2.0
-    friction: float = 0.5
-    collision_margin: float = 0.006
+    bending_stiffness: float = Field(2.0, ge=0)
+    friction: float = Field(0.5, ge=0)
+    collision_margin: float = Field(0.006, gt=0)
     contact_spread: int = Field(
         3,
         ge=0,
@@ -91,18 +93,20 @@ class SimParams(BaseModel):
         "(simulator v6 and before)",
     )
     contact_reach: float = Field(
-        0.012, description="cloth samples this close to the limb surface share its force, m"
+        0.012, ge=0, description="cloth samples this close to the limb surface share its force, m"
     )
     grip_clearance: float = Field(
-        0.01, description="the gripper and the garment edge it holds keep this far off the limb, m"
+        0.01,
+        ge=0,
+        description="the gripper and the garment edge it holds keep this far off the limb, m",
     )
     max_grip_lift: float = Field(
-        0.10, description="the gripper stops where keeping clear would lift it more, m"
+        0.10, ge=0, description="the gripper stops where keeping clear would lift it more, m"
     )
     lift_smoothing: float = Field(
-        0.25, description="the gripper spreads a change of its lift rate over this long, s"
+        0.25, ge=0, description="the gripper spreads a change of its lift rate over this long, s"
     )
-    max_limb_force: float = Field(200.0, description="instability guard, N")
+    max_limb_force: float = Field(200.0, gt=0, description="instability guard, N")
 
 
 class TrialSpec(BaseModel):

@@ -420,6 +420,11 @@ def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
     result = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "d")])
     assert result.exit_code == 1 and "invalid duration" in result.output
     assert not (tmp_path / "d").exists()  # no manifest that would pin the bad value
+    for field, value in (("record_hz", 0), ("physics_hz", 0), ("garment_mass", -1)):
+        # a ZeroDivisionError, a traceback from the first worker, a garment that falls up
+        with pytest.raises(DatasetError, match=f"invalid sim.{field}: .* greater than 0"):
+            generate("gown", 2, tmp_path / "d", overrides={"sim": {field: value}})
+        assert not (tmp_path / "d").exists()
 
 
 @pytest.mark.parametrize("holds", ["card.json", "notes.txt", "train/000000.mcap"])
