@@ -151,6 +151,11 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     bounds = json.loads(output)["bounds"]
     assert dataset_bounds(data) == pytest.approx(bounds)  # the same oracles without a model
     assert 0 <= bounds["blur 0.5 cm"] <= bounds["blur 8 cm"] <= 1.0
+    # as eval says it: an unknown split was a ValueError after decoding, an empty one {}
+    with pytest.raises(DatasetError, match="split 'val' is not one of train, test, sweep"):
+        dataset_bounds(data, split="val")
+    with pytest.raises(DatasetError, match="has no sweep trials; it holds train, test trials"):
+        dataset_bounds(data, split="sweep")
 
 
 @pytest.mark.slow

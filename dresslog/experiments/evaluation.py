@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from dresslog.dataset import DatasetArrays, Split, load_dataset, load_manifest
+from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
 from dresslog.errors import DatasetError
 from dresslog.model.evaluate import Scores, evaluate
 from dresslog.model.files import (
@@ -97,17 +97,10 @@ def evaluate_dataset(
     With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
     so the model's ratio can be read against what the data allow.
     """
-    if split not in set(Split):
-        raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
     loaded = load_model(model)
     manifest = load_manifest(data)
     check_data_task(loaded, manifest.task)
-    if not manifest.split(Split(split)):  # said from the manifest, before any decoding
-        held = [s.value for s in Split if manifest.split(s)]
-        hint = f"; it holds {', '.join(held)} trials: pass --split {held[0]}" if held else ""
-        if held == [Split.SWEEP.value]:
-            hint = "; a sweep setting's trials are scored by `dresslog sweep`"
-        raise DatasetError(f"the dataset has no {Split(split)} trials{hint}", path=data)
+    split = _held_split(data, manifest, split)
     arrays = load_dataset(data, workers=workers, progress=progress)
     check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
@@ -118,7 +111,7 @@ def evaluate_dataset(
         task=arrays.task.value,
         model=str(model),
         data=str(data),
-        split=Split(split).value,
+        split=split.value,
         manifest_sha256=arrays.manifest_sha256,
         overall=score_rows(loaded, arrays, rows),
         per_outcome=per_outcome,
@@ -130,8 +123,23 @@ def dataset_bounds(
     data: str | Path, *, split: Split | str = Split.TEST, workers: int | None = None
 ) -> dict[str, float]:
     """The oracle ratios of `dresslog.model.bounds` on one split of `data`, with no model."""
+    split = _held_split(data, load_manifest(data), split)
     arrays = load_dataset(data, workers=workers, progress=False)
     return _bounds(arrays, arrays.rows(split))
+
+
+def _held_split(data: str | Path, manifest: Manifest, split: Split | str) -> Split:
+    """`split` as a Split; refused unless the dataset has trials of it (naming those it
+    has), from the manifest before any decoding."""
+    if split not in set(Split):
+        raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
+    if manifest.split(split := Split(split)):
+        return split
+    held = [s.value for s in Split if manifest.split(s)]
+    hint = f"; it holds {', '.join(held)} trials: pass --split {held[0]}" if held else ""
+    if held == [Split.SWEEP.value]:
+        hint = "; a sweep setting's trials are scored by `dresslog sweep`"
+    raise DatasetError(f"the dataset has no {split} trials{hint}", path=data)
 
 
 def _bounds(arrays: DatasetArrays, rows: np.ndarray) -> dict[str, float]:
