@@ -427,6 +427,29 @@ def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
         assert not (tmp_path / "d").exists()
 
 
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        ({"overrides": {"seed": 5}}, "not seed: each trial's seed is drawn from `seed`"),
+        ({"overrides": {"task": "shorts"}}, "not task: .* generate's own argument"),
+        ({"splits": {"train": -2}}, "train trials must be a whole number >= 0, not -2"),
+        ({"splits": {"val": 2}}, "split 'val' is not one of train, test, sweep"),
+        ({"trials": 2.5}, "--trials must be a whole number, at least 1, not 2.5"),
+        ({"workers": -1}, "--workers must be 1 or more, not -1"),
+    ],
+)
+def test_generate_called_from_a_script_says_what_is_wrong_with_its_arguments(
+    tmp_path: Path, arguments: dict, message: str
+) -> None:
+    """Each was a TypeError, a pydantic or a ValueError traceback, some after making the
+    folder."""
+    call = {"trials": 2, "workers": 1, "recorder": FAKE, **arguments}
+    with pytest.raises(DatasetError, match=message):
+        generate("gown", out=tmp_path / "d", **call)
+    assert not (tmp_path / "d").exists()
+    generate("gown", 1, tmp_path / "numpy", splits={"train": np.int64(1)}, recorder=FAKE)
+
+
 @pytest.mark.parametrize("holds", ["card.json", "notes.txt", "train/000000.mcap"])
 def test_a_folder_holding_something_else_is_refused_and_left_as_it_was(
     tmp_path: Path, holds: str

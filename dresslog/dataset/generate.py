@@ -11,6 +11,7 @@ folder always produces the same data, however often it was interrupted.
 
 from __future__ import annotations
 
+import operator
 import os
 import re
 import signal
@@ -87,12 +88,32 @@ def _check_folder(root: Path) -> None:
 
 
 def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
-    if trials < 1:
-        raise DatasetError(f"--trials must be at least 1, not {trials}")
+    if _whole(trials) is None or trials < 1:
+        raise DatasetError(f"--trials must be a whole number, at least 1, not {trials!r}")
     if not 0 <= test_fraction < 1:
         raise DatasetError(f"test fraction must be in [0, 1), not {test_fraction}")
     n_test = round(trials * test_fraction) if trials > 1 else 0
     return {Split.TRAIN: trials - n_test, Split.TEST: n_test}
+
+
+def _given_counts(splits: Mapping[Split | str, int]) -> dict[Split, int]:
+    """Explicit trial counts per split (a sweep's), each a known split and a count >= 0."""
+    counts = {}
+    for split, count in splits.items():
+        if split not in set(Split):
+            raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
+        if (whole := _whole(count)) is None or whole < 0:
+            raise DatasetError(f"{split} trials must be a whole number >= 0, not {count!r}")
+        counts[Split(split)] = whole
+    return counts
+
+
+def _whole(value: object) -> int | None:
+    """`value` as an int if it is a whole number type (numpy's too), else None."""
+    try:
+        return operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        return None
 
 
 def _shown(value: object) -> str:
@@ -245,12 +266,16 @@ def generate(
     root = Path(out).resolve()
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")
-    if splits is not None:
-        counts = {Split(k): int(v) for k, v in splits.items()}
-    else:
-        counts = _split_counts(trials, test_fraction)
+    if workers is not None and workers < 1:
+        raise DatasetError(f"--workers must be 1 or more, not {workers}")
+    counts = _split_counts(trials, test_fraction) if splits is None else _given_counts(splits)
     workers = workers or os.cpu_count() or 1
     overrides = dict(overrides or {})
+    if fixed_per_trial := sorted({"seed", "task"} & overrides.keys()):
+        raise DatasetError(
+            f"overrides fix spec fields for every trial, not {fixed_per_trial[0]}: each "
+            "trial's seed is drawn from `seed`, and the task is generate's own argument"
+        )
     try:  # a bad override stops here, before a manifest records it
         fixed = TrialSpec.model_validate({"task": task, **overrides})
     except ValidationError as err:
