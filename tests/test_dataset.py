@@ -53,8 +53,10 @@ def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Res
 
 
 def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
-    """The fake recorder at a pace a Ctrl-C can land in the middle of."""
-    time.sleep(0.4)
+    """The fake recorder at a pace a Ctrl-C can land in the middle of: the first slots
+    quickly (slot 1's first seed fails), the rest as slowly as real trials, so that a stop
+    that waits for one shows."""
+    time.sleep(0.4 if int(Path(path).stem) < 3 else 10)
     return fake_record(spec, path, overwrite=overwrite)
 
 
@@ -266,6 +268,7 @@ def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path,
     alone; a batch scheduler's timeout SIGTERMs every process of the job; a closed
     terminal hangs up every process (multiprocessing's resource tracker too)."""
     run = _generation_under_way(tmp_path, 12)
+    stopped = time.monotonic()
     if stop == "ctrl-c":
         os.killpg(run.pid, signal.SIGINT)
     elif stop == "sigterm":
@@ -273,6 +276,9 @@ def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path,
     else:
         os.killpg(run.pid, signal.SIGTERM if stop == "sigterm-group" else signal.SIGHUP)
     assert run.wait(timeout=60) != 0
+    # the trials under way stop too: a kill to the main process alone used to wait for
+    # them and start the next queued one (a scheduler's grace period may be 10 s)
+    assert time.monotonic() - stopped < 5
     assert run.stderr is not None
     said = run.stderr.read().decode()
     assert "KeyboardInterrupt" in said and "BrokenProcessPool" not in said, said[-3000:]

@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
+from multiprocessing.synchronize import Event as EventType
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
@@ -56,27 +57,36 @@ class _Worker:
 
     The trial being recorded stops at once (its temporary file is removed) and queued
     trials are not started; an idle worker stays alive, so the pool never breaks and
-    never has to kill a worker in the middle of a file. A worker whose generation was
-    killed outright (``kill -9``, out of memory) stops the same way and exits: it would
-    otherwise wait for work forever.
+    never has to kill a worker in the middle of a file. A generation stopped by a signal
+    to it alone (``kill PID``) tells its workers through `stopping`, and they stop the
+    same way; one killed outright (``kill -9``, out of memory) cannot, so its workers
+    stop the same way when they see it gone, and exit: they would otherwise wait for
+    work forever.
     """
 
     writing: Path | None = None  # the trial being recorded
     interrupted = False
 
     @classmethod
-    def start(cls) -> None:
+    def start(cls, stopping: EventType) -> None:
         signal.signal(signal.SIGINT, cls._on_interrupt)
         if (number := hangup()) is not None:  # a closed terminal: as Ctrl-C (unless nohup)
             signal.signal(number, cls._on_interrupt)
         signal.signal(signal.SIGTERM, cls._on_terminate)
         unblock_stops()  # one that came while this worker imported is taken now
-        threading.Thread(target=cls._exit_with, args=(os.getppid(),), daemon=True).start()
+        watch = threading.Thread(target=cls._watch, args=(os.getppid(), stopping), daemon=True)
+        watch.start()
 
     @classmethod
-    def _exit_with(cls, parent: int) -> None:
+    def _watch(cls, parent: int, stopping: EventType) -> None:
+        """Interrupt as Ctrl-C when the generation stops (after a kill to it alone, the
+        worker went on with its trial and the next queued) or is gone."""
+        told = False
         while os.getppid() == parent:
-            time.sleep(0.5)
+            if told:
+                time.sleep(0.5)
+            elif (told := stopping.wait(0.5)) and not cls.interrupted:  # not Ctrl-C'd yet
+                os.kill(os.getpid(), signal.SIGINT)
         os.kill(os.getpid(), signal.SIGINT)
         deadline = time.monotonic() + 5.0
         while cls.writing is not None and time.monotonic() < deadline:
@@ -173,8 +183,10 @@ class ProcessExecutor:
         import multiprocessing
 
         _start_resource_tracker()
+        context = multiprocessing.get_context("spawn")
+        self._stopping = context.Event()
         self._pool = ProcessPoolExecutor(
-            workers, mp_context=multiprocessing.get_context("spawn"), initializer=_Worker.start
+            workers, mp_context=context, initializer=_Worker.start, initargs=(self._stopping,)
         )
         self._futures: set[Future[Entry]] = set()
 
@@ -196,6 +208,8 @@ class ProcessExecutor:
         return len(self._futures)
 
     def shutdown(self) -> list[Entry]:
+        if any(not f.done() for f in self._futures):  # stopped: the workers stop too
+            self._stopping.set()
         self._pool.shutdown(wait=True, cancel_futures=True)
         finished = [f for f in self._futures if f.done() and not f.cancelled()]
         self._futures = set()
