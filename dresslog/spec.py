@@ -26,6 +26,8 @@ MAX_DURATION = 3600.0
 #: How far (m) the limb may move from its nominal pose along each axis: the paper's
 #: range is +-0.2 m; a few metres away (a limb the garment never reaches) still simulates.
 MAX_OFFSET = 10.0
+#: The sensor is tared over the last this many seconds of the settling, after the wind.
+TARE_S = 0.1
 
 
 class Task(StrEnum):
@@ -108,6 +110,16 @@ class SimParams(BaseModel):
     )
     max_limb_force: float = Field(200.0, gt=0, description="instability guard, N")
 
+    @model_validator(mode="after")
+    def _tare_after_the_wind(self) -> SimParams:
+        if self.settle_s < self.wind_s + TARE_S:  # a shorter tare was divided as a whole
+            raise ValueError(
+                f"settle_s must leave {TARE_S:g} s after the wind (wind_s {self.wind_s:g}) "
+                f"to tare the sensor with the garment hanging still: {self.wind_s + TARE_S:g} "
+                "or more"
+            )
+        return self
+
 
 class TrialSpec(BaseModel):
     """Everything that determines one simulated dressing trial."""
@@ -115,7 +127,7 @@ class TrialSpec(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     task: Task
-    seed: int = 0
+    seed: int = Field(0, ge=0)
     speed: Annotated[
         float, Field(gt=0, le=1, description="end-effector speed, m/s (dressing: cm/s)")
     ] = 0.125
@@ -128,6 +140,15 @@ class TrialSpec(BaseModel):
         "empty means drawn from the seed",
     )
     sim: SimParams = SimParams()
+
+    @field_validator("control_points")
+    @classmethod
+    def _a_path_within_reach(cls, points: list[Vec3]) -> list[Vec3]:
+        if len(points) == 1:
+            raise ValueError("at least two points for a path (or none, drawn from the seed)")
+        if any(abs(v) > MAX_OFFSET for point in points for v in point):
+            raise ValueError(f"each component within +-{MAX_OFFSET} m of the world origin")
+        return points
 
     @field_validator("limb_offset")
     @classmethod

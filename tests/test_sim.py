@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 from dresslog.errors import SimulationError
 from dresslog.limb import build_limb, limb_sdf
@@ -250,3 +251,21 @@ def test_the_first_random_seeds_include_dressed_and_not_dressed(task: Task) -> N
     finally:
         pool.shutdown(cancel_futures=True)
     assert dressed == {True, False}
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"sim": {"settle_s": 0.05}}, "settle_s must leave 0.1 s after the wind"),
+        ({"sim": {"settle_s": 0.5, "wind_s": 0.6}}, "0.7 or more"),
+        ({"control_points": [(0.6, 0.0, 0.1)]}, "at least two points for a path"),
+        ({"control_points": [(1e16, 0.0, 0.0), (0.0, 0.0, 0.0)]}, "within \\+-10.0 m"),
+        ({"seed": -1}, "seed\n  Input should be greater than or equal to 0"),
+    ],
+)
+def test_a_spec_the_simulator_would_run_wrongly_is_refused(fields: dict, message: str) -> None:
+    """A settle shorter than the tare divided a part-sum as a whole (a short settle_s=0:
+    no tare at all); a wind past the settle blew for the whole trial; one control point or
+    a negative seed was a ValueError in the simulator; a path at 1e16 m a collapsed cloth."""
+    with pytest.raises(ValidationError, match=message):
+        TrialSpec.model_validate({"task": "gown", **fields})
