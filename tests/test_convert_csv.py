@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -450,7 +451,7 @@ def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:
     """ATI's logger writes the sensor's serial number and calibration above the columns."""
     path = _with_velocity(tmp_path / "ati.csv", np.arange(500) / 1000.0)
     preamble = (
-        "Serial Number:,FT12345\nCalibration:,FT12345 US-60-25\nCounts per Force:,1000000\n"
+        "Serial Number:,FT12345\nCalibration:,FT12345 US-60-25\nRDT Sample Rate:,1000\n"
         "Tool Transform,0,0,0,0,0,0\n"  # a row of numbers, but not as wide as the data
     )
     path.write_text(preamble + path.read_text())
@@ -467,8 +468,12 @@ Counts per Unit Torque,{per_torque}
 """
 
 
-def test_ati_counts_are_scaled_by_the_preambles_counts_per_unit(tmp_path: Path) -> None:
-    """ATI's Net F/T demo logs raw counts: read as newtons they are 10^6 too large."""
+@pytest.mark.parametrize("wording", ["Counts per Unit {}", "Counts per {}:", "CountsPer{}"])
+def test_ati_counts_are_scaled_by_the_preambles_counts_per_unit(
+    tmp_path: Path, wording: str
+) -> None:
+    """ATI's Net F/T demo logs raw counts: read as newtons they are 10^6 too large. Its
+    wordings differ (a .cal file's `CountsPerForce`); any but one was read as newtons."""
     t = np.arange(500) / 1000.0
     w = wrench(t)
     names = ["Status (hex)", "RDT Sequence", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "Time"]
@@ -476,7 +481,9 @@ def test_ati_counts_are_scaled_by_the_preambles_counts_per_unit(tmp_path: Path) 
     counts = [np.full_like(t, 0), np.arange(500), *raw.T, t]
     path = write_csv(tmp_path / "ati.csv", names, counts)
     text = path.read_text()
-    path.write_text(ATI_PREAMBLE.format(torque="N-mm", per_torque=1000000) + text)
+    preamble = ATI_PREAMBLE.replace("Counts per Unit Force", wording.format("Force"))
+    preamble = preamble.replace("Counts per Unit Torque", wording.format("Torque"))
+    path.write_text(preamble.format(torque="N-mm", per_torque=1000000) + text)
     motion = write_csv(tmp_path / "v.csv", ["time", "vx", "vy", "vz"], [t, *twist(t)[:, :3].T])
     report = convert(path, tmp_path / "t.mcap", "gown", motion=motion)
     assert "force and torque are counts, scaled by the preamble" in " ".join(report.source["notes"])
@@ -487,7 +494,7 @@ def test_ati_counts_are_scaled_by_the_preambles_counts_per_unit(tmp_path: Path) 
         read_trial(tmp_path / "si.mcap").wrench.values,
         rtol=0, atol=1e-6,
     )  # fmt: skip
-    path.write_text(ATI_PREAMBLE.format(torque="kgf-cm", per_torque=1000) + text)
+    path.write_text(preamble.format(torque="kgf-cm", per_torque=1000) + text)
     with pytest.raises(ConversionError, match=r"torque columns are in counts \('1000' per "):
         convert(path, tmp_path / "u.mcap", "gown", motion=motion)
 
@@ -523,7 +530,7 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
 @pytest.mark.parametrize(
     ("options", "code", "message"),
     [
-        (["--rotate", "0", "0", "0", "0"], 1, "rotation quaternion must be finite and not zero"),
+        (["--rotate", "0", "0", "0", "0"], 1, "a rotation quaternion is 4 finite numbers"),
         (["--tare", "10"], 1, "tare of 10.0 s is longer than the log"),
         (["--tare", "1e-10"], 1, "tare of 1e-10 s is shorter than one 0.01 s step"),
         (["--column", "fq=Fx (N)"], 1, "unknown column role 'fq'"),
@@ -584,3 +591,45 @@ def test_a_log_spanning_more_than_a_trial_is_refused_not_gridded(tmp_path: Path)
     with pytest.raises(ConversionError, match=r"the log spans 1\.7e\+09 s .* more than the 3600 s"):
         convert(path, tmp_path / "t.mcap", "gown")
     assert list(tmp_path.iterdir()) == [path]
+
+
+def test_a_column_given_two_roles_is_refused(tmp_path: Path) -> None:
+    """A typo in an axis swap (fx=Fy, fy=Fy) wrote a trial with one force axis lost."""
+    source = _with_velocity(tmp_path / "s.csv", np.arange(500) / 1000.0)
+    with pytest.raises(ConversionError, match="column 'fy' is given as both fx and fy"):
+        convert(source, tmp_path / "t.mcap", "gown", columns={"fx": "fy", "fy": "fy"})
+    assert not (tmp_path / "t.mcap").exists()
+
+
+def test_a_log_far_beyond_dressing_is_converted_with_a_warning_about_its_units(
+    tmp_path: Path,
+) -> None:
+    """Raw counts or N mm without a unit in the header were read as SI without a word."""
+    t = np.arange(500) / 1000.0
+    names = ["time", "fx", "fy", "fz", "tx", "ty", "tz", "vx", "vy", "vz"]
+    counts = write_csv(tmp_path / "c.csv", names, [t, *(wrench(t) * 1e6).T, *twist(t)[:, :3].T])
+    with pytest.warns(ConversionWarning, match=r"force up to .*e\+06 N, torque up to .* N m, "):
+        report = convert(counts, tmp_path / "t.mcap", "gown")
+    assert "are the columns in SI units?" in report.warnings[-1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a dressing robot's log: nothing to say
+        convert(_with_velocity(tmp_path / "s.csv", t), tmp_path / "s.mcap", "gown")
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"rotate": (0, 0, 1)}, "a rotation quaternion is 4 finite numbers"),
+        ({"sensor_rotation": (0, 0, 0, 1, 0), "wrench_frame": "pose"}, "4 finite numbers"),
+        ({"tare_s": None}, "tare of None s"),
+        ({"max_gap_s": float("nan")}, "max_gap_s nan: give a duration above 0 s"),
+        ({"max_gap_s": 0}, "max_gap_s 0: give a duration above 0 s"),
+    ],
+)
+def test_convert_called_from_a_script_says_what_is_wrong_with_its_options(
+    tmp_path: Path, options: dict, message: str
+) -> None:
+    """Each was a ValueError or TypeError traceback, or a warning per sample."""
+    with pytest.raises(ConversionError, match=message):
+        convert(ati_style(tmp_path), tmp_path / "t.mcap", "gown", **options)
+    assert not (tmp_path / "t.mcap").exists()

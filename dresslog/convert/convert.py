@@ -342,8 +342,8 @@ def convert(
         raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
     check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
     for quat in (rotate, sensor_rotation):
-        if quat is not None and not (np.isfinite(quat).all() and np.linalg.norm(quat) > 0):
-            raise ConversionError("rotation quaternion must be finite and not zero")
+        if quat is not None and not (_finite(quat, 4) and np.linalg.norm(quat) > 0):
+            raise ConversionError("a rotation quaternion is 4 finite numbers, x y z w, not all 0")
     mount = [
         n for n, v in (("rotation", sensor_rotation), ("offset", sensor_offset)) if v is not None
     ]
@@ -352,10 +352,12 @@ def convert(
             f"--sensor-{mount[0]} places a sensor on the gripper, with --wrench-frame pose; a "
             "sensor fixed in the world is turned with --rotate"
         )
-    if sensor_offset is not None and not np.isfinite(sensor_offset).all():
-        raise ConversionError("sensor offset must be finite (metres)")
-    if not (np.isfinite(tare_s) and tare_s >= 0):
+    if sensor_offset is not None and not _finite(sensor_offset, 3):
+        raise ConversionError("sensor offset must be 3 finite numbers, x y z (metres)")
+    if not (_finite(tare_s, None) and tare_s >= 0):
         raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
+    if not (_finite(max_gap_s, None) and max_gap_s > 0):
+        raise ConversionError(f"max_gap_s {max_gap_s}: give a duration above 0 s")
     if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
         raise ConversionError(
             f"clock {clock!r} / wrench frame {wrench_frame!r}: use header or log / world or pose"
@@ -393,6 +395,9 @@ def convert(
     wrench, twist, pose, processing = _resample_all(
         source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset
     )
+    if message := _beyond_dressing(wrench, twist):
+        warnings.warn(message, ConversionWarning, stacklevel=2)
+        found.append(message)
 
     info = _source_info(source, grid, processing, found, motion)
     metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
@@ -410,6 +415,41 @@ def convert(
         elapsed_s=time.perf_counter() - started,
         source=info,
         warnings=found,
+    )
+
+
+def _finite(value: object, count: int | None) -> bool:
+    """`value` is `count` finite numbers (one number if `count` is None)."""
+    try:
+        numbers = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    shape = () if count is None else (count,)
+    return numbers.shape == shape and bool(np.isfinite(numbers).all())
+
+
+#: Beyond these a log is not of a robot dressing a person (forces of a few newtons, speeds
+#: of centimetres per second), but most likely of another unit read as SI.
+PLAUSIBLE = {"force": (1000.0, "N"), "torque": (100.0, "N m"), "speed": (5.0, "m/s")}
+
+
+def _beyond_dressing(wrench: np.ndarray, twist: np.ndarray) -> str | None:
+    """A warning when the converted signal is far beyond any dressing robot's."""
+    peaks = {
+        "force": np.linalg.norm(wrench[:, :3], axis=1).max(),
+        "torque": np.linalg.norm(wrench[:, 3:], axis=1).max(),
+        "speed": np.linalg.norm(twist[:, :3], axis=1).max(),
+    }
+    beyond = [
+        f"{name} up to {peak:.3g} {PLAUSIBLE[name][1]}"
+        for name, peak in peaks.items()
+        if peak > PLAUSIBLE[name][0]
+    ]
+    if not beyond:
+        return None
+    return (
+        f"{', '.join(beyond)}, far beyond a robot dressing a person: are the columns in SI "
+        "units? (raw sensor counts, N mm or mm/s read as N, N m and m/s?)"
     )
 
 

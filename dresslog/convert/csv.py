@@ -181,9 +181,15 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
     It always gives both; a preamble that gives one, or that cannot be read, is refused.
     """
     preamble, above = _preamble(path, header_line)
-    given = [q for q in ("force", "torque") if f"counts per unit {q}" in preamble]
+    # `Counts per Unit Force`, `Counts per Force`, a .cal file's `CountsPerForce`; `Force
+    # Units`, `ForceUnits`: the keys' letters alone
+    keyed = {re.sub(r"[^a-z]", "", key): value for key, value in preamble.items()}
+    counts_per = {
+        q: keyed.get(f"countsperunit{q}", keyed.get(f"countsper{q}")) for q in ("force", "torque")
+    }
+    given = [q for q in ("force", "torque") if counts_per[q] is not None]
     if not given:
-        if "counts per unit" in above.lower():
+        if re.search(r"counts\s*per", above, re.IGNORECASE):
             raise ConversionError(
                 "the preamble mentions counts per unit, but not as `Counts per Unit Force,N` "
                 "lines dresslog reads; give the values in N and N m",
@@ -199,8 +205,8 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
         )
     scales = {}
     for group, quantity in (("f", "force"), ("t", "torque")):
-        counts = preamble[f"counts per unit {quantity}"]
-        unit = preamble.get(f"{quantity} units", "")
+        counts = counts_per[quantity] or ""
+        unit = keyed.get(f"{quantity}units", "")
         per = float(counts) if _is_number(counts) else math.nan
         factor = _si_factor(unit, group)
         if factor is None or not (math.isfinite(per) and per > 0):
@@ -319,6 +325,13 @@ def assign_columns(
             )
         if name in names:  # a mapping may name a column of the other file
             found[role] = names.index(name)
+    for role, index in found.items():  # a typo in an axis swap would lose an axis unseen
+        if (twice := [r for r, i in found.items() if i == index]) != [role]:
+            raise ConversionError(
+                f"column {names[index]!r} is given as both {twice[0]} and {twice[1]}; "
+                "map each role to a column of its own",
+                path=path,
+            )
     taken = set(found.values())
     ignored = []
     # a sensor's header stamp beats a receive time (rostopic's `%time`) when both are there
