@@ -321,3 +321,40 @@ def test_bad_input_is_one_line_and_writes_nothing(
     assert len(lines) == 1 and lines[0].startswith("Error: "), result.output
     assert message in lines[0]
     assert list(out.iterdir()) == []
+
+
+def test_the_engine_refuses_a_model_of_another_limb_at_the_start(make_trial, tmp_path) -> None:
+    """A shorts trial through a gown model was numpy's broadcast error at the first step."""
+    from dresslog.errors import ModelError
+
+    shorts = read_trial(make_trial(Task.SHORTS, STEPS)[0])
+    estimator = load_model(save_random_model(tmp_path)).estimator()
+    with pytest.raises(ModelError, match="model estimates 300 limb points but the trial has 400"):
+        run(trial_context(shorts), trial_steps(shorts), estimator, [MetricsSink()])
+
+
+def test_a_rerun_sink_used_again_scales_its_colours_by_the_new_trial(gown, tmp_path) -> None:
+    """It kept the first trial's scale, in the heat colours and the text that states it."""
+    trial_path, model_path = gown
+    trial = read_trial(trial_path)
+    scaled = read_trial(trial_path)
+    assert trial.force_map is not None and scaled.force_map is not None
+    scaled.force_map.forces[:] *= 5  # the same trial, pressing five times as hard
+    sink = RerunSink(tmp_path / "out.rrd")
+    scales = []
+    for one in (trial, scaled, trial):
+        run(trial_context(one), trial_steps(one), load_model(model_path).estimator(), [sink])
+        scales.append(sink.vmax)
+    assert scales[0] == scales[2] and scales[1] == pytest.approx(5 * scales[0], rel=1e-5)
+
+
+def test_an_estimate_copy_needs_a_model_that_runs(tmp_path: Path) -> None:
+    """With none it was a copy with no estimate, which the same call then refused."""
+    from dresslog.sim.record import record_trial
+    from dresslog.spec import TrialSpec
+
+    spec = {"task": "gown", "seed": 1, "duration": 0.3, "sim": {"record_hz": 50}}
+    record_trial(TrialSpec.model_validate(spec), trial := tmp_path / "hz50.mcap")
+    with pytest.raises(TrialFormatError, match="is at 50 Hz"):
+        replay_file(trial, require_model=False, mcap=tmp_path / "copy.mcap")
+    assert not (tmp_path / "copy.mcap").exists()

@@ -32,6 +32,9 @@ class Estimator(Protocol):
     comes back (idempotent on an estimate that already has it).
     """
 
+    #: N, the limb points it estimates: a trial of another limb is refused at the start
+    n_points: int
+
     def reset(self) -> None: ...
 
     def step(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
@@ -107,6 +110,7 @@ class Replay:
         context = replace(context, has_estimate=self.estimator is not None)
         self.context = context
         if self.estimator is not None:
+            check_points(context, self.estimator.n_points)  # numpy's broadcast error, else
             self.estimator.reset()
         try:
             for sink in self.sinks:

@@ -103,8 +103,9 @@ def replay_file(
     t0 = clock()
     task = trial.metadata.task
     n_points = len(trial.limb_points) if trial.limb_points is not None else None
-    # a trial without ground truth (a converted log) has nothing to show but an estimate
-    need_model = require_model or trial.force_map is None
+    # a trial without ground truth (a converted log) has nothing to show but an estimate,
+    # and an estimate copy (`mcap`) nothing to copy but one
+    need_model = require_model or trial.force_map is None or mcap is not None
     loaded = resolve_model(model, task, n_points, required=need_model)
     if loaded is not None and (problem := step_rate_problem(trial, Path(trial_path))):
         if need_model:

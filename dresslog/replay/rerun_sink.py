@@ -81,6 +81,7 @@ class RerunSink:
         self.recording = recording
         self.flush_every = flush_every if recording is not None else None
         self.vmax = vmax if vmax is not None or recording is None else FIXED_VMAX
+        self._asked_vmax = self.vmax  # None: each trial's own, set as it closes
         self.context: TrialContext | None = None
         self._buf = _Buffer()
         self._tmp: Path | None = None
@@ -90,6 +91,7 @@ class RerunSink:
     # -- sink protocol -----------------------------------------------------------
     def open(self, context: TrialContext) -> None:
         self.context = context
+        self.vmax = self._asked_vmax  # a second trial through the sink gets its own scale
         self._edges = _edges(context.garment_triangles)
         self._buf = _Buffer()
         self._path_so_far = []
