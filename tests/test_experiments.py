@@ -159,6 +159,24 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
 
 
 @pytest.mark.slow
+def test_training_on_trials_that_never_touch_the_limb_is_warned_about(
+    data: Path, tmp_path: Path
+) -> None:
+    """Short trials, the natural first try, end before the garment reaches the arm: the
+    model learnt to estimate nothing, and only `eval --bounds` said why."""
+    away = tmp_path / "away"
+    generate("gown", 2, away, workers=1, overrides={"duration": 0.3, "limb_offset": (0, 5, 0)})
+    tiny = ["--epochs", "1", "--hidden", "4", "--layers", "1", "-q"]
+    for folder, warned in ((away, True), (data, False)):
+        args = ["train", str(folder), "-o", str(tmp_path / f"m-{folder.name}"), *tiny]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 0, result.output
+        said = "Warning: no training sequence carries force on the limb" in result.stderr
+        assert said is warned, result.stderr
+        assert ("generate longer trials (--duration)" in result.stderr) is warned
+
+
+@pytest.mark.slow
 def test_an_incomplete_dataset_is_used_with_a_warning(
     model: Path, data: Path, tmp_path: Path
 ) -> None:

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Literal
 
 from dresslog.dataset import Split, load_dataset, load_manifest
-from dresslog.errors import DatasetError
+from dresslog.errors import DatasetError, DresslogWarning
 from dresslog.io.files import check_name_fits, exclusive, temporary_path
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import (
@@ -61,6 +62,14 @@ def train_dataset(
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
         arrays = load_dataset(data, workers=workers, progress=progress)
         rows = arrays.rows(Split.TRAIN)
+        if not any(arrays.forces[row].any() for row in rows):  # trials too short to touch
+            warnings.warn(
+                f"no training sequence carries force on the limb (outcomes: "
+                f"{', '.join(sorted(set(arrays.outcomes[rows].tolist())))}), so the model can "
+                "only learn to estimate none; generate longer trials (--duration)",
+                DresslogWarning,
+                stacklevel=2,
+            )
         from dresslog.model.files import save_model
         from dresslog.model.train import make_card, train  # torch once the data checks out
 
