@@ -19,6 +19,7 @@ from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.summary import format_summary, summarize
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
+from tests.conftest import SAMPLES
 from tests.convert_signals import (
     YAW_RATE,
     pose,
@@ -450,6 +451,10 @@ def test_a_truncated_bag_is_refused_with_the_tool_that_may_repair_it(
     with pytest.raises(ConversionError, match=r"cannot read bag: .*`rosbag reindex` may repair"):
         convert(cut, tmp_path / "out.mcap", "gown")
     assert not (tmp_path / "out.mcap").exists()
+    bare = tmp_path / "cut.mcap"  # a ROS 2 MCAP file without its bag folder: not reindex's
+    bare.write_bytes((SAMPLES / "gown.mcap").read_bytes()[:300_000])
+    with pytest.raises(ConversionError, match=r"`mcap recover` may repair it"):
+        convert(bare, tmp_path / "out.mcap", "gown")
 
 
 def test_a_ros2_bag_with_broken_metadata_is_one_line(tmp_path: Path) -> None:

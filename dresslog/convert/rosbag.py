@@ -249,7 +249,8 @@ def read_bag(
                     times.append(t_ns)
                     payloads.append(raw)
     except errors as err:
-        tool = "rosbag reindex" if path.suffix == ".bag" else "ros2 bag reindex"
+        tools = {".bag": "rosbag reindex", ".mcap": "mcap recover"}  # else a ROS 2 bag folder
+        tool = tools.get(path.suffix, "ros2 bag reindex") if path.is_file() else "ros2 bag reindex"
         reason = " ".join(str(err).split())  # a YAML error draws a caret under the line
         raise ConversionError(
             f"cannot read bag: {reason}; if its recording was cut short, `{tool}` may repair it",

@@ -147,8 +147,9 @@ class TrialReader:
                     complete = True
                     break
         except (McapError, ValueError, EOFError, OverflowError, struct.error, ZstdError) as err:
+            detail = f"{type(err).__name__}: {err}" if str(err) else type(err).__name__
             raise TrialFormatError(
-                f"MCAP file is damaged or truncated ({type(err).__name__}: {err}); "
+                f"MCAP file is damaged or truncated ({detail}); "
                 "re-record it, or salvage it with `mcap recover`",
                 path=self.path,
             ) from None
