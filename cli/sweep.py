@@ -10,14 +10,29 @@ from .common import reports_errors
 from .generate import MAX_TRIALS
 
 
-def _items(values: tuple[str, ...]) -> list[str]:
-    return [v.strip() for value in values for v in value.split(",") if v.strip()]
+def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> list[str]:
+    """The comma-separated values, each of the form the library reads (else exit 2)."""
+    from dresslog.errors import DatasetError
+    from dresslog.experiments.sweeps import parse_rotation, parse_speed
+
+    items = [v.strip() for value in values for v in value.split(",") if v.strip()]
+    parse = parse_speed if param.name == "speeds" else parse_rotation
+    for item in items:
+        try:
+            parse(item)
+        except DatasetError as err:
+            raise click.BadParameter(err.message) from None
+    return items
 
 
 @click.command("sweep")
 @click.argument("model", type=click.Path())
-@click.option("--speeds", multiple=True, help="End-effector speeds, m/s (comma-separated).")
-@click.option("--rotations", multiple=True, help="Limb rotations AXIS:DEGREES, e.g. y:-15,z:10.")
+@click.option(
+    "--speeds", multiple=True, callback=_items, help="End-effector speeds, m/s (comma-separated)."
+)
+@click.option(
+    "--rotations", multiple=True, callback=_items, help="Limb rotations AXIS:DEGREES: y:-15,z:10."
+)
 @click.option("--out", "-o", type=click.Path(file_okay=False), help="[./MODEL-sweep]")
 @click.option(
     "--sequences", "-n", type=click.IntRange(1, MAX_TRIALS), default=128, show_default=True
@@ -30,8 +45,8 @@ def _items(values: tuple[str, ...]) -> list[str]:
 @reports_errors
 def sweep(
     model: str,
-    speeds: tuple[str, ...],
-    rotations: tuple[str, ...],
+    speeds: list[str],
+    rotations: list[str],
     out: str | None,
     sequences: int,
     quiet: bool,
@@ -45,7 +60,7 @@ def sweep(
         raise click.UsageError("give --speeds, --rotations or both")
     out = out or str(default_sweep_folder(model))
     report = run_sweep(
-        model, out, speeds=_items(speeds), rotations=_items(rotations), n=sequences,
+        model, out, speeds=speeds, rotations=rotations, n=sequences,
         progress=not quiet, **options,
     )  # fmt: skip
     click.echo(report.table())

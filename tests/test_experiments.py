@@ -337,7 +337,6 @@ def test_a_sweep_called_from_a_script_says_what_is_wrong_with_its_arguments(
 @pytest.mark.parametrize(
     ("option", "value", "message"),
     [
-        ("--rotations", "q:5", "is not AXIS:DEGREES"),
         ("--rotations", "z:10,z:999", "rot:z:999: invalid limb_rotation.degrees"),
         ("--speeds", "0.2,-1", "speed:-1: invalid speed"),
         ("--rotations", "z:10,y:88", "rot:y:88: the fist lies inside the rest of the arm"),
@@ -544,7 +543,9 @@ def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
     ("options", "code", "message"),
     [
         ([], 2, "Error: give --speeds, --rotations or both"),
-        (["--speeds", "fast"], 1, "speed 'fast' is not a number"),
+        # malformed values are usage errors, as record's --rotation q 5 is; they were exit 1
+        (["--speeds", "0.2,fast"], 2, "Invalid value for '--speeds': speed 'fast' is not a"),
+        (["--rotations", "q:5"], 2, "Invalid value for '--rotations': rotation 'q:5' is not"),
     ],
 )
 def test_sweep_without_a_setting_or_with_a_bad_speed_is_refused(
