@@ -12,6 +12,7 @@ import numpy as np
 
 from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
 from dresslog.errors import DatasetError
+from dresslog.model.bounds import describe_oracle
 from dresslog.model.evaluate import Scores, evaluate
 from dresslog.model.files import (
     LoadedModel,
@@ -56,8 +57,13 @@ class EvalReport:
             f"total {self.overall.ratio_true_shape:.3f}"
         )
         if self.bounds:
-            lines.append("oracle ratios on the same sequences (the data's limits):")
-            lines += [f"  {name:<28}{value:>8.3f}" for name, value in self.bounds.items()]
+            lines.append(
+                "oracle ratios on the same sequences (estimates handed part of the truth):"
+            )
+            lines += [
+                f"  {name:<22}{value:>7.3f}  {describe_oracle(name)}"
+                for name, value in self.bounds.items()
+            ]
         elif self.bounds is not None:
             lines.append("oracle ratios: none, no force on the limb in these sequences")
         return "\n".join(lines)

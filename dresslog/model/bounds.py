@@ -87,6 +87,17 @@ def oracle_ratios(
     return out
 
 
+def describe_oracle(name: str) -> str:
+    """What the oracle `name` (a key of `oracle_ratios`) is handed, in a few words."""
+    if name.startswith("blur "):
+        return f"every force exact, placed within {name.removeprefix('blur ')}"
+    return {
+        "total x mean profile": "each step's exact total, spread as the training maps",
+        "total x own profile": "each step's exact total, spread as its sequence's mean",
+        "3-step flicker": "the truth's own 3-step mean: noise no causal model follows",
+    }.get(name, "")
+
+
 def error_split(truth: np.ndarray, estimate: np.ndarray) -> tuple[float, float]:
     """RMSE of the estimate at the true totals, and of the true shape at the estimated totals."""
     truth, estimate = np.asarray(truth, np.float64), np.asarray(estimate, np.float64)
