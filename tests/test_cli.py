@@ -47,7 +47,7 @@ def test_info_reports_task_steps_channels_and_spec(make_trial) -> None:
     result = CliRunner().invoke(main, ["info", str(path)])
     assert result.exit_code == 0, result.output
     assert "task      gown" in result.output
-    assert "steps     120 over 1.19 s at 100 Hz" in result.output
+    assert "steps     120 over 1.20 s at 100 Hz" in result.output  # 120 steps of 10 ms
     assert "/limb/force_map" in result.output and "ground truth yes" in result.output
     assert "seed 11" in result.output
 

@@ -456,7 +456,8 @@ def test_a_preamble_above_the_header_is_passed_over(tmp_path: Path) -> None:
     )
     path.write_text(preamble + path.read_text())
     report = convert(path, tmp_path / "t.mcap", "gown")
-    assert report.steps == 49 and "time column 'time' read as s" in report.source["notes"][0]
+    assert report.steps == 49 and report.duration_s == 0.49  # 49 steps of 10 ms
+    assert "time column 'time' read as s" in report.source["notes"][0]
 
 
 ATI_PREAMBLE = """Start Time,11/14/2023 22:13:20

@@ -45,8 +45,9 @@ def summarize(path: str | Path) -> TrialSummary:
         reader.read()
         t_ns = reader.measurements.t_ns
         steps = len(t_ns)
-        duration = (t_ns[-1] - t_ns[0]) / 1e9 if steps > 1 else 0.0
         rate = median_rate(t_ns)
+        # each step stands for its interval: 700 steps at 100 Hz are 7 s, not 6.99
+        duration = (t_ns[-1] - t_ns[0]) / 1e9 + 1 / rate if steps > 1 else 0.0
         limb = reader.limb_points
         return TrialSummary(
             path=str(path),
