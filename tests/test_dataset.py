@@ -163,8 +163,17 @@ def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
     generate("gown", 2, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
     with pytest.raises(DatasetError, match="task gown, not shorts"):
         generate("shorts", 2, tmp_path, workers=1, recorder=FAKE)
-    with pytest.raises(DatasetError, match=r"fixed spec fields none, not duration=0\.5"):
+    with pytest.raises(
+        DatasetError, match=r"fields none fixed \(no --duration\), not duration=0\.5"
+    ):
         generate("gown", 2, tmp_path, workers=1, overrides={"duration": 0.5}, recorder=FAKE)
+    with pytest.raises(
+        DatasetError, match=r"fields duration=0\.5, not none fixed \(no --duration\)"
+    ):
+        generate(
+            "gown", 2, tmp_path / "short", workers=1, overrides={"duration": 0.5}, recorder=FAKE
+        )
+        generate("gown", 2, tmp_path / "short", workers=1, recorder=FAKE)
     fixed = tmp_path / "fixed"
     generate("gown", 1, fixed, workers=1, overrides={"speed": 0.2, "duration": 1}, recorder=FAKE)
     same = {"duration": 1.0, "speed": 0.2}  # other order, 1.0 for 1: the same request

@@ -118,9 +118,9 @@ def _whole(value: object) -> int | None:
 
 def _shown(value: object) -> str:
     """A request's value for a message; spec fields fixed for every trial as an option-like
-    list: duration=1.0, or none."""
+    list: duration=1.0, or "none fixed (no --duration)"."""
     if isinstance(value, Mapping):
-        return ", ".join(f"{k}={v}" for k, v in value.items()) or "none"
+        return ", ".join(f"{k}={v}" for k, v in value.items()) or "none fixed (no --duration)"
     return str(value)
 
 
