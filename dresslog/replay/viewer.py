@@ -337,9 +337,10 @@ def view_file(
         raise no_display(
             "serve it to a browser with --web, or write the recording with --save OUT.rrd", path
         )
-    with tempfile.TemporaryDirectory(prefix="dresslog-view-") as tmp:
+    with contextlib.ExitStack() as stack:
         rrd = path
-        if not is_rrd(path, model):
+        if not is_rrd(path, model):  # a recording is served as it is: no folder for it
+            tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="dresslog-view-"))
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model))
         web_port = web_port or _free_port(9090)
