@@ -225,6 +225,12 @@ def test_two_wrench_topics_need_a_choice(tmp_path: Path) -> None:
     bad(tmp_path, topics, r"2 WrenchStamped topics \(/ft_raw, /ft_sensor/wrench\).*--wrench-topic")
     report = convert(tmp_path / "log.bag", tmp_path / "ok.mcap", "gown", wrench_topic="/ft_raw")
     assert report.source["streams"]["wrench"]["topic"] == "/ft_raw"
+    kind, stamps, values = topics["/ft_raw"]
+    topics["/ft_raw"] = (kind, stamps[:0], values[:0])  # advertised, never published: no rival
+    for layout, name in (("ros1", "empty.bag"), ("sqlite3", "empty")):
+        bag = write_bag(tmp_path / name, topics, layout)
+        report = convert(bag, tmp_path / f"{layout}.mcap", "gown")
+        assert report.source["streams"]["wrench"]["topic"] == "/ft_sensor/wrench"
 
 
 def test_a_topic_of_the_wrong_type_is_refused(tmp_path: Path) -> None:

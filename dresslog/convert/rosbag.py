@@ -11,6 +11,7 @@ uint32 seq in the header, no encapsulation, no alignment) by `ros1_dtype`.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -154,7 +155,10 @@ def _ros1_messages(reader: Any, connections: list) -> dict[str, tuple[list[int],
 
 
 def choose_topics(
-    types: dict[str, str], wanted: dict[str, str | None], path: Path
+    types: dict[str, str],
+    wanted: dict[str, str | None],
+    path: Path,
+    empty: frozenset[str] = frozenset(),
 ) -> tuple[dict[str, str], list[str]]:
     """Topic per kind: the one asked for, or the only candidate; errors list the candidates.
 
@@ -162,8 +166,8 @@ def choose_topics(
     there is no twist, whether or not a pose topic was named). When a twist is found
     and the pose is ambiguous, the pose is left out with a note.
     """
-    candidates = {
-        kind: sorted(t for t, m in types.items() if m == msgtype)
+    candidates = {  # a topic with no messages has nothing to convert: no rival
+        kind: sorted(t for t, m in types.items() if m == msgtype and t not in empty)
         for kind, msgtype in MESSAGE_TYPES.items()
     }
     listing = ", ".join(f"{t} ({m.split('/')[-1]})" for t, m in sorted(types.items())) or "none"
@@ -236,7 +240,11 @@ def read_bag(
             types = {c.topic: c.msgtype for c in reader.connections}  # pkg/msg/Type, ROS 1 too
             if not types or reader.message_count == 0:
                 raise ConversionError("bag has no messages", path=path)
-            chosen, notes = choose_topics(types, wanted, path)
+            counts = Counter[str]()
+            for connection in reader.connections:
+                counts[connection.topic] += connection.msgcount
+            empty = frozenset(t for t in types if not counts[t])
+            chosen, notes = choose_topics(types, wanted, path, empty)
             topics = set(chosen.values())
             connections = [c for c in reader.connections if c.topic in topics]
             fast = _ros1_messages(reader.readers[0], connections) if ros1 else None
