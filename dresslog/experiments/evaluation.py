@@ -103,10 +103,11 @@ def evaluate_dataset(
     With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
     so the model's ratio can be read against what the data allow.
     """
+    split = _as_split(split)  # before anything is loaded
     loaded = load_model(model)
     manifest = load_manifest(data)
     check_data_task(loaded, manifest.task)
-    split = _held_split(data, manifest, split)
+    _check_held(data, manifest, split)
     arrays = load_dataset(data, workers=workers, progress=progress)
     check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
@@ -129,18 +130,23 @@ def dataset_bounds(
     data: str | Path, *, split: Split | str = Split.TEST, workers: int | None = None
 ) -> dict[str, float]:
     """The oracle ratios of `dresslog.model.bounds` on one split of `data`, with no model."""
-    split = _held_split(data, load_manifest(data), split)
+    split = _as_split(split)
+    _check_held(data, load_manifest(data), split)
     arrays = load_dataset(data, workers=workers, progress=False)
     return _bounds(arrays, arrays.rows(split))
 
 
-def _held_split(data: str | Path, manifest: Manifest, split: Split | str) -> Split:
-    """`split` as a Split; refused unless the dataset has trials of it (naming those it
-    has), from the manifest before any decoding."""
+def _as_split(split: Split | str) -> Split:
     if split not in set(Split):
         raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
-    if manifest.split(split := Split(split)):
-        return split
+    return Split(split)
+
+
+def _check_held(data: str | Path, manifest: Manifest, split: Split) -> None:
+    """Refuse a split the dataset has no trials of, naming those it has, from the manifest
+    before any decoding."""
+    if manifest.split(split):
+        return
     held = [s.value for s in Split if manifest.split(s)]
     hint = f"; it holds {', '.join(held)} trials: pass --split {held[0]}" if held else ""
     if held == [Split.SWEEP.value]:
