@@ -10,8 +10,8 @@ import shutil
 import signal
 import subprocess
 import sys
-import threading
 import time
+from multiprocessing.synchronize import Event
 from pathlib import Path
 
 import numpy as np
@@ -526,14 +526,14 @@ def test_a_dataset_at_another_rate_than_the_models_read_is_refused(
     assert not (copy / ".cache").exists()  # refused from the manifest, before any decoding
 
 
-def _worker_starting(queue: multiprocessing.Queue, imported: threading.Event) -> None:
+def _worker_starting(queue: multiprocessing.Queue, imported: Event, stopping: Event) -> None:
     """A generate worker whose Ctrl-C comes before its imports are done."""
     from dresslog.dataset.executors import _Worker
 
     blocked = signal.pthread_sigmask(signal.SIG_BLOCK, [])
     queue.put(sorted(int(s) for s in blocked))
     imported.wait(timeout=60)  # the parent signals meanwhile
-    _Worker.start()
+    _Worker.start(stopping)
     queue.put(_Worker.interrupted)
 
 
@@ -546,9 +546,9 @@ def test_a_stop_while_workers_start_is_deferred_not_printed_nor_lost() -> None:
     from dresslog.stops import deferred_in_children
 
     context = multiprocessing.get_context("spawn")
-    queue, imported = context.Queue(), context.Event()
+    queue, imported, stopping = context.Queue(), context.Event(), context.Event()
     with pytest.raises(KeyboardInterrupt), deferred_in_children():
-        worker = context.Process(target=_worker_starting, args=(queue, imported))
+        worker = context.Process(target=_worker_starting, args=(queue, imported, stopping))
         worker.start()
         os.kill(os.getpid(), signal.SIGINT)  # the terminal's Ctrl-C, to us
         time.sleep(0.1)  # nothing raised here: it waits for the block's end
