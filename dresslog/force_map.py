@@ -17,6 +17,8 @@ class ForceDistributor:
     """Shares contacts among the k nearest of fixed limb points (N, 3), norms computed once."""
 
     def __init__(self, limb_points: np.ndarray, k: int = 5) -> None:
+        if k < 1:
+            raise ValueError(f"k must be 1 or more (the paper's is 5), not {k}")
         self.limb_points = limb_points
         self.k = min(k, len(limb_points))
         self._sq = np.sum(limb_points**2, axis=1)[None, :]
@@ -39,6 +41,11 @@ class ForceDistributor:
         n, k, b = len(self.limb_points), self.k, len(counts)
         positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
         magnitudes = np.asarray(magnitudes, dtype=np.float64).reshape(-1)
+        if len(magnitudes) != len(positions) or counts.sum() != len(positions):
+            raise ValueError(  # numpy would broadcast one magnitude over every contact
+                f"{len(positions)} positions, {len(magnitudes)} magnitudes and counts "
+                f"summing to {counts.sum()}: give one magnitude per contact"
+            )
         if len(positions) == 0:
             return np.zeros((b, n), dtype=np.float32)
         cross = np.empty((len(positions), n))

@@ -129,3 +129,12 @@ def test_spread_of_several_steps_is_each_steps_spread_bit_for_bit() -> None:
         p, g = spreader(limb, cloth, nodes[j], mags[j])
         assert pos[at == j].tobytes() == p.tobytes() and f[at == j].tobytes() == g.tobytes()
     assert list(at) == sorted(at)
+
+
+def test_a_distributor_refuses_what_it_cannot_share() -> None:
+    """k = 0 was a ZeroDivisionError; one magnitude for two contacts was broadcast (2 N)."""
+    points = np.eye(3)
+    with pytest.raises(ValueError, match="k must be 1 or more"):
+        ForceDistributor(points, 0)
+    with pytest.raises(ValueError, match="2 positions, 1 magnitudes"):
+        ForceDistributor(points)(points[:2], np.array([1.0]))
