@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+from ctypes import c_bool
 from multiprocessing.synchronize import Event
 from pathlib import Path
 
@@ -526,7 +527,7 @@ def test_a_dataset_at_another_rate_than_the_models_read_is_refused(
     assert not (copy / ".cache").exists()  # refused from the manifest, before any decoding
 
 
-def _worker_starting(queue: multiprocessing.Queue, imported: Event, stopping: Event) -> None:
+def _worker_starting(queue: multiprocessing.Queue, imported: Event, stopping: c_bool) -> None:
     """A generate worker whose Ctrl-C comes before its imports are done."""
     from dresslog.dataset.executors import _Worker
 
@@ -546,7 +547,7 @@ def test_a_stop_while_workers_start_is_deferred_not_printed_nor_lost() -> None:
     from dresslog.stops import deferred_in_children
 
     context = multiprocessing.get_context("spawn")
-    queue, imported, stopping = context.Queue(), context.Event(), context.Event()
+    queue, imported, stopping = context.Queue(), context.Event(), context.RawValue(c_bool)
     with pytest.raises(KeyboardInterrupt), deferred_in_children():
         worker = context.Process(target=_worker_starting, args=(queue, imported, stopping))
         worker.start()

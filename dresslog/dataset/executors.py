@@ -8,6 +8,7 @@ temporary file and keeps the pool whole.
 
 from __future__ import annotations
 
+import ctypes
 import importlib
 import os
 import signal
@@ -16,7 +17,6 @@ import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from multiprocessing.synchronize import Event as EventType
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
@@ -68,7 +68,7 @@ class _Worker:
     interrupted = False
 
     @classmethod
-    def start(cls, stopping: EventType) -> None:
+    def start(cls, stopping: ctypes.c_bool) -> None:
         signal.signal(signal.SIGINT, cls._on_interrupt)
         if (number := hangup()) is not None:  # a closed terminal: as Ctrl-C (unless nohup)
             signal.signal(number, cls._on_interrupt)
@@ -78,16 +78,21 @@ class _Worker:
         watch.start()
 
     @classmethod
-    def _watch(cls, parent: int, stopping: EventType) -> None:
+    def _watch(cls, parent: int, stopping: ctypes.c_bool) -> None:
         """Interrupt as Ctrl-C when the generation stops (after a kill to it alone, the
-        worker went on with its trial and the next queued) or is gone."""
+        worker went on with its trial and the next queued) or is gone.
+
+        `stopping` is a shared flag without a lock, polled: a worker killed while it
+        waited on an Event left the parent's `set()` waiting for it forever.
+        """
         told = False
         while os.getppid() == parent:
-            if told:
-                time.sleep(0.5)
-            elif (told := stopping.wait(0.5)) and not cls.interrupted:  # not Ctrl-C'd yet
-                os.kill(os.getpid(), signal.SIGINT)
-        os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.1)
+            if not told and stopping.value:
+                told = True
+                if not cls.interrupted:  # not by the terminal's Ctrl-C already
+                    _interrupt_main_thread()
+        _interrupt_main_thread()
         deadline = time.monotonic() + 5.0
         while cls.writing is not None and time.monotonic() < deadline:
             time.sleep(0.05)  # the trial stops and removes its temporary file
@@ -110,6 +115,16 @@ class _Worker:
         cls.interrupted = True
         if cls.writing is not None:
             raise KeyboardInterrupt
+
+
+def _interrupt_main_thread() -> None:
+    """Ctrl-C to this process's main thread, which it wakes from a sleep or a wait, as a
+    terminal's does (`os.kill` would end the process on Windows, which has no pthreads)."""
+    main = threading.main_thread().ident
+    if hasattr(signal, "pthread_kill") and main is not None:
+        signal.pthread_kill(main, signal.SIGINT)
+    else:
+        signal.raise_signal(signal.SIGINT)
 
 
 def run_job(job: Job) -> Entry:
@@ -184,7 +199,7 @@ class ProcessExecutor:
 
         _start_resource_tracker()
         context = multiprocessing.get_context("spawn")
-        self._stopping = context.Event()
+        self._stopping = context.RawValue(ctypes.c_bool, False)
         self._pool = ProcessPoolExecutor(
             workers, mp_context=context, initializer=_Worker.start, initargs=(self._stopping,)
         )
@@ -209,7 +224,7 @@ class ProcessExecutor:
 
     def shutdown(self) -> list[Entry]:
         if any(not f.done() for f in self._futures):  # stopped: the workers stop too
-            self._stopping.set()
+            self._stopping.value = True
         self._pool.shutdown(wait=True, cancel_futures=True)
         finished = [f for f in self._futures if f.done() and not f.cancelled()]
         self._futures = set()
