@@ -269,3 +269,24 @@ def test_a_spec_the_simulator_would_run_wrongly_is_refused(fields: dict, message
     a negative seed was a ValueError in the simulator; a path at 1e16 m a collapsed cloth."""
     with pytest.raises(ValidationError, match=message):
         TrialSpec.model_validate({"task": "gown", **fields})
+
+
+def test_the_settle_is_checked_in_physics_steps_and_recorded_trials_stay_readable(
+    tmp_path: Path,
+) -> None:
+    """0.2 + 0.1 s is 90 of 90 steps (it was refused as 0.30000000000000004); and a trial
+    recorded before the check, with the wind over the tare, still reads."""
+    from dresslog.io.reader import read_trial
+    from dresslog.io.writer import TrialWriter
+    from dresslog.spec import RECORDED, TrialMetadata
+
+    assert SimParams(settle_s=0.3, wind_s=0.2).settle_steps() == (90, 60, 30)
+    raw = {"task": "gown", "spec": {"task": "gown", "sim": {"settle_s": 0.3, "wind_s": 0.3}}}
+    with pytest.raises(ValidationError, match=r"settle_s must leave 0\.1 s after the wind"):
+        TrialMetadata.model_validate(raw)
+    old = TrialMetadata.model_validate(raw, context=RECORDED)
+    with TrialWriter(path := tmp_path / "old.mcap", old) as writer:
+        writer.write_wrench([0, 10_000_000], np.zeros((2, 6)))
+        writer.write_twist([0, 10_000_000], np.zeros((2, 6)))
+    spec = read_trial(path).metadata.spec
+    assert spec is not None and spec.sim.wind_s == 0.3

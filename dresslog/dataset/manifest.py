@@ -29,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, m
 from dresslog import __version__
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
 from dresslog.io.files import atomic_path, sha256_file
-from dresslog.spec import Outcome, Task, TrialSpec
+from dresslog.spec import RECORDED, Outcome, Task, TrialSpec
 
 MANIFEST_FILE = "manifest.json"
 FORMAT: Final = "dresslog-dataset"
@@ -229,7 +229,7 @@ def load_manifest(root: str | Path) -> Manifest:
             path=root,
         )
     try:
-        return Manifest.model_validate(raw)
+        return Manifest.model_validate(raw, context=RECORDED)
     except ValidationError as err:
         problem = first_problem(err, "manifest")
         raise DatasetError(f"{MANIFEST_FILE}: {problem}", path=root) from None

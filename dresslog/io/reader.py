@@ -26,7 +26,7 @@ from zstandard import ZstdError
 from dresslog.errors import TrialFormatError, first_problem
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
-from dresslog.spec import TRIAL_FORMAT_VERSION, TrialMetadata
+from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
     Contacts,
@@ -269,7 +269,7 @@ class TrialReader:
                     f"{TRIAL_FORMAT_VERSION}); upgrade dresslog",
                     path=self.path,
                 )
-            self._metadata = TrialMetadata.model_validate(raw)
+            self._metadata = TrialMetadata.model_validate(raw, context=RECORDED)
         except ValidationError as err:
             problem = first_problem(err, "metadata")
             message = f"metadata record is invalid: {problem}"

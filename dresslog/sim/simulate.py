@@ -28,7 +28,7 @@ from dresslog.limb import (
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
-from dresslog.spec import TARE_S, Outcome, SimParams, Task, TrialSpec
+from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
 
 #: Limb offset ranges (m) of the paper, per axis, and speed ranges (m/s). The paper's
@@ -398,8 +398,7 @@ def _settle(scene: Scene, p: SimParams, rng: np.random.Generator) -> np.ndarray:
     g = np.array([0.0, 0.0, -9.81])
     wind = rng.normal(size=3)
     wind *= p.wind_accel / np.linalg.norm(wind)
-    n_settle, n_wind = round(p.settle_s * p.physics_hz), round(p.wind_s * p.physics_hz)
-    n_tare = max(1, round(TARE_S * p.physics_hz))  # the spec leaves them after the wind
+    n_settle, n_wind, n_tare = p.settle_steps()  # the spec leaves the tare after the wind
     tare = np.zeros(6)
     for k in range(n_settle):
         scene.set_gravity(g + wind if k < n_wind else g)
