@@ -98,7 +98,8 @@ class TrialWriter:
         writer, stream, tmp = self._writer, self._stream, self._tmp
         if writer is None or stream is None or tmp is None:
             raise TrialWriteError("writer is not open", path=self.path)
-        wrench, twist = (np.concatenate([*self._steps[t], []]) for t in (wk.WRENCH, wk.TWIST))
+        empty = np.empty(0, np.int64)  # int64 throughout: float64 merges stamps 100 ns apart
+        wrench, twist = (np.concatenate([*self._steps[t], empty]) for t in (wk.WRENCH, wk.TWIST))
         if not len(np.intersect1d(wrench, twist)):  # the model's steps: read, it is refused
             raise TrialWriteError(
                 f"a trial needs {wk.WRENCH} and {wk.TWIST} at one or more common times",
