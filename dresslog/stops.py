@@ -53,3 +53,14 @@ def unblock_stops() -> None:
     """Take the stops blocked since `deferred_in_children` started this process."""
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _stops())
+
+
+def leave_stops_to_the_parent() -> None:
+    """In a worker started under `deferred_in_children` whose parent stops it: ignore
+    Ctrl-C and hang-up (the parent takes them), keep kill's default (a broken pool
+    terminates its other workers so; blocked, they outlived it and its join waited
+    forever), then take the block off."""
+    for name in ("SIGINT", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+    unblock_stops()

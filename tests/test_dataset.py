@@ -560,3 +560,32 @@ def test_a_stop_while_workers_start_is_deferred_not_printed_nor_lost() -> None:
     assert queue.get(timeout=60) is True  # taken once it handles it: no trial starts
     worker.join(timeout=60)
     assert worker.exitcode == 0
+
+
+def _sleep(seconds: float) -> float:
+    time.sleep(seconds)
+    return seconds
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="kill -9 is POSIX")
+def test_a_decoding_worker_killed_alone_lets_the_others_end() -> None:
+    """One killed (out of memory) breaks the pool, which terminates the others: started
+    deaf to every stop, they outlived it, and its shutdown waited for them forever."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from dresslog.dataset.cache import decoding_pool
+    from dresslog.stops import deferred_in_children
+
+    pool = decoding_pool(2)
+    with deferred_in_children():
+        results = pool.map(_sleep, [30.0] * 4)
+    deadline = time.monotonic() + 60
+    while len(pool._processes) < 2 and time.monotonic() < deadline:  # both started
+        time.sleep(0.05)
+    time.sleep(2.0)  # and past their imports
+    os.kill(next(iter(pool._processes)), signal.SIGKILL)
+    started = time.monotonic()
+    with pytest.raises(BrokenProcessPool):
+        list(results)
+    pool.shutdown(cancel_futures=True)
+    assert time.monotonic() - started < 20  # not the survivor's 30 s sleep

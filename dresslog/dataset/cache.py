@@ -35,7 +35,7 @@ from dresslog.dataset.manifest import (
 from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
-from dresslog.stops import deferred_in_children
+from dresslog.stops import deferred_in_children, leave_stops_to_the_parent
 from dresslog.trial import STEP_HZ
 
 CACHE_DIR = ".cache"
@@ -111,6 +111,15 @@ def _decode(args: tuple[str, str, str, str]) -> tuple[np.ndarray, np.ndarray]:
     return phi.phi[pi].astype(np.float32), truth.forces[fi].astype(np.float32)
 
 
+def decoding_pool(workers: int) -> ProcessPoolExecutor:
+    """Spawned workers that leave Ctrl-C and hang-up to this process, which stops them;
+    start them under `deferred_in_children`."""
+    import multiprocessing
+
+    context = multiprocessing.get_context("spawn")
+    return ProcessPoolExecutor(workers, mp_context=context, initializer=leave_stops_to_the_parent)
+
+
 def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict[str, np.ndarray]:
     from tqdm import tqdm
 
@@ -120,10 +129,7 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
     jobs = [(str(root / str(e.file)), str(e.file), str(e.sha256), task) for e in entries]
     bar = tqdm(total=len(jobs), unit="trial", desc="decoding", disable=not progress)
     if workers > 1 and len(jobs) > 1:
-        import multiprocessing
-
-        context = multiprocessing.get_context("spawn")
-        pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context)
+        pool = decoding_pool(min(workers, len(jobs)))
         try:
             with deferred_in_children():  # the workers start as the jobs are submitted
                 results = pool.map(_decode, jobs, chunksize=4)
