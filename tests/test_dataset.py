@@ -451,7 +451,8 @@ def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
         ({"splits": {"train": -2}}, "train trials must be a whole number >= 0, not -2"),
         ({"splits": {"val": 2}}, "split 'val' is not one of train, test, sweep"),
         ({"trials": 2.5}, "--trials must be a whole number, at least 1, not 2.5"),
-        ({"workers": -1}, "--workers must be 1 or more, not -1"),
+        ({"workers": -1}, r"--workers must be a whole number \(0: all cores\), not -1"),
+        ({"workers": 2.5}, "--workers must be a whole number"),
     ],
 )
 def test_generate_called_from_a_script_says_what_is_wrong_with_its_arguments(

@@ -27,6 +27,7 @@ from dresslog.experiments import (
     train_dataset,
 )
 from dresslog.io.files import exclusive
+from dresslog.model.bounds import describe_oracle
 from dresslog.model.files import ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_lines
@@ -151,6 +152,7 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     bounds = json.loads(output)["bounds"]
     assert dataset_bounds(data) == pytest.approx(bounds)  # the same oracles without a model
     assert 0 <= bounds["blur 0.5 cm"] <= bounds["blur 8 cm"] <= 1.0
+    assert all(describe_oracle(name) for name in bounds)  # each row says what it is handed
     # as eval says it: an unknown split was a ValueError after decoding, an empty one {}
     with pytest.raises(DatasetError, match="split 'val' is not one of train, test, sweep"):
         dataset_bounds(data, split="val")

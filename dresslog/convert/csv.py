@@ -325,13 +325,14 @@ def assign_columns(
             )
         if name in names:  # a mapping may name a column of the other file
             found[role] = names.index(name)
-    for role, index in found.items():  # a typo in an axis swap would lose an axis unseen
-        if (twice := [r for r, i in found.items() if i == index]) != [role]:
-            raise ConversionError(
-                f"column {names[index]!r} is given as both {twice[0]} and {twice[1]}; "
-                "map each role to a column of its own",
-                path=path,
-            )
+    if len(set(found.values())) < len(found):  # a typo in an axis swap loses an axis unseen
+        index = next(i for i in found.values() if list(found.values()).count(i) > 1)
+        twice = [r for r, i in found.items() if i == index]
+        raise ConversionError(
+            f"column {names[index]!r} is given as both {twice[0]} and {twice[1]}; "
+            "map each role to a column of its own",
+            path=path,
+        )
     taken = set(found.values())
     ignored = []
     # a sensor's header stamp beats a receive time (rostopic's `%time`) when both are there

@@ -266,8 +266,8 @@ def generate(
     root = Path(out).resolve()
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")
-    if workers is not None and workers < 1:
-        raise DatasetError(f"--workers must be 1 or more, not {workers}")
+    if workers is not None and ((whole := _whole(workers)) is None or whole < 0):
+        raise DatasetError(f"--workers must be a whole number (0: all cores), not {workers!r}")
     counts = _split_counts(trials, test_fraction) if splits is None else _given_counts(splits)
     workers = workers or os.cpu_count() or 1
     overrides = dict(overrides or {})

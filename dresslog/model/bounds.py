@@ -32,6 +32,14 @@ import numpy as np
 from dresslog.errors import ModelError
 from dresslog.model.postprocess import rmse, sequence_rmse, zero_baseline_rmse
 
+#: The oracles `oracle_ratios` scores besides the blurs, and what each is handed.
+MEAN_PROFILE, OWN_PROFILE, FLICKER = "total x mean profile", "total x own profile", "3-step flicker"
+_HANDED = {
+    MEAN_PROFILE: "each step's exact total, spread as the training maps",
+    OWN_PROFILE: "each step's exact total, spread as its sequence's mean",
+    FLICKER: "the truth's own 3-step mean: noise no causal model follows",
+}
+
 SIGMAS_CM = (0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
 
 
@@ -80,10 +88,10 @@ def oracle_ratios(
         steps = max(len(t) for t in truths)
         profile = _shape(_step_mean([np.asarray(m, np.float64) for m in train], steps))
         ests = [s * profile[: len(s)] for s in totals]
-        out["total x mean profile"] = rmse(truths, ests) / zero
+        out[MEAN_PROFILE] = rmse(truths, ests) / zero
     own = [s * _shape(t.sum(axis=0)) for s, t in zip(totals, truths, strict=True)]
-    out["total x own profile"] = rmse(truths, own) / zero
-    out["3-step flicker"] = rmse(truths, [_moving_mean3(t) for t in truths]) / zero
+    out[OWN_PROFILE] = rmse(truths, own) / zero
+    out[FLICKER] = rmse(truths, [_moving_mean3(t) for t in truths]) / zero
     return out
 
 
@@ -91,11 +99,7 @@ def describe_oracle(name: str) -> str:
     """What the oracle `name` (a key of `oracle_ratios`) is handed, in a few words."""
     if name.startswith("blur "):
         return f"every force exact, placed within {name.removeprefix('blur ')}"
-    return {
-        "total x mean profile": "each step's exact total, spread as the training maps",
-        "total x own profile": "each step's exact total, spread as its sequence's mean",
-        "3-step flicker": "the truth's own 3-step mean: noise no causal model follows",
-    }.get(name, "")
+    return _HANDED.get(name, "")
 
 
 def error_split(truth: np.ndarray, estimate: np.ndarray) -> tuple[float, float]:

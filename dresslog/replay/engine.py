@@ -29,11 +29,9 @@ class Estimator(Protocol):
     """A stateful force-map model: one 9-D step in, force and contact maps (N,) out.
 
     `dresslog.model.NumpyEstimator` is one; the engine enforces Eq. 2 on whatever
-    comes back (idempotent on an estimate that already has it).
+    comes back (idempotent on an estimate that already has it). One with an `n_points`
+    attribute (N) is refused at the start for a trial of another limb.
     """
-
-    #: N, the limb points it estimates: a trial of another limb is refused at the start
-    n_points: int
 
     def reset(self) -> None: ...
 
@@ -110,7 +108,8 @@ class Replay:
         context = replace(context, has_estimate=self.estimator is not None)
         self.context = context
         if self.estimator is not None:
-            check_points(context, self.estimator.n_points)  # numpy's broadcast error, else
+            if (n_points := getattr(self.estimator, "n_points", None)) is not None:
+                check_points(context, n_points)  # else numpy's broadcast error at a step
             self.estimator.reset()
         try:
             for sink in self.sinks:
