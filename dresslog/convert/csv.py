@@ -200,7 +200,8 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
         other = "torque" if given == ["force"] else "force"
         raise ConversionError(
             f"the preamble gives counts per unit {given[0]} but not {other}, so the "
-            f"{other} columns' unit is unknown; add `Counts per Unit {other.title()}`",
+            f"{other} columns' unit is unknown; add `Counts per Unit {other.title()}`, or "
+            "remove the line if the columns are already in N and N m",
             path=path,
         )
     scales = {}
