@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -14,6 +15,7 @@ from click.testing import CliRunner
 from dresslog import __version__
 from dresslog.cli.main import COMMANDS, main
 from dresslog.io.reader import read_trial
+from dresslog.spec import Task
 
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "gown.mcap"
 
@@ -326,3 +328,24 @@ def test_a_name_too_long_for_its_temporary_is_one_line_naming_the_output(tmp_pat
     result = CliRunner().invoke(main, ["infer", str(SAMPLE), "-o", str(out)])
     assert result.exit_code == 1 and result.output.startswith(f"Error: {out}: file name is too")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="names that are not UTF-8: Linux's bytes")
+def test_a_file_name_that_is_not_utf8_is_one_line_not_a_traceback(tmp_path: Path) -> None:
+    """Every writer raised UnicodeEncodeError on such a name (check_name_fits, Rerun)."""
+    from tests.conftest import write_synthetic_trial
+
+    trial = tmp_path / os.fsdecode(b"tr\xffial.mcap")
+    write_synthetic_trial(trial, Task.GOWN, steps=20)
+    refused = CliRunner().invoke(main, ["infer", str(trial)])  # its .rrd beside it
+    assert refused.exit_code == 1 and "tr\\xffial.rrd: Rerun cannot write a file" in refused.output
+    out = tmp_path / "fine.rrd"  # printed as a terminal takes it (CliRunner's output is strict)
+    code = "import sys; from dresslog.cli.main import main; main(sys.argv[1:])"
+    args = [sys.executable, "-c", code, "infer", os.fsencode(trial), "-o", str(out)]
+    done = subprocess.run(args, capture_output=True)
+    assert done.returncode == 0 and out.is_file(), done.stderr
+    csv = tmp_path / os.fsdecode(b"ft\xff.csv")
+    csv.write_text("time,fx,fy,fz,tx,ty,tz,vx,vy,vz\n" + "0,0,0,0,0,0,0,0,0,0\n")
+    args = ["convert", str(csv), "-o", str(tmp_path / "c.mcap"), "--task", "gown"]
+    converted = CliRunner().invoke(main, args)
+    assert converted.exit_code == 1 and "its name is not UTF-8" in converted.output

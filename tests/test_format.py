@@ -573,3 +573,20 @@ def test_messages_out_of_order_or_on_two_channels_of_a_topic_read_as_recorded(
     np.testing.assert_array_equal(got.garment.triangles, want.garment.triangles)
     np.testing.assert_array_equal(got.garment.vertices, want.garment.vertices)
     np.testing.assert_array_equal(got.contacts.t_ns, want.contacts.t_ns)
+
+
+def test_a_trial_written_meanwhile_is_never_replaced_without_overwrite(tmp_path: Path) -> None:
+    """A `convert` finished while a long `record` to the same name ran: its trial was
+    replaced silently, though neither was asked to overwrite."""
+    path = tmp_path / "t.mcap"
+    with (
+        pytest.raises(TrialWriteError, match="was written by another command meanwhile"),
+        TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer,
+    ):
+        _steps(writer)
+        path.write_bytes(b"the other command's trial")
+    assert path.read_bytes() == b"the other command's trial"
+    assert [*tmp_path.iterdir()] == [path]  # no temporary left
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN), overwrite=True) as writer:
+        _steps(writer)
+    assert len(read_trial(path).wrench) == 2

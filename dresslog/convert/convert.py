@@ -26,7 +26,7 @@ from dresslog.convert import resample as rs
 from dresslog.convert.source import COMPONENTS, MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError, DresslogWarning
 from dresslog.io import well_known as wk
-from dresslog.io.files import check_output
+from dresslog.io.files import check_output, printable
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata
 
@@ -341,6 +341,12 @@ def convert(
     except ValueError:
         raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
     check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
+    for given in (path, motion):  # their names go into the trial's metadata, JSON
+        if given is not None and printable(given) != str(given):
+            raise ConversionError(
+                "its name is not UTF-8, which the trial's metadata must be; rename it",
+                path=printable(given),
+            )
     for quat in (rotate, sensor_rotation):
         if quat is not None and not (_finite(quat, 4) and np.linalg.norm(quat) > 0):
             raise ConversionError("a rotation quaternion is 4 finite numbers, x y z w, not all 0")

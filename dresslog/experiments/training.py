@@ -9,7 +9,7 @@ from typing import Literal
 
 from dresslog.dataset import Split, load_dataset, load_manifest
 from dresslog.errors import DatasetError, DresslogWarning
-from dresslog.io.files import check_name_fits, exclusive, temporary_path
+from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import (
     TRAINING_PLOT,
@@ -102,7 +102,9 @@ def train_dataset(
                 NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test)
             )
             metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
-        provenance = DataProvenance(manifest_sha256=arrays.manifest_sha256, description=str(data))
+        provenance = DataProvenance(
+            manifest_sha256=arrays.manifest_sha256, description=printable(data)
+        )
         card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
         card = save_model(
             out,

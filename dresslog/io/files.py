@@ -49,6 +49,11 @@ def check_output(
         raise TrialWriteError(_NAMES[suffix], path=path)
     if not overwrite and path.exists():
         raise TrialWriteError("file exists; pass --overwrite to replace it", path=path)
+    if suffix == ".rrd" and printable(path) != str(path):  # Rerun takes UTF-8 paths only
+        raise TrialWriteError(
+            "Rerun cannot write a file whose path is not UTF-8; name the recording otherwise",
+            path=printable(path),
+        )
 
 
 def _name_max(folder: Path) -> int:
@@ -63,12 +68,18 @@ def _name_max(folder: Path) -> int:
 def check_name_fits(path: Path, longest: str) -> None:
     """Fail before any work if `longest`, a name written beside `path` (its temporary, a
     checkpoint), is too long for the folder's file system: the error names `path`."""
-    if len(longest.encode()) > _name_max(path.parent):
+    if len(os.fsencode(longest)) > _name_max(path.parent):  # bytes, undecodable ones too
         raise TrialWriteError(
             f"file name is too long once dresslog's working name beside it ({longest[:12]}...) "
             "is made from it; shorten it",
             path=path,
         )
+
+
+def printable(path: str | Path) -> str:
+    """`path` as text that UTF-8 (JSON, Rerun) can carry: a byte of a name that is not
+    UTF-8 is written as an escape (`\\xff`)."""
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
 
 
 def check_writable(folder: Path) -> None:
@@ -111,6 +122,34 @@ def discard_temporaries(path: Path) -> None:
     """Remove every temporary this process has open for `path` (an exit that cannot unwind)."""
     for tmp in path.parent.glob(f".{glob.escape(path.name)}.{os.getpid()}.*.partial"):
         discard(tmp)
+
+
+def put_in_place(tmp: Path, path: Path, *, overwrite: bool) -> None:
+    """Rename the finished `tmp` to `path`. Without `overwrite`, never over a file that
+    appeared there meanwhile (another command's, written while this one worked): rename
+    would replace it silently, a hard link refuses to."""
+    if overwrite:
+        tmp.replace(path)
+        return
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        discard(tmp)
+        raise TrialWriteError(
+            "was written by another command meanwhile; it is kept and this result dropped "
+            "(pass --overwrite to replace it)",
+            path=path,
+        ) from None
+    except OSError:  # a file system without hard links: checked, then renamed
+        if path.exists():
+            discard(tmp)
+            raise TrialWriteError(
+                "was written by another command meanwhile; it is kept and this result dropped",
+                path=path,
+            ) from None
+        tmp.replace(path)
+        return
+    discard(tmp)
 
 
 @contextmanager

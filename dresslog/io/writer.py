@@ -19,7 +19,7 @@ from dresslog import __version__
 from dresslog.errors import TrialWriteError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
-from dresslog.io.files import check_output, discard, temporary_path
+from dresslog.io.files import check_output, discard, put_in_place, temporary_path
 from dresslog.io.msgdefs import schema_text
 from dresslog.spec import TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
@@ -90,7 +90,7 @@ class TrialWriter:
     def close(self) -> None:
         """Write the metadata and summary, then move the file into place."""
         if self._writer is not None:
-            self.finish().replace(self.path)
+            put_in_place(self.finish(), self.path, overwrite=self.overwrite)
 
     def finish(self) -> Path:
         """Write the metadata and summary; the file stays under the temporary name returned

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dresslog.errors import TrialWriteError
-from dresslog.io.files import check_output, discard, temporary_path
+from dresslog.io.files import check_output, discard, printable, temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.trial import contact_magnitudes, contact_vectors
@@ -168,7 +168,7 @@ class RerunSink:
     def _recording_id(self) -> str:
         """Readable and unique: two replays of one trial (say, two models) never merge."""
         ctx = self.context
-        name = ctx.source_path.stem if ctx and ctx.source_path else "live"
+        name = printable(ctx.source_path.stem) if ctx and ctx.source_path else "live"
         return f"{name}-{uuid.uuid4().hex[:8]}"
 
     def _send_static(self) -> None:
@@ -217,7 +217,7 @@ class RerunSink:
         ctx = self.context
         assert ctx is not None
         md = ctx.metadata
-        source = f"`{ctx.source_path.name}`" if ctx.source_path else "live simulation"
+        source = f"`{printable(ctx.source_path.name)}`" if ctx.source_path else "live simulation"
         vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
         shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
         what = f"**{md.task.value}** trial from {source}, outcome {md.outcome.value}"
