@@ -155,6 +155,23 @@ def test_view_save_refuses_to_copy_a_cut_rrd(inferred, tmp_path: Path, keep: flo
     assert out.read_bytes() == b"earlier"
 
 
+def test_view_save_checks_with_rerun_itself_whatever_the_folder_or_name(
+    inferred, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`python -m rerun` ran a `rerun.py` of the working folder (which could pass a cut
+    recording), and a name starting with `-` was taken for an option."""
+    _, _, rrd = inferred
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rerun.py").write_text('print("1 file verified without error")\n')
+    named = tmp_path / "-x.rrd"
+    named.write_bytes(rrd.read_bytes())
+    result = CliRunner().invoke(main, ["view", "./-x.rrd", "--save", "copy.rrd"])
+    assert result.exit_code == 0 and (tmp_path / "copy.rrd").read_bytes() == rrd.read_bytes()
+    named.write_bytes(rrd.read_bytes()[: rrd.stat().st_size // 2])
+    result = CliRunner().invoke(main, ["view", "./-x.rrd", "--save", "cut.rrd"])
+    assert result.exit_code == 1 and "cut short or damaged" in result.output, result.output
+
+
 def test_view_refuses_a_file_that_is_not_a_rerun_recording(tmp_path: Path) -> None:
     junk = tmp_path / "junk.rrd"
     junk.write_bytes(b"junk\n")

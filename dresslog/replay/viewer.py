@@ -173,7 +173,9 @@ def check_rrd(path: Path) -> None:
 
 def verify_rrd(path: Path) -> None:
     """Rerun's own check (`rerun rrd verify`) that the recording is whole and loads."""
-    cmd = [sys.executable, "-m", "rerun", "rrd", "verify", str(path)]
+    # -P: a `rerun.py` in the working folder is not Rerun; absolute: `-x.rrd` is no option
+    where = str(path.absolute())
+    cmd = [sys.executable, "-P", "-m", "rerun", "rrd", "verify", where]
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     said = (done.stdout + done.stderr).strip()
     if done.returncode == 0 and "1 file verified without error" in said:
@@ -181,7 +183,7 @@ def verify_rrd(path: Path) -> None:
     if done.returncode == 0:  # rerun read no recording out of it
         said = "no recording in it could be read"
     reason = said.splitlines()[0] if said else f"exit status {done.returncode}"
-    reason = reason.removeprefix("Error: ").replace(f'"{path}"', "").strip(" :-")
+    reason = reason.removeprefix("Error: ").replace(f'"{where}"', "").strip(" :-")
     raise DresslogError(
         f"is cut short or damaged, so it is not copied (rerun rrd verify: {reason[:160]}); "
         "write it again from its trial",
@@ -301,8 +303,8 @@ def _rerun_launcher() -> list[str]:
     if "RERUN_CLI_PATH" in os.environ:  # the override `python -m rerun` honours
         binary = Path(os.environ["RERUN_CLI_PATH"])
     if sys.platform == "linux" and binary is not None and os.access(binary, os.X_OK):
-        return [sys.executable, "-c", _LAUNCH_TIED, str(os.getpid()), str(binary)]
-    return [sys.executable, "-m", "rerun"]
+        return [sys.executable, "-P", "-c", _LAUNCH_TIED, str(os.getpid()), str(binary)]
+    return [sys.executable, "-P", "-m", "rerun"]  # -P: not a `rerun.py` of the working folder
 
 
 def viewer_command(rrd: Path, *, web: bool, web_port: int, grpc_port: int) -> list[str]:
@@ -311,7 +313,7 @@ def viewer_command(rrd: Path, *, web: bool, web_port: int, grpc_port: int) -> li
     if web:
         cmd += ["--serve-web", "--bind", "127.0.0.1"]
         cmd += ["--web-viewer-port", str(web_port), "--port", str(grpc_port)]
-    return [*cmd, str(rrd)]
+    return [*cmd, str(rrd.absolute())]  # `-x.rrd` is no option
 
 
 def view_file(
