@@ -16,6 +16,7 @@ from dresslog import __version__
 from dresslog.cli.main import COMMANDS, main
 from dresslog.io.reader import read_trial
 from dresslog.spec import Task
+from tests.conftest import SAMPLES
 
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "gown.mcap"
 
@@ -349,3 +350,18 @@ def test_a_file_name_that_is_not_utf8_is_one_line_not_a_traceback(tmp_path: Path
     args = ["convert", str(csv), "-o", str(tmp_path / "c.mcap"), "--task", "gown"]
     converted = CliRunner().invoke(main, args)
     assert converted.exit_code == 1 and "its name is not UTF-8" in converted.output
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="symbolic links need privileges there")
+def test_an_output_that_is_a_looping_symlink_is_one_line(tmp_path: Path) -> None:
+    """Path.resolve() raised RuntimeError on it: a traceback from infer, generate, sweep."""
+    loop = tmp_path / "loop.rrd"
+    loop.symlink_to(loop)
+    result = CliRunner().invoke(main, ["infer", str(SAMPLES / "gown.mcap"), "-o", str(loop)])
+    assert result.exit_code == 1 and "a symbolic link that leads round in a loop" in result.output
+    folder = tmp_path / "data"
+    folder.symlink_to(folder)
+    result = CliRunner().invoke(
+        main, ["generate", "--task", "gown", "--trials", "1", "-o", str(folder)]
+    )
+    assert result.exit_code == 1 and "leads round in a loop" in result.output

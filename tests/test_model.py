@@ -542,3 +542,19 @@ def test_training_on_phis_change_is_recorded_and_round_trips(tmp_path: Path):
     with pytest.raises(ModelError, match="input_dim 18 for a network that reads 9") as info:
         load_model(tmp_path / "m")
     assert "\n" not in str(info.value)
+
+
+def test_a_checkpoint_that_cannot_be_written_is_one_line(tmp_path: Path, monkeypatch) -> None:
+    """safetensors reports a full disk as its own error, not an OSError: a traceback."""
+    import safetensors.torch
+    from safetensors import SafetensorError
+
+    def full(*args: object, **kwargs: object) -> None:
+        raise SafetensorError("Error while serializing: I/O error: No space left on device")
+
+    monkeypatch.setattr(safetensors.torch, "save_file", full)
+    phis, forces = synthetic(4, seed=2, n_points=4)
+    kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "progress": False}
+    with pytest.raises(ModelError, match=r"cannot write the checkpoint: .*No space left"):
+        train(phis, forces, checkpoint=tmp_path / "run.ckpt", **kwargs)
+    assert list(tmp_path.iterdir()) == []

@@ -45,7 +45,7 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, first_problem
-from dresslog.io.files import exclusive, is_temporary
+from dresslog.io.files import exclusive, is_temporary, resolved
 from dresslog.spec import Task, TrialSpec
 from dresslog.stops import stop_signals
 from dresslog.trial import STEP_HZ
@@ -263,7 +263,7 @@ def generate(
     written up to then lists every failure.
     """
     task = Task(task)
-    root = Path(out).resolve()
+    root = resolved(Path(out))
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")
     if workers is not None and ((whole := _whole(workers)) is None or whole < 0):

@@ -18,7 +18,7 @@ from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, SimulationError, first_problem
 from dresslog.experiments.evaluation import check_data_task, finite, score_rows
-from dresslog.io.files import atomic_path
+from dresslog.io.files import atomic_path, resolved
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
@@ -179,12 +179,12 @@ def sweep(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise DatasetError("is a file; give the sweep a folder of its own", path=out)
-    resolved = out.resolve()
-    for folder in (resolved, *resolved.parents):  # nor anywhere inside one
+    where = resolved(out)
+    for folder in (where, *where.parents):  # nor anywhere inside one
         what = _dresslog_folder(folder)
         if what is not None:
-            where = "is" if folder == resolved else f"is inside {folder},"
-            message = f"{where} {what} folder; give the sweep a folder of its own"
+            place = "is" if folder == where else f"is inside {folder},"
+            message = f"{place} {what} folder; give the sweep a folder of its own"
             raise DatasetError(message, path=out)
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []

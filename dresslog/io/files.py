@@ -36,9 +36,9 @@ def check_output(
     if path.is_dir():
         raise TrialWriteError("is a folder; give a file name", path=path)
     check_writable(path.parent)
-    if source is not None and path.resolve() == source.resolve():
+    if source is not None and resolved(path) == resolved(source):
         raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
-    if source is not None and source.is_dir() and path.resolve().is_relative_to(source.resolve()):
+    if source is not None and source.is_dir() and resolved(path).is_relative_to(resolved(source)):
         raise TrialWriteError(
             f"is inside {source.name}, the folder being read; write it elsewhere", path=path
         )
@@ -54,6 +54,17 @@ def check_output(
             "Rerun cannot write a file whose path is not UTF-8; name the recording otherwise",
             path=printable(path),
         )
+
+
+def resolved(path: Path) -> Path:
+    """`path.resolve()`, with a symbolic link that loops refused in one line (Python 3.11
+    raises RuntimeError for it, later ones OSError)."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError):
+        raise TrialWriteError(
+            "is a symbolic link that leads round in a loop; remove it", path=path
+        ) from None
 
 
 def _name_max(folder: Path) -> int:

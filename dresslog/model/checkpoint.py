@@ -77,8 +77,13 @@ def save_checkpoint(path: Path, run: RunState) -> None:
         "epochs": json.dumps([e.model_dump() for e in run.history.epochs]),
         "param_groups": json.dumps(optim_state["param_groups"]),
     }
+    from safetensors import SafetensorError
+
     with atomic_path(path) as tmp:
-        save_file({k: v.detach().contiguous() for k, v in tensors.items()}, tmp, metadata)
+        try:
+            save_file({k: v.detach().contiguous() for k, v in tensors.items()}, tmp, metadata)
+        except SafetensorError as err:  # its I/O errors (a full disk) are not OSErrors
+            raise ModelError(f"cannot write the checkpoint: {err}", path=path) from None
 
 
 def _read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
