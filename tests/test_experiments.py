@@ -214,6 +214,26 @@ def test_a_file_inside_a_model_or_dataset_folder_points_to_the_folder(
         assert code == 0 and kind in output and "Traceback" not in output, output
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="symbolic links need privileges there")
+def test_train_over_a_model_behind_a_symbolic_link_keeps_the_link(
+    data: Path, tmp_path: Path
+) -> None:
+    """`models/current -> v1`: the swap replaced the link with a folder and left the old
+    link behind, hidden; a link to nothing failed after the training, naming a temporary."""
+    (tmp_path / "v1").mkdir()
+    (current := tmp_path / "current").symlink_to("v1")
+    tiny = ["--epochs", "1", "--hidden", "4", "--layers", "1", "-q"]
+    code, output = invoke("train", data, "-o", current, *tiny)
+    assert code == 0, output
+    code, output = invoke("train", data, "-o", current, *tiny, "--epochs", "2", "--overwrite")
+    assert code == 0, output
+    assert current.is_symlink() and len(load_model(tmp_path / "v1").card.history) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["current", "v1"]
+    (dangling := tmp_path / "gone").symlink_to("nowhere")
+    code, output = invoke("train", data, "-o", dangling, *tiny)
+    assert code == 1 and "is a symbolic link to nothing" in output, output
+
+
 @pytest.mark.slow
 def test_train_into_the_current_folder(
     data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
@@ -334,6 +354,9 @@ def test_a_sweep_called_from_a_script_says_what_is_wrong_with_its_arguments(
     with pytest.raises(DatasetError, match="is a file; give the sweep a folder of its own"):
         sweep(model, taken, speeds=[0.2], n=1)
     assert taken.read_text() == "mine"
+    (dangling := tmp_path / "gone").symlink_to("nowhere")
+    with pytest.raises(DatasetError, match="is a symbolic link to nothing"):
+        sweep(model, dangling, speeds=[0.2], n=1)
 
 
 @pytest.mark.parametrize(

@@ -179,6 +179,8 @@ def sweep(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise DatasetError("is a file; give the sweep a folder of its own", path=out)
+    if out.is_symlink() and not out.exists():  # mkdir's "File exists" would mislead
+        raise DatasetError("is a symbolic link to nothing; create its folder", path=out)
     where = resolved(out)
     for folder in (where, *where.parents):  # nor anywhere inside one
         what = _dresslog_folder(folder)

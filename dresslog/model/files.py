@@ -189,6 +189,10 @@ def check_model_folder(path: Path, overwrite: bool) -> None:
     check_writable(made)
     if path.exists() and not path.is_dir():
         raise ModelError("is a file; give a folder for the model", path=path)
+    if path.is_symlink() and not path.exists():  # else found out after the training
+        raise ModelError(
+            "is a symbolic link to nothing; create its folder or give another", path=path
+        )
     if not path.exists() or not any(path.iterdir()):
         return
     if not (path / CARD_FILE).is_file():
@@ -238,8 +242,8 @@ def save_model(
             also(tmp, card)
         if not path.exists():
             tmp.rename(path)
-        elif _holds_the_working_folder(path):  # `-o .`: a swap would leave the shell in a
-            for name in sorted(MODEL_FILES, key=lambda n: n == CARD_FILE):  # deleted folder
+        elif _replaced_in_place(path):
+            for name in sorted(MODEL_FILES, key=lambda n: n == CARD_FILE):
                 if (tmp / name).exists():  # the card last: until then, the old one stands
                     (tmp / name).replace(path / name)  # and names the old weights' hash
                 else:
@@ -254,7 +258,13 @@ def save_model(
     return card
 
 
-def _holds_the_working_folder(path: Path) -> bool:
+def _replaced_in_place(path: Path) -> bool:
+    """Whether a model folder's files are replaced one by one, not the folder swapped:
+    `-o .` (a swap would leave the shell in a deleted folder), a mount point (which
+    cannot be renamed: a Docker volume) and a symbolic link (a swap replaced the link
+    with a folder and left the old one as a hidden link)."""
+    if path.is_symlink() or os.path.ismount(path):
+        return True
     try:
         return Path.cwd().resolve().is_relative_to(path.resolve())
     except OSError:  # the working folder is gone already
