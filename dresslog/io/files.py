@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import glob
 import hashlib
 import itertools
@@ -61,10 +62,12 @@ def resolved(path: Path) -> Path:
     raises RuntimeError for it, later ones OSError)."""
     try:
         return path.resolve()
-    except (RuntimeError, OSError):
-        raise TrialWriteError(
-            "is a symbolic link that leads round in a loop; remove it", path=path
-        ) from None
+    except (RuntimeError, OSError) as err:
+        if isinstance(err, RuntimeError) or err.errno == errno.ELOOP:
+            problem = "is a symbolic link that leads round in a loop; remove it"
+        else:
+            problem = str(err.strerror)
+        raise TrialWriteError(problem, path=path) from None
 
 
 def _name_max(folder: Path) -> int:
@@ -139,28 +142,26 @@ def put_in_place(tmp: Path, path: Path, *, overwrite: bool) -> None:
     """Rename the finished `tmp` to `path`. Without `overwrite`, never over a file that
     appeared there meanwhile (another command's, written while this one worked): rename
     would replace it silently, a hard link refuses to."""
-    if overwrite:
-        tmp.replace(path)
-        return
-    try:
-        os.link(tmp, path)
-    except FileExistsError:
+    if not overwrite:
+        try:
+            os.link(tmp, path)
+            taken = False
+        except FileExistsError:
+            taken = True
+        except OSError:  # a file system without hard links: checked, then renamed
+            taken = path.exists()
+            if not taken:
+                tmp.replace(path)
+                return
         discard(tmp)
-        raise TrialWriteError(
-            "was written by another command meanwhile; it is kept and this result dropped "
-            "(pass --overwrite to replace it)",
-            path=path,
-        ) from None
-    except OSError:  # a file system without hard links: checked, then renamed
-        if path.exists():
-            discard(tmp)
+        if taken:
             raise TrialWriteError(
-                "was written by another command meanwhile; it is kept and this result dropped",
+                "was written by another command meanwhile; it is kept and this result "
+                "dropped (pass --overwrite to replace it)",
                 path=path,
-            ) from None
-        tmp.replace(path)
+            )
         return
-    discard(tmp)
+    tmp.replace(path)
 
 
 @contextmanager
