@@ -365,3 +365,37 @@ def test_an_output_that_is_a_looping_symlink_is_one_line(tmp_path: Path) -> None
         main, ["generate", "--task", "gown", "--trials", "1", "-o", str(folder)]
     )
     assert result.exit_code == 1 and "leads round in a loop" in result.output
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="names that are not UTF-8: Linux's bytes")
+def test_a_working_folder_whose_name_is_not_utf8(tmp_path: Path, monkeypatch) -> None:
+    """Rerun was handed the absolute path (it panics on one not UTF-8), convert stored the
+    resolved path in the JSON metadata, info --json the name: tracebacks or a refusal."""
+    here = tmp_path / os.fsdecode(b"caf\xe9")
+    here.mkdir()
+    monkeypatch.chdir(here)
+    assert (
+        CliRunner().invoke(main, ["infer", str(SAMPLES / "gown.mcap"), "-o", "g.rrd"]).exit_code
+        == 0
+    )
+    saved = CliRunner().invoke(main, ["view", "g.rrd", "--save", "copy.rrd"])
+    assert saved.exit_code == 0, saved.output
+    Path("ft.csv").write_text(
+        "time,fx,fy,fz,tx,ty,tz,vx,vy,vz\n"
+        + "".join(f"{t / 100},0,0,0,0,0,0,0,0,0\n" for t in range(50))
+    )
+    converted = CliRunner().invoke(main, ["convert", "ft.csv", "-o", "c.mcap", "--task", "gown"])
+    assert converted.exit_code == 0, converted.output
+    assert read_trial("c.mcap").metadata.source["file"].endswith("caf\\xe9/ft.csv")
+    name = os.fsdecode(b"tr\xffial.mcap")
+    Path(name).write_bytes((SAMPLES / "gown.mcap").read_bytes())
+    described = CliRunner().invoke(main, ["info", name, "--json"])
+    assert described.exit_code == 0 and "tr\\\\xffial.mcap" in described.output
+
+
+def test_an_output_that_is_a_link_to_nothing_is_an_existing_name(tmp_path: Path) -> None:
+    """Refused up front; it used to pass, and the finished trial was dropped at the end."""
+    (dangling := tmp_path / "t.mcap").symlink_to(tmp_path / "elsewhere.mcap")
+    args = ["record", "--task", "gown", "--duration", "0.1", "-o", str(dangling)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and "file exists; pass --overwrite" in result.output

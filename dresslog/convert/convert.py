@@ -341,8 +341,8 @@ def convert(
     except ValueError:
         raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
     check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
-    for given in (path, motion):  # their names go into the trial's metadata, JSON
-        if given is not None and printable(given) != str(given):
+    for given in (path, motion):  # their names go into the trial's notes, JSON
+        if given is not None and printable(Path(given).name) != Path(given).name:
             raise ConversionError(
                 "its name is not UTF-8, which the trial's metadata must be; rename it",
                 path=printable(given),
@@ -619,7 +619,7 @@ def _source_info(
 ) -> dict[str, object]:
     """The metadata's `source`: where the trial came from and what was done to it."""
     info: dict[str, object] = {
-        "file": str(source.path.resolve()),
+        "file": printable(source.path.resolve()),  # its folders' names may not be UTF-8
         "format": source.format,
         "start_ns": int(grid[0]),
         "time": "output t = source t - start_ns",
@@ -628,7 +628,7 @@ def _source_info(
         "processing": processing,
     }
     if source.format == "csv" and motion is not None:
-        info["motion_file"] = str(Path(motion).resolve())
+        info["motion_file"] = printable(Path(motion).resolve())
     if source.notes:
         info["notes"] = source.notes
     if found:

@@ -48,7 +48,7 @@ def check_output(
         raise TrialWriteError(f"give the file a name before {suffix}", path=path)
     if suffix is not None and path.suffix.lower() != suffix:
         raise TrialWriteError(_NAMES[suffix], path=path)
-    if not overwrite and path.exists():
+    if not overwrite and os.path.lexists(path):  # a symbolic link, even to nothing, too
         raise TrialWriteError("file exists; pass --overwrite to replace it", path=path)
     if suffix == ".rrd" and printable(path) != str(path):  # Rerun takes UTF-8 paths only
         raise TrialWriteError(
@@ -66,7 +66,7 @@ def resolved(path: Path) -> Path:
         if isinstance(err, RuntimeError) or err.errno == errno.ELOOP:
             problem = "is a symbolic link that leads round in a loop; remove it"
         else:
-            problem = str(err.strerror)
+            problem = err.strerror or str(err)
         raise TrialWriteError(problem, path=path) from None
 
 
@@ -142,26 +142,26 @@ def put_in_place(tmp: Path, path: Path, *, overwrite: bool) -> None:
     """Rename the finished `tmp` to `path`. Without `overwrite`, never over a file that
     appeared there meanwhile (another command's, written while this one worked): rename
     would replace it silently, a hard link refuses to."""
-    if not overwrite:
-        try:
-            os.link(tmp, path)
-            taken = False
-        except FileExistsError:
-            taken = True
-        except OSError:  # a file system without hard links: checked, then renamed
-            taken = path.exists()
-            if not taken:
-                tmp.replace(path)
-                return
-        discard(tmp)
-        if taken:
-            raise TrialWriteError(
-                "was written by another command meanwhile; it is kept and this result "
-                "dropped (pass --overwrite to replace it)",
-                path=path,
-            )
+    if overwrite:
+        tmp.replace(path)
         return
-    tmp.replace(path)
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        pass
+    except OSError:  # a file system without hard links: checked, then renamed
+        if not os.path.lexists(path):
+            tmp.replace(path)
+            return
+    else:
+        discard(tmp)
+        return
+    discard(tmp)
+    raise TrialWriteError(
+        "was written by another command meanwhile; it is kept and this result dropped "
+        "(pass --overwrite to replace it)",
+        path=path,
+    )
 
 
 @contextmanager

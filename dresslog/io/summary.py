@@ -8,6 +8,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from dresslog.io import well_known as wk
+from dresslog.io.files import printable
 from dresslog.io.reader import TrialReader
 from dresslog.spec import TrialMetadata
 from dresslog.trial import median_rate
@@ -50,7 +51,7 @@ def summarize(path: str | Path) -> TrialSummary:
         duration = (t_ns[-1] - t_ns[0]) / 1e9 + 1 / rate if steps > 1 else 0.0
         limb = reader.limb_points
         return TrialSummary(
-            path=str(path),
+            path=printable(path),
             size_bytes=Path(path).stat().st_size,
             task=reader.metadata.task.value,
             outcome=reader.metadata.outcome.value,

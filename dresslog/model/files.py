@@ -222,7 +222,9 @@ def save_model(
     """Write a model folder atomically; returns the card with the weights hash filled in.
 
     `also(folder, card)` writes more into the folder (the learning curve) before it is
-    put in place, so a run stopped at any moment leaves the old folder or the whole new one.
+    put in place, so a run stopped at any moment leaves the old folder or the whole new one;
+    where the folder is replaced file by file (`_replaced_in_place`), the card goes last,
+    so a stop between the files leaves weights that its hash check refuses.
     """
     from safetensors.numpy import save
 
@@ -231,7 +233,10 @@ def save_model(
     arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in weights.items()}
     _check_shapes(path, arrays, card)
     path.parent.mkdir(parents=True, exist_ok=True)  # `-o models/gown` on a fresh checkout
-    tmp = temporary_path(path)
+    in_place = path.exists() and _replaced_in_place(path)
+    # a folder behind a link or on a mount point may be another file system: beside its
+    # files, not beside it, for each rename to stay on it
+    tmp = temporary_path(path / "model") if in_place else temporary_path(path)
     tmp.mkdir()
     try:
         # written by Python, so the file gets the usual permissions (safetensors' own is 0600)
@@ -242,7 +247,7 @@ def save_model(
             also(tmp, card)
         if not path.exists():
             tmp.rename(path)
-        elif _replaced_in_place(path):
+        elif in_place:
             for name in sorted(MODEL_FILES, key=lambda n: n == CARD_FILE):
                 if (tmp / name).exists():  # the card last: until then, the old one stands
                     (tmp / name).replace(path / name)  # and names the old weights' hash

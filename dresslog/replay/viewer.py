@@ -173,8 +173,8 @@ def check_rrd(path: Path) -> None:
 
 def verify_rrd(path: Path) -> None:
     """Rerun's own check (`rerun rrd verify`) that the recording is whole and loads."""
-    # -P: a `rerun.py` in the working folder is not Rerun; absolute: `-x.rrd` is no option
-    where = str(path.absolute())
+    # -P: a `rerun.py` in the working folder is not Rerun
+    where = _not_an_option(path)
     cmd = [sys.executable, "-P", "-m", "rerun", "rrd", "verify", where]
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     said = (done.stdout + done.stderr).strip()
@@ -307,13 +307,19 @@ def _rerun_launcher() -> list[str]:
     return [sys.executable, "-P", "-m", "rerun"]  # -P: not a `rerun.py` of the working folder
 
 
+def _not_an_option(path: Path) -> str:
+    """`path` as Rerun's argument: as given (Rerun takes UTF-8 paths only, and the
+    working folder's may not be), `-x.rrd` as `./-x.rrd`, which is no option."""
+    return f"{os.curdir}{os.sep}{path}" if str(path).startswith("-") else str(path)
+
+
 def viewer_command(rrd: Path, *, web: bool, web_port: int, grpc_port: int) -> list[str]:
     """The `rerun` invocation: the native viewer, or a web viewer served on localhost only."""
     cmd = _rerun_launcher()
     if web:
         cmd += ["--serve-web", "--bind", "127.0.0.1"]
         cmd += ["--web-viewer-port", str(web_port), "--port", str(grpc_port)]
-    return [*cmd, str(rrd.absolute())]  # `-x.rrd` is no option
+    return [*cmd, _not_an_option(rrd)]
 
 
 def view_file(
