@@ -590,3 +590,24 @@ def test_a_trial_written_meanwhile_is_never_replaced_without_overwrite(tmp_path:
     with TrialWriter(path, TrialMetadata(task=Task.GOWN), overwrite=True) as writer:
         _steps(writer)
     assert len(read_trial(path).wrench) == 2
+
+
+def test_a_full_disk_is_named_for_the_trial_being_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Its OSError names no file: record and convert printed `No space left on device`."""
+    import errno
+
+    from mcap.writer import Writer
+
+    def full(*args: object, **kwargs: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Writer, "finish", full)
+    path = tmp_path / "t.mcap"
+    with (
+        pytest.raises(TrialWriteError, match=r"t\.mcap: cannot write it: No space left on device"),
+        TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer,
+    ):
+        _steps(writer)
+    assert list(tmp_path.iterdir()) == []

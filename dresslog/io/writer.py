@@ -6,6 +6,7 @@ until then it is a hidden temporary beside it, removed if anything fails.
 
 from __future__ import annotations
 
+import errno
 import struct
 from collections.abc import Sequence
 from pathlib import Path
@@ -28,6 +29,8 @@ CHUNK_SIZE = 4 * 1024 * 1024
 #: Layouts of the Contacts header stamp (sec int32, nanosec uint32) and count (uint32).
 _HEAD_STAMP = struct.Struct("<iI")
 _HEAD_LEN = struct.Struct("<I")
+#: What a write the file system refuses raises: a full disk, a quota, a file too large.
+_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 #: The last time a ROS 2 stamp (int32 seconds) holds.
 MAX_STAMP_NS = (2**31 - 1) * 1_000_000_000 + 999_999_999
 
@@ -140,11 +143,19 @@ class TrialWriter:
         if exc_type is None:
             try:
                 self.close()
-            except BaseException:  # finishing compresses the last chunk: Ctrl-C lands here
+            except BaseException as err:  # finishing compresses the last chunk: Ctrl-C lands here
                 self.abort()
+                self._name_a_full_disk(err)
                 raise
         else:
             self.abort()
+            self._name_a_full_disk(exc)
+
+    def _name_a_full_disk(self, err: BaseException | None) -> None:
+        """A write the file system refused says so about the output: the OSError of a full
+        disk names no file, and the command printed `No space left on device` alone."""
+        if isinstance(err, OSError) and err.errno in _FULL and err.filename is None:
+            raise TrialWriteError(f"cannot write it: {err.strerror}", path=self.path) from None
 
     # -- channels --------------------------------------------------------------
     def _channel(self, topic: str) -> int:
