@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+from collections import Counter
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -326,8 +327,9 @@ def assign_columns(
             )
         if name in names:  # a mapping may name a column of the other file
             found[role] = names.index(name)
-    if len(set(found.values())) < len(found):  # a typo in an axis swap loses an axis unseen
-        index = next(i for i in found.values() if list(found.values()).count(i) > 1)
+    shared = [i for i, n in Counter(found.values()).items() if n > 1]
+    if shared:  # a typo in an axis swap would lose an axis unseen
+        index = shared[0]
         twice = [r for r, i in found.items() if i == index]
         raise ConversionError(
             f"column {names[index]!r} is given as both {twice[0]} and {twice[1]}; "

@@ -40,6 +40,7 @@ from dresslog.dataset.manifest import (
     Manifest,
     Split,
     Status,
+    as_split,
     damage,
     load_manifest,
     trial_seed,
@@ -100,11 +101,10 @@ def _given_counts(splits: Mapping[Split | str, int]) -> dict[Split, int]:
     """Explicit trial counts per split (a sweep's), each a known split and a count >= 0."""
     counts = {}
     for split, count in splits.items():
-        if split not in set(Split):
-            raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
+        known = as_split(split)
         if (whole := _whole(count)) is None or whole < 0:
-            raise DatasetError(f"{split} trials must be a whole number >= 0, not {count!r}")
-        counts[Split(split)] = whole
+            raise DatasetError(f"{known} trials must be a whole number >= 0, not {count!r}")
+        counts[known] = whole
     return counts
 
 

@@ -46,6 +46,13 @@ class Split(StrEnum):
     SWEEP = "sweep"
 
 
+def as_split(value: Split | str) -> Split:
+    """`value` as a Split; a `DatasetError` naming the three for anything else."""
+    if value not in set(Split):
+        raise DatasetError(f"split {value!r} is not one of {', '.join(Split)}")
+    return Split(value)
+
+
 class _Role(IntEnum):
     TRAIN = 0
     TEST = 1

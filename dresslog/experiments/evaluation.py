@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
+from dresslog.dataset.manifest import as_split
 from dresslog.errors import DatasetError
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.evaluate import Scores, evaluate
@@ -103,7 +104,7 @@ def evaluate_dataset(
     With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
     so the model's ratio can be read against what the data allow.
     """
-    split = _as_split(split)  # before anything is loaded
+    split = as_split(split)  # before anything is loaded
     loaded = load_model(model)
     manifest = load_manifest(data)
     check_data_task(loaded, manifest.task)
@@ -130,16 +131,10 @@ def dataset_bounds(
     data: str | Path, *, split: Split | str = Split.TEST, workers: int | None = None
 ) -> dict[str, float]:
     """The oracle ratios of `dresslog.model.bounds` on one split of `data`, with no model."""
-    split = _as_split(split)
+    split = as_split(split)
     _check_held(data, load_manifest(data), split)
     arrays = load_dataset(data, workers=workers, progress=False)
     return _bounds(arrays, arrays.rows(split))
-
-
-def _as_split(split: Split | str) -> Split:
-    if split not in set(Split):
-        raise DatasetError(f"split {split!r} is not one of {', '.join(Split)}")
-    return Split(split)
 
 
 def _check_held(data: str | Path, manifest: Manifest, split: Split) -> None:
