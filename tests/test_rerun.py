@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -80,12 +81,17 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     for path in per_step:
         assert column(entities[path], bp.STEP) == list(range(STEPS)), path
     assert column(entities[bp.GARMENT], bp.STEP) == list(range(0, STEPS, 10))
-    sim_time = column(entities[bp.EE_FORCE], bp.SIM_TIME)
-    assert (sim_time[1] - sim_time[0]).total_seconds() == pytest.approx(0.01)
-    assert {bp.SPEC, bp.EE_PATH, bp.ESTIMATE, bp.GARMENT} <= static_paths(rrd)
-    assert f"outcome {read_trial(inferred[0]).metadata.outcome.value}: seed " in spec_text(rrd)
+    seconds = column(entities[bp.EE_FORCE], bp.TIME)
+    assert (seconds[1] - seconds[0]).total_seconds() == pytest.approx(0.01)
+    assert bp.TIMESTAMP not in entities[bp.EE_FORCE][0].schema.names  # simulated: no wall clock
+    assert {bp.SPEC, bp.EE, bp.EE_PATH, bp.GARMENT} <= static_paths(rrd)
+    text = spec_text(rrd)
+    assert f"outcome {read_trial(inferred[0]).metadata.outcome.value}: seed " in text
+    # which model made the estimate, and how it did on this trial
+    assert f"Estimate by model {inferred[1]} (3x50 LSTM)." in text
+    assert re.search(r"Trial RMSE [0-9.e-]+ N against [0-9.e-]+ N for an all-zero", text)
     names = view_names(rrd)
-    assert {"Force map: ground truth (top), estimate (bottom)", "RMSE per step (N)"} <= names
+    assert {"Force map: ground truth", "Force map: estimate", "RMSE per step (N)"} <= names
 
 
 def test_logged_estimate_equals_the_engines_output(inferred) -> None:
@@ -266,6 +272,10 @@ def test_record_live_streams_the_simulation_through_the_engine(tmp_path: Path) -
     assert read_trial(tmp_path / "live.mcap").force_map.forces.shape == (25, 300)
 
 
+#: 2024-12-03, in ns: a converted log's first stamp on the wall clock.
+LOG_START_NS = 1_733_234_567_000_000_000
+
+
 def _converted_log(tmp_path: Path) -> Path:
     """A gown trial as `convert` makes it: 15 steps of wrench and twist, no ground truth."""
     from dresslog.io.writer import TrialWriter
@@ -273,7 +283,8 @@ def _converted_log(tmp_path: Path) -> Path:
 
     t_ns = np.arange(15, dtype=np.int64) * 10_000_000
     log = tmp_path / "converted.mcap"
-    with TrialWriter(log, TrialMetadata(task=Task.GOWN)) as writer:
+    source = {"start_ns": LOG_START_NS}  # the log's own clock was the wall clock
+    with TrialWriter(log, TrialMetadata(task=Task.GOWN, source=source)) as writer:
         writer.write_wrench(t_ns, np.random.default_rng(0).normal(size=(15, 6)))
         writer.write_twist(t_ns, np.random.default_rng(1).normal(size=(15, 6)))
     return log
@@ -292,7 +303,12 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     assert bp.TRUTH_LIMB not in entities and bp.TRUTH_LIMB not in static_paths(rrd)
     names = view_names(rrd)
     assert "Force map: estimate (the trial has no ground truth)" in names
-    assert "RMSE per step (N)" not in names
+    assert "RMSE per step (N)" not in names and "Force map: ground truth" not in names
+    # nothing that needs a pose or a truth: no gripper axes at the origin, no empty series
+    assert not {bp.EE, bp.TOTAL_TRUTH, bp.RMSE} & static_paths(rrd)
+    # the log's wall-clock time beside the time since its start, to line up other recordings
+    stamps = np.array(column(entities[bp.EE_FORCE], bp.TIMESTAMP), dtype="datetime64[ns]")
+    assert stamps.astype(np.int64).tolist() == [LOG_START_NS + 10_000_000 * i for i in range(15)]
     # a fixed colour scale, not one stretched to a weak estimate; the limb said to be nominal
     text = spec_text(rrd)
     assert "the task's nominal limb" in text and "0 to 0.5 N." in text

@@ -44,7 +44,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
-from dresslog.io.files import check_writable, is_temporary, sha256_file, temporary_path
+from dresslog.io.files import (
+    check_writable,
+    is_temporary,
+    printable,
+    sha256_file,
+    temporary_path,
+)
 from dresslog.model.inputs import PHI_DIM
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
@@ -157,6 +163,13 @@ class LoadedModel:
     def estimator(self) -> NumpyEstimator:
         """A fresh stateful estimator (each caller gets its own recurrent state)."""
         return NumpyEstimator(self.weights)
+
+    def describe(self) -> str:
+        """Which model, in a line: where it is, its network and its recorded test ratio."""
+        card = self.card
+        ratio = card.metrics.get("test_ratio")
+        scored = f", test ratio {ratio:.3f}" if ratio is not None else ""
+        return f"{printable(str(self.path))} ({card.layers}x{card.hidden} LSTM{scored})"
 
 
 def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard) -> None:

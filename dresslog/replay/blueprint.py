@@ -6,7 +6,7 @@ them and the tests that read them back cannot drift apart.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,19 +14,24 @@ if TYPE_CHECKING:
     import rerun.blueprint as rrb
 
 STEP = "step"
-SIM_TIME = "sim_time"
+#: Seconds since the trial's first step: the timeline the viewer opens on, so that play
+#: runs at the trial's own speed (a sequence timeline plays steps at 30 per second).
+TIME = "time"
+#: Wall-clock time of a converted log whose stamps are epoch times, so that the trial
+#: lines up with other recordings of the same run (a camera's, say).
+TIMESTAMP = "timestamp"
 
 WORLD = "world"
+TRUTH = "world/truth"
 ESTIMATE = "world/estimate"
 TRUTH_LIMB = "world/truth/limb"
 ESTIMATE_LIMB = "world/estimate/limb"
-TRUTH_LABEL = "world/truth/label"
-ESTIMATE_LABEL = "world/estimate/label"
 GARMENT = "world/truth/garment"
-EE = "world/truth/ee"
-EE_PATH = "world/truth/ee_path"
 CONTACTS = "world/truth/contacts"
 CONTACT_FORCES = "world/truth/contact_forces"
+#: The gripper is measured, not ground truth: both 3D views show it.
+EE = "world/ee"
+EE_PATH = "world/ee_path"
 EE_FORCE = "plots/ee/force"
 EE_TORQUE = "plots/ee/torque"
 EE_VELOCITY = "plots/ee/velocity"
@@ -40,72 +45,101 @@ SPEC = "trial/spec"
 FORCE_FIELD = "force_newtons"
 
 
-def estimate_offset(points: np.ndarray, margin: float = 0.1) -> np.ndarray:
-    """Where to draw the estimate limb: below the ground truth, as Fig. 6 stacks them."""
-    height = float(np.ptp(points[:, 2])) if len(points) else 0.5
-    return np.array([0.0, 0.0, -(height + margin)])
+def is_long(points: np.ndarray) -> bool:
+    """A limb much wider than tall (the leg): its two maps go one above the other."""
+    extent = np.ptp(points, axis=0)
+    return bool(extent[0] > 1.5 * extent[2])
 
 
-def eye(points: np.ndarray, both: bool) -> rrb.EyeControls3D:
-    """A camera in front of the limb(s) (looking along +y, z up) that frames both of them."""
+def eye(points: np.ndarray) -> rrb.EyeControls3D:
+    """A camera in front of the limb (looking along +y, z up) that frames all of it.
+
+    Far enough that the limb fits its view: half the window wide for an arm, whose
+    maps sit side by side; a wide, low view for a leg, whose maps are stacked.
+    """
     import rerun.blueprint as rrb
 
     low, high = points.min(axis=0), points.max(axis=0)
-    if both:
-        low = np.minimum(low, low + estimate_offset(points))
     center = (low + high) / 2
     size = float(np.max(high - low))
-    position = center + np.array([0.1, -1.25, 0.3]) * size
+    distance = 0.6 if is_long(points) else 1.7
+    position = center + np.array([0.07, -1.0, 0.24]) * distance * size
     return rrb.EyeControls3D(position=position, look_target=center, eye_up=[0, 0, 1])
 
 
-def _titles(has_truth: bool, has_estimate: bool) -> tuple[str, str]:
-    """The 3D view's and the total-force plot's names: they say what is drawn."""
-    if has_truth and has_estimate:
-        return (
-            "Force map: ground truth (top), estimate (bottom)",
-            "Total limb force (N): truth vs estimate",
-        )
-    if has_estimate:
-        return (
-            "Force map: estimate (the trial has no ground truth)",
-            "Total limb force (N): estimate",
-        )
+def _map_views(has_truth: bool, has_estimate: bool, camera: Any) -> list[rrb.Spatial3DView]:
+    """Ground truth and estimate, each in its own view (one camera each).
+
+    One view holding both had to place one limb apart from the other, and the garment
+    hanging from the gripper fell across it; apart, each limb has its view to itself.
+    """
+    import rerun.blueprint as rrb
+
+    views = []
     if has_truth:
-        return "Force map: ground truth", "Total limb force (N): ground truth"
-    return "Force map (no ground truth, no model: nothing to show)", "Total limb force (N)"
+        views.append((TRUTH, "Force map: ground truth"))
+    if has_estimate:
+        alone = "" if has_truth else " (the trial has no ground truth)"
+        views.append((ESTIMATE, f"Force map: estimate{alone}"))
+    if not views:
+        views.append((TRUTH, "Force map (no ground truth, no model: nothing to show)"))
+    return [
+        rrb.Spatial3DView(
+            name=name,
+            origin=WORLD,
+            contents=[f"+ /{root}/**", f"+ /{EE}/**", f"+ /{EE_PATH}"],
+            background=[250, 250, 252],
+            eye_controls=camera,
+        )
+        for root, name in views
+    ]
+
+
+def _total_title(has_truth: bool, has_estimate: bool) -> str:
+    """The total-force plot's name: it says what is drawn."""
+    if has_truth and has_estimate:
+        return "Total limb force (N): truth vs estimate"
+    if has_estimate:
+        return "Total limb force (N): estimate"
+    if has_truth:
+        return "Total limb force (N): ground truth"
+    return "Total limb force (N)"
 
 
 def default_blueprint(
     has_estimate: bool = True, limb_points: np.ndarray | None = None, has_truth: bool = True
 ) -> rrb.Blueprint:
-    """3D heat maps on the left, the signals over time on the right, the spec below."""
+    """Force maps over the total force, RMSE and spec; the 9-D signal beside them.
+
+    The signal's three plots share a column: five stacked there left each too short for
+    the viewer to label its axis.
+    """
     import rerun.blueprint as rrb
 
-    both = has_truth and has_estimate
-    name, total = _titles(has_truth, has_estimate)
-    camera = eye(limb_points, both) if limb_points is not None and len(limb_points) else None
-    plots = [
-        rrb.TimeSeriesView(name="End-effector force (N)", origin=EE_FORCE),
-        rrb.TimeSeriesView(name="End-effector torque (N m)", origin=EE_TORQUE),
-        rrb.TimeSeriesView(name="End-effector velocity (m/s)", origin=EE_VELOCITY),
-        rrb.TimeSeriesView(name=total, origin=TOTAL_FORCE),
+    camera, stacked = None, False
+    if limb_points is not None and len(limb_points):
+        camera, stacked = eye(limb_points), is_long(limb_points)
+    maps = _map_views(has_truth, has_estimate, camera)
+    comparison = [
+        rrb.TimeSeriesView(name=_total_title(has_truth, has_estimate), origin=TOTAL_FORCE)
     ]
-    if both:
-        plots.append(rrb.TimeSeriesView(name="RMSE per step (N)", origin=RMSE))
+    if has_truth and has_estimate:
+        comparison.append(rrb.TimeSeriesView(name="RMSE per step (N)", origin=RMSE))
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
-                rrb.Spatial3DView(
-                    name=name, origin=WORLD, background=[250, 250, 252], eye_controls=camera
-                ),
-                rrb.TextDocumentView(name="Trial spec", origin=SPEC),
-                row_shares=[5, 1],
+                rrb.Vertical(*maps) if stacked else rrb.Horizontal(*maps),
+                rrb.Horizontal(*comparison, rrb.TextDocumentView(name="Trial spec", origin=SPEC)),
+                row_shares=[3, 1],
             ),
-            rrb.Vertical(*plots),
+            rrb.Vertical(
+                rrb.TimeSeriesView(name="End-effector force (N)", origin=EE_FORCE),
+                rrb.TimeSeriesView(name="End-effector torque (N m)", origin=EE_TORQUE),
+                rrb.TimeSeriesView(name="End-effector velocity (m/s)", origin=EE_VELOCITY),
+            ),
             column_shares=[3, 2],
         ),
-        rrb.TimePanel(timeline=STEP, state="collapsed"),
+        rrb.TimePanel(timeline=TIME, state="collapsed"),
         rrb.BlueprintPanel(expanded=False),
         rrb.SelectionPanel(expanded=False),
     )

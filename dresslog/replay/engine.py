@@ -49,6 +49,7 @@ class TrialContext:
     trial: Trial | None = None
     has_estimate: bool = True
     has_truth: bool = True  # False for a converted log: nothing to draw beside the estimate
+    model: str | None = None  # which model makes the estimate, as a recording names it
 
 
 @dataclass(frozen=True)

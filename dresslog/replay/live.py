@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Self
 import numpy as np
 
 from dresslog.errors import DresslogError, DresslogWarning
-from dresslog.replay.engine import Estimator, Replay, Sink, Step, TrialContext, check_points
+from dresslog.replay.engine import Estimator, Replay, Sink, Step, TrialContext
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.spec import TrialMetadata, TrialSpec
 
@@ -38,17 +38,18 @@ class SimulationSource:
     the sinks, or aborts them if the simulation raised.
     """
 
-    def __init__(self, estimator: Estimator | None, sinks: Sequence[Sink] = ()) -> None:
+    def __init__(
+        self, estimator: Estimator | None, sinks: Sequence[Sink] = (), model: str | None = None
+    ) -> None:
         self.metrics = MetricsSink()
         self.replay = Replay(estimator, [self.metrics, *sinks])
-        self.n_points = getattr(estimator, "n_points", None)
+        self.model = model
 
     def start(self, info: SimStart) -> None:
         metadata = TrialMetadata(task=info.spec.task, spec=info.spec)
-        context = TrialContext(metadata, info.limb_points, info.triangles)
-        if self.n_points is not None:
-            check_points(context, self.n_points)
-        self.replay.start(context)
+        self.replay.start(
+            TrialContext(metadata, info.limb_points, info.triangles, model=self.model)
+        )
 
     def step(self, step: SimStep) -> None:
         phi = np.concatenate([step.wrench[:6], step.twist[:3]]).astype(np.float32)
@@ -92,7 +93,6 @@ def live_source(
     *,
     recording: rr.RecordingStream | None = None,
     connect: str | None = None,
-    vmax: float | None = None,
 ) -> SimulationSource:
     """What `dresslog record --live` passes to `simulate`: model (or bundled) -> live viewer.
 
@@ -106,8 +106,8 @@ def live_source(
     loaded = resolve_model(model, Task(task), None, required=False)
     estimator = loaded.estimator() if loaded is not None else None
     rec = recording if recording is not None else live_viewer(connect=connect)
-    sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS, vmax=vmax)
-    return SimulationSource(estimator, [sink])
+    sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS)
+    return SimulationSource(estimator, [sink], loaded.describe() if loaded is not None else None)
 
 
 def record_live(
@@ -118,7 +118,6 @@ def record_live(
     overwrite: bool = False,
     recording: rr.RecordingStream | None = None,
     connect: str | None = None,
-    vmax: float | None = None,
 ) -> tuple[SimResult, TrialMetrics]:
     """`dresslog record --live`: simulate `spec` to `path` while a viewer shows the replay.
 
@@ -129,7 +128,7 @@ def record_live(
     """
     from dresslog.sim import record_trial
 
-    live = live_source(model, spec.task, recording=recording, connect=connect, vmax=vmax)
+    live = live_source(model, spec.task, recording=recording, connect=connect)
     result: SimResult | None = None
     try:
         with live:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from dresslog.errors import DresslogWarning, TrialFormatError
@@ -113,6 +113,8 @@ def replay_file(
         warnings.warn(f"{problem}; shown with ground truth alone", DresslogWarning, stacklevel=2)
         loaded = None
     estimator = loaded.estimator() if loaded is not None else None
+    if loaded is not None:
+        context = replace(context, model=loaded.describe())
     timings["load_model"] = clock() - t0
 
     metrics = MetricsSink()

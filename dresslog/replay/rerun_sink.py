@@ -21,6 +21,7 @@ from dresslog.errors import TrialWriteError
 from dresslog.io.files import check_output, discard, printable, temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
+from dresslog.replay.metrics import MetricsSink
 from dresslog.trial import contact_magnitudes, contact_vectors
 
 if TYPE_CHECKING:
@@ -44,6 +45,9 @@ XYZ_COLORS = [[220, 50, 50], [40, 160, 60], [50, 100, 230]]
 #: known in advance, and a converted log, whose estimate alone would stretch any weak
 #: force to the top of the scale.
 FIXED_VMAX = 0.5
+#: Stamps from here on (ns; September 2001) are wall-clock times, not times since a
+#: start: a converted log that has them gets a `timestamp` timeline too.
+EPOCH_STAMPS = 10**18
 
 
 @dataclass
@@ -73,15 +77,16 @@ class RerunSink:
         *,
         recording: rr.RecordingStream | None = None,
         flush_every: int | None = None,
-        vmax: float | None = None,
     ) -> None:
         if (path is None) == (recording is None):
             raise ValueError("give either an output path or a live recording stream")
         self.path = None if path is None else Path(path)
         self.recording = recording
         self.flush_every = flush_every if recording is not None else None
-        self.vmax = vmax if vmax is not None or recording is None else FIXED_VMAX
-        self._asked_vmax = self.vmax  # None: each trial's own, set as it closes
+        # a file's colour scale is fitted to each trial's truth as it closes
+        self._asked_vmax = FIXED_VMAX if recording is not None else None
+        self.vmax = self._asked_vmax
+        self._metrics = MetricsSink()
         self.context: TrialContext | None = None
         self._buf = _Buffer()
         self._tmp: Path | None = None
@@ -95,6 +100,7 @@ class RerunSink:
         self._edges = _edges(context.garment_triangles)
         self._buf = _Buffer()
         self._path_so_far = []
+        self._metrics.open(context)
         if self.path is not None:
             check_output(self.path, context.source_path, suffix=".rrd")
         else:
@@ -113,13 +119,16 @@ class RerunSink:
         b.pose.append(s.pose)
         b.contacts.append(s.contacts)
         b.garment.append(s.garment)
+        self._metrics.write(result)
         if self.flush_every and len(b) >= self.flush_every:
             self.flush()
 
     def close(self) -> None:
+        self._metrics.close()
         if self.path is None:
             self.flush()
             if self.recording is not None:
+                self._send_spec()  # now with the trial's RMSE
                 self.recording.flush()
             return
         import rerun as rr
@@ -130,8 +139,8 @@ class RerunSink:
         try:
             rec.save(self._tmp, default_blueprint=self.blueprint())
             if self.vmax is None:  # calibrated on the truth, so a poor estimate cannot rescale it
-                truth = _stack(self._buf.truth)
-                self.vmax = color_scale(*truth) if truth else FIXED_VMAX
+                truth = _present(self._buf.truth)[1]
+                self.vmax = color_scale(truth) if truth is not None else FIXED_VMAX
             self._send_static()
             self.flush()
             rec.flush()
@@ -172,7 +181,7 @@ class RerunSink:
         return f"{name}-{uuid.uuid4().hex[:8]}"
 
     def _send_static(self) -> None:
-        """Limb points, labels, the garment's and the series' styles and the spec, once."""
+        """Limb points, the garment's and the series' styles and the spec, once."""
         import rerun as rr
 
         rec, ctx = self.recording, self.context
@@ -180,54 +189,67 @@ class RerunSink:
         limb = ctx.limb_points
         if limb is not None:
             pts = np.asarray(limb.points, dtype=np.float32)
-            side = pts[np.argmin(pts[:, 0])] - np.array([0.12, 0, 0], np.float32)
-            drawn = [(bp.TRUTH_LIMB, bp.TRUTH_LABEL, "ground truth")] if ctx.has_truth else []
-            if ctx.has_estimate:
-                drawn.append((bp.ESTIMATE_LIMB, bp.ESTIMATE_LABEL, "estimate"))
-                below = bp.estimate_offset(pts) if ctx.has_truth else np.zeros(3)
-                rec.log(bp.ESTIMATE, rr.Transform3D(translation=below), static=True)
-            for points, label, text in drawn:
-                # positions only: static colours would shadow every step's heat colours
-                rec.log(points, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
-                tag = rr.Points3D(side, labels=text, radii=0.001, colors=[0, 0, 0])
-                rec.log(label, tag, static=True)
+            # positions only: static colours would shadow every step's heat colours
+            for present, path in (
+                (ctx.has_truth, bp.TRUTH_LIMB),
+                (ctx.has_estimate, bp.ESTIMATE_LIMB),
+            ):
+                if present:
+                    rec.log(path, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
         if self._edges is not None:
             style = rr.LineStrips3D.from_fields(radii=GARMENT_LINE_RADIUS, colors=GARMENT_COLOR)
             rec.log(bp.GARMENT, style, static=True)
-        rec.log(bp.EE, rr.TransformAxes3D(0.08), static=True)
-        for path, names in (
-            (bp.EE_FORCE, ["fx", "fy", "fz"]),
-            (bp.EE_TORQUE, ["tx", "ty", "tz"]),
-            (bp.EE_VELOCITY, ["vx", "vy", "vz"]),
-        ):
-            rec.log(path, rr.SeriesLines(names=names, colors=XYZ_COLORS), static=True)
-        rec.log(
-            bp.TOTAL_TRUTH, rr.SeriesLines(names="ground truth", colors=[90, 170, 255]), static=True
-        )
-        rec.log(
-            bp.TOTAL_ESTIMATE, rr.SeriesLines(names="estimate", colors=[230, 90, 20]), static=True
-        )
-        rec.log(bp.RMSE, rr.SeriesLines(names="RMSE", colors=[200, 30, 60]), static=True)
-        rec.log(
-            bp.SPEC, rr.TextDocument(self._spec_text(), media_type="text/markdown"), static=True
-        )
+        series = [
+            (bp.EE_FORCE, ["fx", "fy", "fz"], XYZ_COLORS),
+            (bp.EE_TORQUE, ["tx", "ty", "tz"], XYZ_COLORS),
+            (bp.EE_VELOCITY, ["vx", "vy", "vz"], XYZ_COLORS),
+        ]
+        if ctx.has_truth:
+            series.append((bp.TOTAL_TRUTH, ["ground truth"], [[90, 170, 255]]))
+        if ctx.has_estimate:
+            series.append((bp.TOTAL_ESTIMATE, ["estimate"], [[230, 90, 20]]))
+        if ctx.has_truth and ctx.has_estimate:
+            series.append((bp.RMSE, ["RMSE"], [[200, 30, 60]]))
+        for path, names, colors in series:
+            rec.log(path, rr.SeriesLines(names=names, colors=colors), static=True)
+        self._send_spec()
+
+    def _send_spec(self) -> None:
+        import rerun as rr
+
+        assert self.recording is not None
+        text = rr.TextDocument(self._spec_text(), media_type="text/markdown")
+        self.recording.log(bp.SPEC, text, static=True)
 
     def _spec_text(self) -> str:
-        """What the trial is, in a line or two above its full metadata."""
+        """What the trial is and what made the estimate, in a few lines above its metadata."""
         ctx = self.context
         assert ctx is not None
         md = ctx.metadata
-        source = f"`{printable(ctx.source_path.name)}`" if ctx.source_path else "live simulation"
-        vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
-        shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
-        what = f"**{md.task.value}** trial from {source}, outcome {md.outcome.value}"
+        if ctx.source_path:
+            what = f"**{md.task.value}** trial from `{printable(ctx.source_path.name)}`"
+            what += f", outcome {md.outcome.value}"
+        else:  # the outcome is decided as the simulation ends; `record` prints it
+            what = f"**{md.task.value}** trial, live simulation"
         if md.spec is not None:
             what += f": {md.spec.describe()}"
         if ctx.trial is not None and ctx.trial.limb_points is None:
             what += ". Drawn on the task's nominal limb: the log does not say where the limb was"
+        lines = [what + "."]
+        if ctx.has_estimate:
+            lines.append(f"Estimate by model {ctx.model or '(given in code)'}.")
+        m = self._metrics.metrics
+        if m.rmse is not None and m.zero_rmse:
+            lines.append(
+                f"Trial RMSE {m.rmse:.4g} N against {m.zero_rmse:.4g} N for an all-zero "
+                f"estimate (ratio {m.rmse / m.zero_rmse:.3f})."
+            )
+        vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
+        shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
+        lines.append(f"Colour: grey = no force, dark to bright = 0 to {vmax}{shared}.")
         return (
-            f"{what}. Colour: grey = no force, dark to bright = 0 to {vmax}{shared}.\n\n"
-            f"```json\n{md.model_dump_json(indent=1, exclude={'software'})}\n```"
+            "\n\n".join(lines)
+            + f"\n\n```json\n{md.model_dump_json(indent=1, exclude={'software'})}\n```"
         )
 
     def flush(self) -> None:
@@ -242,12 +264,18 @@ class RerunSink:
         step = np.asarray(b.step, dtype=np.int64)
         t_ns = np.asarray(b.t_ns, dtype=np.int64)
 
+        start = self._epoch_start()
+
         def index(mask: np.ndarray | None = None) -> list[rr.TimeColumn]:
             s, t = (step, t_ns) if mask is None else (step[mask], t_ns[mask])
-            return [
+            columns = [
                 rr.TimeColumn(bp.STEP, sequence=s),
-                rr.TimeColumn(bp.SIM_TIME, duration=t.astype("timedelta64[ns]")),
+                rr.TimeColumn(bp.TIME, duration=t.astype("timedelta64[ns]")),
             ]
+            if start is not None:
+                stamps = (t + start).astype("datetime64[ns]")
+                columns.append(rr.TimeColumn(bp.TIMESTAMP, timestamp=stamps))
+            return columns
 
         def send(path: str, mask: np.ndarray | None, columns: Any) -> None:
             rec.send_columns(path, indexes=index(mask), columns=columns)
@@ -286,12 +314,21 @@ class RerunSink:
             segments = garment[:, self._edges].reshape(-1, 2, 3)  # (g * e, 2, 3)
             send(bp.GARMENT, mask, rr.LineStrips3D.columns(strips=segments).partition([e] * g))
 
+    def _epoch_start(self) -> int | None:
+        """A converted log's first stamp (ns), if it is a wall-clock time (after 2001)."""
+        ctx = self.context
+        start = ctx.metadata.source.get("start_ns") if ctx is not None else None
+        return start if isinstance(start, int) and start >= EPOCH_STAMPS else None
+
     def _send_pose(self, b: _Buffer, send: Any) -> None:
         import rerun as rr
 
         mask, pose = _present(b.pose)
         if pose is None:
             return
+        if not self._path_so_far:  # axes only where there is a pose to place them
+            assert self.recording is not None
+            self.recording.log(bp.EE, rr.TransformAxes3D(0.08), static=True)
         send(bp.EE, mask, rr.Transform3D.columns(translation=pose[:, :3], quaternion=pose[:, 3:7]))
         self._path_so_far.append(pose[:, :3])
         path = np.concatenate(self._path_so_far)
@@ -355,8 +392,3 @@ def _edges(triangles: np.ndarray | None) -> np.ndarray | None:
     tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     pairs = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     return np.unique(np.sort(pairs, axis=1), axis=0)
-
-
-def _stack(items: list[np.ndarray | None]) -> list[np.ndarray]:
-    present = [x for x in items if x is not None]
-    return [np.stack(present)] if present else []
