@@ -558,3 +558,19 @@ def test_a_checkpoint_that_cannot_be_written_is_one_line(tmp_path: Path, monkeyp
     with pytest.raises(ModelError, match=r"cannot write the checkpoint: .*No space left"):
         train(phis, forces, checkpoint=tmp_path / "run.ckpt", **kwargs)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_training_window_starts_with_no_change_as_a_trial_does_in_inference() -> None:
+    """`--window` with `--input-differences`: a crop is read from a fresh state, so its
+    first step carries no change, as a trial's first step does when the model runs."""
+    from dresslog.model.train import _crop
+
+    phi = np.random.default_rng(0).normal(size=(50, 9)).astype(np.float32)
+    inputs, y = network_inputs(phi, True), np.arange(50.0)[:, None]
+    starts = []
+    for seed in range(20):
+        crop, target = _crop(inputs, y, 10, np.random.default_rng(seed))
+        start = int(target[0, 0])
+        starts.append(start)
+        np.testing.assert_array_equal(crop, network_inputs(phi[start : start + 10], True))
+    assert max(starts) > 0  # some windows start inside the sequence

@@ -64,7 +64,7 @@ from dresslog.model.files import (
     ModelCard,
     Normalisation,
 )
-from dresslog.model.inputs import network_inputs
+from dresslog.model.inputs import PHI_DIM, network_inputs, reads_differences
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
 from dresslog.model.options import VAL_FRACTION, check_options, held_out
@@ -126,12 +126,21 @@ def _batch(
 
 
 def _crop(
-    phi: np.ndarray, y: np.ndarray, window: int, rng: np.random.Generator
+    inputs: np.ndarray, y: np.ndarray, window: int, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
-    if len(phi) <= window:
-        return phi, y
-    start = int(rng.integers(0, len(phi) - window + 1))
-    return phi[start : start + window], y[start : start + window]
+    """A random `window` of a sequence, read as a sequence of its own.
+
+    The network starts it from a fresh state, so a network that reads phi's change
+    gets no change at its first step, as at a trial's first step in inference.
+    """
+    if len(inputs) <= window:
+        return inputs, y
+    start = int(rng.integers(0, len(inputs) - window + 1))
+    cropped = inputs[start : start + window]
+    if start and reads_differences(inputs.shape[1]):
+        cropped = cropped.copy()
+        cropped[0, PHI_DIM:] = 0.0
+    return cropped, y[start : start + window]
 
 
 def _masked_mse(out: torch.Tensor, y: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
