@@ -147,7 +147,9 @@ def build_limb(
 
 
 # ---------------------------------------------------------------------------
-# Signed distance, used to drop points hidden inside neighbouring primitives.
+# Signed distance: which limb points neighbouring parts hide, where a contact lies on
+# the surface, which cloth lies on the limb (the spread), whether the gripper path clears
+# it, and the outcome.
 
 
 def sum_xyz(v: np.ndarray) -> np.ndarray:

@@ -290,3 +290,20 @@ def test_the_settle_is_checked_in_physics_steps_and_recorded_trials_stay_readabl
         writer.write_twist([0, 10_000_000], np.zeros((2, 6)))
     spec = read_trial(path).metadata.spec
     assert spec is not None and spec.sim.wind_s == 0.3
+
+
+def test_specs_are_drawn_without_loading_pybullet() -> None:
+    """`generate` and `sweep` hand out specs from a process that never simulates."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from dresslog.dataset.executors import resolve\n"
+        "from dresslog.dataset.generate import SPEC_FACTORY\n"
+        "from dresslog.sim import random_spec\n"
+        "assert resolve(SPEC_FACTORY)('gown', 4) == random_spec('gown', 4)\n"
+        "print('pybullet' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

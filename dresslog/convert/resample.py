@@ -4,10 +4,13 @@ A force/torque sensor at 500-1000 Hz carries content above the grid's 50 Hz
 Nyquist limit (motor and contact vibration), so picking every tenth sample
 would alias it into the band the model sees; averaging all samples within
 each 10 ms bin (a box filter centred on the grid point, so no delay) removes
-most of it. Pose and velocity are smooth and slower, so they are
-interpolated; velocity from pose is differentiated on the source samples
-(second-order central differences) before interpolation, because the
-derivative of an interpolated pose would be piecewise constant.
+most of it. Any stream above 150 Hz (`AVERAGE_ABOVE_HZ`), velocity included, is
+averaged so; slower ones, where a bin would hold one sample or none, are
+interpolated, and the pose always is. Velocity from pose is differentiated on the
+source samples (second-order central differences, so it describes each sample's own
+time, where a simulated trial's backward difference describes the half step before)
+before it is resampled, because the derivative of an interpolated pose would be
+piecewise constant.
 
 Times are integer nanoseconds; arithmetic is done relative to the grid start
 in float64, exact to the nanosecond for spans up to about 100 days.

@@ -206,7 +206,6 @@ def load_dataset(
     *,
     workers: int | None = None,
     progress: bool = True,
-    rebuild: bool = False,
 ) -> DatasetArrays:
     """All trials of the dataset at `root` as arrays, from the cache when it is current.
 
@@ -227,7 +226,7 @@ def load_dataset(
     warn_if_incomplete(root, manifest)
     check_files(root, manifest)
     path = cache_path(root, manifest)
-    arrays = None if rebuild or not path.exists() else _read(path, manifest)
+    arrays = _read(path, manifest) if path.exists() else None
     if arrays is None:
         arrays = _build(root, manifest, workers or os.cpu_count() or 1, progress)
         with contextlib.suppress(OSError):  # a read-only dataset loads, just uncached

@@ -4,7 +4,6 @@ One code path for `dresslog infer`, `view` and the live view of a running
 simulation. Rerun is imported only when a Rerun sink writes.
 """
 
-from dresslog.model.bundled import bundled_model
 from dresslog.replay.engine import (
     Estimator,
     Replay,
@@ -36,7 +35,6 @@ __all__ = [
     "StepResult",
     "TrialContext",
     "TrialMetrics",
-    "bundled_model",
     "live_source",
     "live_viewer",
     "replay_file",

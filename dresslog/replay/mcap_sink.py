@@ -99,8 +99,8 @@ def _holds_an_estimate(path: Path) -> bool:
 def copy_trial(writer: TrialWriter, trial: Trial, limb: LimbPoints | None = None) -> None:
     """Every stream of `trial` except an old estimate, in bulk where the writer allows.
 
-    `limb` (default: the trial's) says where the estimate's points are; a converted
-    log without limb points gets the nominal limb its estimate was drawn on.
+    `limb` says where the estimate's points are when the trial has no limb points of
+    its own: a converted log gets the nominal limb its estimate was drawn on.
     """
     limb = trial.limb_points if trial.limb_points is not None else limb
     if limb is not None:

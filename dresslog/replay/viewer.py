@@ -328,7 +328,6 @@ def view_file(
     model: str | Path | None = None,
     web: bool = False,
     web_port: int | None = None,
-    grpc_port: int | None = None,
     echo: Callable[[str], None] = print,
 ) -> None:
     """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed.
@@ -352,7 +351,7 @@ def view_file(
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model))
         web_port = web_port or _free_port(9090)
-        grpc_port = grpc_port or _free_port()
+        grpc_port = _free_port()
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
             echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")

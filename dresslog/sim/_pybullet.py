@@ -1,6 +1,8 @@
-"""pybullet, without the build-time banner its C code prints on import.
+"""pybullet, loaded at its first use and without the build-time banner it prints then.
 
 A command's output is one summary line or one error line; the banner would break that.
+Loading it at its first use, not on import, keeps it out of the processes that only
+draw specs or hand out trials (`generate`'s and `sweep`'s parents).
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
 __all__ = ["pb"]
 
@@ -32,5 +35,16 @@ def _silenced_c_output() -> Iterator[None]:
         os.close(devnull)
 
 
-with _silenced_c_output():
-    import pybullet as pb
+class _Pybullet:
+    """Stands for the pybullet module; imports it at the first attribute asked for."""
+
+    def __getattr__(self, name: str) -> Any:
+        with _silenced_c_output():
+            import pybullet
+
+        value = getattr(pybullet, name)
+        setattr(self, name, value)  # found directly from now on
+        return value
+
+
+pb: Any = _Pybullet()

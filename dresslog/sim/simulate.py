@@ -31,39 +31,11 @@ from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_p
 from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
 
-#: Limb offset ranges (m) of the paper, per axis, and speed ranges (m/s). The paper's
-#: (x, y, z) numbers are applied to our (x, y, z), but its y is up (`PAPER_AXES`), so
-#: our lateral and vertical ranges are crossed: the gown's arm moves +-20 cm sideways
-#: where the paper moved it +-20 cm up and down. Kept so until a simulator version
-#: regenerates every dataset (docs/experiments.md, "The paper's axes").
-OFFSET_RANGE = {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)}
-SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
 GARMENT_HZ = 10
 #: Instability guard: a vertex this far from the gripper means the cloth exploded.
 MAX_VERTEX_DISTANCE = 1.5
 #: Outcome thresholds: tared gripper force (N) that means the garment is held back.
 CAUGHT_FORCE = 2.0
-
-
-def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
-    """A spec with offset, speed and path drawn from the paper's ranges by `seed`.
-
-    `overrides` set spec fields (a None value leaves the drawn or default one).
-    """
-    task = Task(task)
-    rng = np.random.default_rng(seed)
-    offset = tuple(float(v) for v in rng.uniform(-1, 1, 3) * OFFSET_RANGE[task])
-    speed = float(rng.uniform(*SPEED_RANGE[task]))
-    points = [tuple(map(float, p)) for p in random_control_points(task, rng)]
-    fields: dict[str, object] = {
-        "task": task,
-        "seed": seed,
-        "speed": speed,
-        "limb_offset": offset,
-        "control_points": points,
-    }
-    fields.update({k: v for k, v in overrides.items() if v is not None})
-    return TrialSpec.model_validate(fields)
 
 
 @dataclass(frozen=True)
@@ -103,7 +75,6 @@ class SimResult:
     sim_seconds: float
     wall_seconds: float
     peak_limb_force: float  # peak over steps of the total contact force on the limb, N
-    peak_ee_force: float
     timings: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -473,7 +444,7 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
             spec, limb, _motion(path, p.record_hz, tare), force_map, spread, sink, timings
         )
         _record(scene, path_phys, sub, steps, timings)
-        peak_limb, peak_ee = steps.peak_limb, max(steps.ee_forces, default=0.0)
+        peak_limb = steps.peak_limb
         final_force = max(steps.ee_forces[-max(1, p.record_hz // 5) :], default=0.0)
         outcome = decide_outcome(task, limb, garment, scene.vertices(), final_force)
     finally:
@@ -485,7 +456,6 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
         sim_seconds=n_rec / p.record_hz,
         wall_seconds=wall,
         peak_limb_force=peak_limb,
-        peak_ee_force=peak_ee,
         timings=timings,
     )
 
@@ -495,6 +465,5 @@ __all__ = [
     "SimStart",
     "SimStep",
     "StepSink",
-    "random_spec",
     "simulate",
 ]

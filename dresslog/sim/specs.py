@@ -1,0 +1,41 @@
+"""Random trial specs drawn from the paper's ranges (numpy only: no pybullet).
+
+Apart from the simulator, so that `generate` and `sweep` can draw their trials' specs
+without loading pybullet in the process that only hands them out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dresslog.sim.trajectory import random_control_points
+from dresslog.spec import Task, TrialSpec
+
+#: Limb offset ranges (m) of the paper, per axis, and speed ranges (m/s). The paper's
+#: (x, y, z) numbers are applied to our (x, y, z), but its y is up (`PAPER_AXES`), so
+#: our lateral and vertical ranges are crossed: the gown's arm moves +-20 cm sideways
+#: where the paper moved it +-20 cm up and down. Kept so until a simulator version
+#: regenerates every dataset (docs/experiments.md, "The paper's axes").
+OFFSET_RANGE = {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)}
+SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
+
+
+def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
+    """A spec with offset, speed and path drawn from the paper's ranges by `seed`.
+
+    `overrides` set spec fields (a None value leaves the drawn or default one).
+    """
+    task = Task(task)
+    rng = np.random.default_rng(seed)
+    offset = tuple(float(v) for v in rng.uniform(-1, 1, 3) * OFFSET_RANGE[task])
+    speed = float(rng.uniform(*SPEED_RANGE[task]))
+    points = [tuple(map(float, p)) for p in random_control_points(task, rng)]
+    fields: dict[str, object] = {
+        "task": task,
+        "seed": seed,
+        "speed": speed,
+        "limb_offset": offset,
+        "control_points": points,
+    }
+    fields.update({k: v for k, v in overrides.items() if v is not None})
+    return TrialSpec.model_validate(fields)
