@@ -271,6 +271,12 @@ def test_a_spec_the_simulator_would_run_wrongly_is_refused(fields: dict, message
         TrialSpec.model_validate({"task": "gown", **fields})
 
 
+def test_a_random_spec_with_an_override_out_of_range_is_one_line_of_ours() -> None:
+    """`random_spec` is the library's way to a spec; pydantic's own error was its answer."""
+    with pytest.raises(SimulationError, match=r"^invalid speed: Input should be greater than 0$"):
+        random_spec(Task.GOWN, 1, speed=-0.1)
+
+
 def test_the_settle_is_checked_in_physics_steps_and_recorded_trials_stay_readable(
     tmp_path: Path,
 ) -> None:

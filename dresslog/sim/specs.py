@@ -1,13 +1,15 @@
-"""Random trial specs drawn from the paper's ranges (numpy only: no pybullet).
+"""Random trial specs drawn from the paper's ranges: what a seed stands for, apart from the physics.
 
-Apart from the simulator, so that `generate` and `sweep` can draw their trials' specs
-without loading pybullet in the process that only hands them out.
+numpy only: `generate` and `sweep` draw their trials' specs in a process that never
+simulates.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from pydantic import ValidationError
 
+from dresslog.errors import SimulationError, first_problem
 from dresslog.sim.trajectory import random_control_points
 from dresslog.spec import Task, TrialSpec
 
@@ -23,7 +25,8 @@ SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
 def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
     """A spec with offset, speed and path drawn from the paper's ranges by `seed`.
 
-    `overrides` set spec fields (a None value leaves the drawn or default one).
+    `overrides` set spec fields (a None value leaves the drawn or default one); one out
+    of range is a `SimulationError` naming it.
     """
     task = Task(task)
     rng = np.random.default_rng(seed)
@@ -38,4 +41,7 @@ def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
         "control_points": points,
     }
     fields.update({k: v for k, v in overrides.items() if v is not None})
-    return TrialSpec.model_validate(fields)
+    try:
+        return TrialSpec.model_validate(fields)
+    except ValidationError as err:  # an override out of range, named in one line
+        raise SimulationError(f"invalid {first_problem(err)}") from None
