@@ -88,9 +88,16 @@ def _check_folder(root: Path) -> None:
         )
 
 
+#: A million trials is months of simulation on a cluster; more is a typo (whose job
+#: list alone would fill the memory).
+MAX_TRIALS = 1_000_000
+
+
 def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
-    if _whole(trials) is None or trials < 1:
-        raise DatasetError(f"--trials must be a whole number, at least 1, not {trials!r}")
+    if _whole(trials) is None or not 1 <= trials <= MAX_TRIALS:
+        raise DatasetError(
+            f"--trials must be a whole number from 1 to {MAX_TRIALS:,}, not {trials!r}"
+        )
     if not 0 <= test_fraction < 1:
         raise DatasetError(f"test fraction must be in [0, 1), not {test_fraction}")
     n_test = round(trials * test_fraction) if trials > 1 else 0
@@ -105,6 +112,8 @@ def _given_counts(splits: Mapping[Split | str, int]) -> dict[Split, int]:
         if (whole := _whole(count)) is None or whole < 0:
             raise DatasetError(f"{known} trials must be a whole number >= 0, not {count!r}")
         counts[known] = whole
+    if sum(counts.values()) > MAX_TRIALS:
+        raise DatasetError(f"{sum(counts.values()):,} trials: at most {MAX_TRIALS:,} are made")
     return counts
 
 
