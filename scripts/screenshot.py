@@ -39,7 +39,8 @@ def capture(rrd: Path, out: Path, step: int, port: int, settle: float) -> None:
     viewer = ViewerClient.spawn(headless=True, port=port)
     try:
         viewer.open(str(rrd))
-        viewer.set_time("step", sequence=step, play_state="paused")
+        # on the timeline the recording opens on (seconds), at the step's time
+        viewer.set_time("time", duration=step / 100, play_state="paused")
         time.sleep(settle)  # draw a few frames; let the start-up notifications fade
         viewer.save_screenshot(str(out.resolve()))
     finally:

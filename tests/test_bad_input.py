@@ -438,8 +438,11 @@ def test_library_calls_with_a_bad_value_raise_the_dresslog_error_naming_it(
     model = SAMPLES / "models" / "gown"
     with pytest.raises(DresslogError, match="split 'val' is not one of train, test, sweep"):
         evaluate_dataset(model, tmp_path, split="val")
-    with pytest.raises(DresslogError, match="at least 1 sequence per setting, not 0"):
-        sweep(model, tmp_path / "sw", speeds=[0.2], n=0)
+    for n, shown in ((0, "0"), (2_000_000, "2,000,000")):  # neither leaves a folder
+        with pytest.raises(
+            DresslogError, match=f"1,000,000 sequences per setting .-n., not {shown}"
+        ):
+            sweep(model, tmp_path / "sw", speeds=[0.2], n=n)
     assert list(tmp_path.iterdir()) == []
     csv = tmp_path / "ft.csv"
     csv.write_text("time,fx,fy,fz,tx,ty,tz,vx,vy,vz\n" + "0,0,0,0,0,0,0,0,0,0\n" * 3)

@@ -42,11 +42,14 @@ def static_paths(rrd: Path) -> set[str]:
 
 
 def spec_text(rrd: Path) -> str:
-    """The trial panel's markdown."""
-    for chunk in rc.RrdReader(rrd).store().stream():
-        if chunk.is_static and chunk.entity_path.lstrip("/") == bp.SPEC:
-            return chunk.to_record_batch().column("TextDocument:text").to_pylist()[0][0]
-    raise AssertionError("no trial panel")
+    """The trial panel's markdown (its last version: a live view sends it again at the end)."""
+    texts = [
+        chunk.to_record_batch().column("TextDocument:text").to_pylist()[0][0]
+        for chunk in rc.RrdReader(rrd).store().stream()
+        if chunk.is_static and chunk.entity_path.lstrip("/") == bp.SPEC
+    ]
+    assert texts, "no trial panel"
+    return texts[-1]
 
 
 def view_names(rrd: Path) -> set[str]:
@@ -270,6 +273,10 @@ def test_record_live_streams_the_simulation_through_the_engine(tmp_path: Path) -
     assert column(entities[bp.ESTIMATE_LIMB], bp.STEP) == list(range(25))
     assert len(column(entities[bp.GARMENT], bp.STEP)) >= 2
     assert read_trial(tmp_path / "live.mcap").force_map.forces.shape == (25, 300)
+    # the note, sent again as the trial ends, gives its RMSE and leaves out the outcome,
+    # which the simulation decides after the last step (`record` prints it)
+    text = spec_text(rrd)
+    assert f"Trial RMSE {metrics.rmse:.4g} N" in text and '"outcome"' not in text
 
 
 #: 2024-12-03, in ns: a converted log's first stamp on the wall clock.
@@ -312,6 +319,29 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     # a fixed colour scale, not one stretched to a weak estimate; the limb said to be nominal
     text = spec_text(rrd)
     assert "the task's nominal limb" in text and "0 to 0.5 N." in text
+
+
+def test_a_trial_stamped_on_the_wall_clock_opens_at_zero_seconds_with_its_timestamps(
+    tmp_path: Path,
+) -> None:
+    """`time` counts from the trial's first step whatever its stamps; stamps that are
+    wall-clock times are kept on `timestamp`."""
+    from dresslog.io.writer import TrialWriter
+    from dresslog.replay.pipeline import replay_file
+    from dresslog.spec import TrialMetadata
+
+    t_ns = LOG_START_NS + np.arange(15, dtype=np.int64) * 10_000_000
+    log = tmp_path / "stamped.mcap"
+    with TrialWriter(log, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_wrench(t_ns, np.zeros((15, 6)))
+        writer.write_twist(t_ns, np.zeros((15, 6)))
+    rrd = tmp_path / "stamped.rrd"
+    replay_file(log, model=save_random_model(tmp_path), rrd=rrd)
+    force = temporal(rrd)[bp.EE_FORCE]
+    seconds = [d.total_seconds() for d in column(force, bp.TIME)]
+    assert seconds == pytest.approx([0.01 * i for i in range(15)])
+    stamps = np.array(column(force, bp.TIMESTAMP), dtype="datetime64[ns]")
+    assert stamps.astype(np.int64).tolist() == t_ns.tolist()
 
 
 def _free_port() -> int:

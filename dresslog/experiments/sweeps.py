@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from dresslog.dataset import Split, generate, load_dataset
 from dresslog.dataset.executors import check_executor
+from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE
 from dresslog.errors import DatasetError, SimulationError, first_problem
@@ -168,8 +169,10 @@ def sweep(
     Each setting is a dataset folder under `out` (so an interrupted sweep resumes); the
     sweep seeds are the same in every setting, so settings differ only in what they fix.
     """
-    if n < 1:
-        raise DatasetError(f"a sweep needs at least 1 sequence per setting, not {n}")
+    if not 1 <= n <= MAX_TRIALS:
+        raise DatasetError(
+            f"a sweep runs 1 to {MAX_TRIALS:,} sequences per setting (-n), not {n:,}"
+        )
     loaded = load_model(model)
     task = loaded.card.task
     if not speeds and not rotations:

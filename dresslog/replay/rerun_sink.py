@@ -100,6 +100,7 @@ class RerunSink:
         self._edges = _edges(context.garment_triangles)
         self._buf = _Buffer()
         self._path_so_far = []
+        self._first_ns: int | None = None
         self._metrics.open(context)
         if self.path is not None:
             check_output(self.path, context.source_path, suffix=".rrd")
@@ -110,6 +111,8 @@ class RerunSink:
 
     def write(self, result: StepResult) -> None:
         b, s = self._buf, result.step
+        if self._first_ns is None:
+            self._first_ns = s.t_ns
         b.step.append(s.index)
         b.t_ns.append(s.t_ns)
         b.phi.append(s.phi)
@@ -239,17 +242,19 @@ class RerunSink:
         if ctx.has_estimate:
             lines.append(f"Estimate by model {ctx.model or '(given in code)'}.")
         m = self._metrics.metrics
-        if m.rmse is not None and m.zero_rmse:
+        if m.rmse is not None and m.zero_rmse is not None:
+            ratio = f" (ratio {m.rmse / m.zero_rmse:.3f})" if m.zero_rmse > 0 else ""
             lines.append(
                 f"Trial RMSE {m.rmse:.4g} N against {m.zero_rmse:.4g} N for an all-zero "
-                f"estimate (ratio {m.rmse / m.zero_rmse:.3f})."
+                f"estimate{ratio}."
             )
         vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
         shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
         lines.append(f"Colour: grey = no force, dark to bright = 0 to {vmax}{shared}.")
+        # a live simulation's outcome is not known here: left out, not shown as unknown
+        hidden = {"software"} if ctx.source_path else {"software", "outcome"}
         return (
-            "\n\n".join(lines)
-            + f"\n\n```json\n{md.model_dump_json(indent=1, exclude={'software'})}\n```"
+            "\n\n".join(lines) + f"\n\n```json\n{md.model_dump_json(indent=1, exclude=hidden)}\n```"
         )
 
     def flush(self) -> None:
@@ -264,16 +269,17 @@ class RerunSink:
         step = np.asarray(b.step, dtype=np.int64)
         t_ns = np.asarray(b.t_ns, dtype=np.int64)
 
-        start = self._epoch_start()
+        first = self._first_ns or 0
+        wall = self._wall_clock(first)
 
         def index(mask: np.ndarray | None = None) -> list[rr.TimeColumn]:
             s, t = (step, t_ns) if mask is None else (step[mask], t_ns[mask])
             columns = [
                 rr.TimeColumn(bp.STEP, sequence=s),
-                rr.TimeColumn(bp.TIME, duration=t.astype("timedelta64[ns]")),
+                rr.TimeColumn(bp.TIME, duration=(t - first).astype("timedelta64[ns]")),
             ]
-            if start is not None:
-                stamps = (t + start).astype("datetime64[ns]")
+            if wall is not None:
+                stamps = (t + wall).astype("datetime64[ns]")
                 columns.append(rr.TimeColumn(bp.TIMESTAMP, timestamp=stamps))
             return columns
 
@@ -314,11 +320,18 @@ class RerunSink:
             segments = garment[:, self._edges].reshape(-1, 2, 3)  # (g * e, 2, 3)
             send(bp.GARMENT, mask, rr.LineStrips3D.columns(strips=segments).partition([e] * g))
 
-    def _epoch_start(self) -> int | None:
-        """A converted log's first stamp (ns), if it is a wall-clock time (after 2001)."""
+    def _wall_clock(self, first_ns: int) -> int | None:
+        """What to add to a stamp (ns) for its wall-clock time, if the trial has one.
+
+        A converted log starts at 0 and records its source's first stamp (`start_ns`); a
+        trial written otherwise may carry wall-clock stamps itself. Stamps after 2001
+        are taken for wall-clock times.
+        """
         ctx = self.context
         start = ctx.metadata.source.get("start_ns") if ctx is not None else None
-        return start if isinstance(start, int) and start >= EPOCH_STAMPS else None
+        if isinstance(start, int) and start >= EPOCH_STAMPS:
+            return start
+        return 0 if first_ns >= EPOCH_STAMPS else None
 
     def _send_pose(self, b: _Buffer, send: Any) -> None:
         import rerun as rr

@@ -10,6 +10,7 @@ from __future__ import annotations
 import ctypes
 import os
 import sys
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -35,14 +36,31 @@ def _silenced_c_output() -> Iterator[None]:
         os.close(devnull)
 
 
+_module: Any = None
+_loading = threading.Lock()
+
+
+def _load() -> Any:
+    """pybullet, imported once per process, the banner silenced while it loads.
+
+    Under a lock: two threads silencing and restoring the output at once could leave it
+    pointing at /dev/null for good.
+    """
+    global _module
+    with _loading:
+        if _module is None:
+            with _silenced_c_output():
+                import pybullet
+
+            _module = pybullet
+    return _module
+
+
 class _Pybullet:
     """Stands for the pybullet module; imports it at the first attribute asked for."""
 
     def __getattr__(self, name: str) -> Any:
-        with _silenced_c_output():
-            import pybullet
-
-        value = getattr(pybullet, name)
+        value = getattr(_load(), name)
         setattr(self, name, value)  # found directly from now on
         return value
 
