@@ -23,7 +23,7 @@ import numpy as np
 from dresslog.limb import build_limb
 from dresslog.sim._pybullet import pb
 from dresslog.sim.garments import garment_for
-from dresslog.sim.scene import EE_MASS, Scene
+from dresslog.sim.scene import EE_MASS, Scene, load_cloth
 from dresslog.spec import SimParams, Task
 
 G = 9.81
@@ -42,26 +42,6 @@ def _grid_obj(directory: Path, side: float = 0.3, n: int = 11) -> Path:
     return path
 
 
-def _load_cloth(c: int, p: SimParams, obj: Path) -> int:
-    return pb.loadSoftBody(
-        str(obj),
-        basePosition=[0, 0, 0.02],
-        mass=p.garment_mass,
-        useNeoHookean=0,
-        useMassSpring=1,
-        useBendingSprings=1,
-        springElasticStiffness=p.elastic_stiffness,
-        springDampingStiffness=p.damping_stiffness,
-        springDampingAllDirections=1,
-        springBendingStiffness=p.bending_stiffness,
-        useSelfCollision=0,
-        frictionCoeff=p.friction,
-        useFaceContact=1,
-        collisionMargin=p.collision_margin,
-        physicsClientId=c,
-    )
-
-
 def _world(p: SimParams) -> int:
     c = pb.connect(pb.DIRECT)
     pb.resetSimulation(pb.RESET_USE_DEFORMABLE_WORLD, physicsClientId=c)
@@ -77,7 +57,7 @@ def _cloth_on_box(p: SimParams) -> float:
         box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[1, 1, 0.1], physicsClientId=c)
         pb.createMultiBody(0, box, basePosition=[0, 0, -0.1], physicsClientId=c)
         with tempfile.TemporaryDirectory() as tmp:
-            cloth = _load_cloth(c, p, _grid_obj(Path(tmp)))
+            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p)
         reported = []
         for k in range(3 * p.physics_hz):
             pb.stepSimulation(physicsClientId=c)
@@ -96,7 +76,7 @@ def _lifted_drop(p: SimParams) -> float:
     c = _world(p)
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            cloth = _load_cloth(c, p, _grid_obj(Path(tmp)))
+            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p)
 
         def com_z() -> float:
             _, v = pb.getMeshData(cloth, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=c)

@@ -36,6 +36,27 @@ def _quat_z_to(u: np.ndarray) -> list[float]:
     return [*(axis / s * np.sin(ang / 2)), float(np.cos(ang / 2))]
 
 
+def load_cloth(client: int, obj: Path, position: np.ndarray, params: SimParams) -> int:
+    """A mass-spring cloth from a Wavefront .obj with the spec's cloth parameters."""
+    return pb.loadSoftBody(
+        str(obj),
+        basePosition=list(map(float, position)),
+        mass=params.garment_mass,
+        useNeoHookean=0,
+        useMassSpring=1,
+        useBendingSprings=1,
+        springElasticStiffness=params.elastic_stiffness,
+        springDampingStiffness=params.damping_stiffness,
+        springDampingAllDirections=1,
+        springBendingStiffness=params.bending_stiffness,
+        useSelfCollision=0,
+        frictionCoeff=params.friction,
+        useFaceContact=1,
+        collisionMargin=params.collision_margin,
+        physicsClientId=client,
+    )
+
+
 @dataclass
 class Scene:
     """Handles into one pybullet world."""
@@ -85,24 +106,7 @@ class Scene:
                 physicsClientId=c,
             )
         with tempfile.TemporaryDirectory(prefix="dresslog-") as tmp:
-            obj = garment.write_obj(Path(tmp))
-            cloth = pb.loadSoftBody(
-                str(obj),
-                basePosition=ee_start.tolist(),
-                mass=params.garment_mass,
-                useNeoHookean=0,
-                useMassSpring=1,
-                useBendingSprings=1,
-                springElasticStiffness=params.elastic_stiffness,
-                springDampingStiffness=params.damping_stiffness,
-                springDampingAllDirections=1,
-                springBendingStiffness=params.bending_stiffness,
-                useSelfCollision=0,
-                frictionCoeff=params.friction,
-                useFaceContact=1,
-                collisionMargin=params.collision_margin,
-                physicsClientId=c,
-            )
+            cloth = load_cloth(c, garment.write_obj(Path(tmp)), ee_start, params)
         box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.01] * 3, physicsClientId=c)
         ee = pb.createMultiBody(EE_MASS, box, basePosition=ee_start.tolist(), physicsClientId=c)
         pb.setCollisionFilterGroupMask(ee, -1, 0, 0, physicsClientId=c)
