@@ -6,6 +6,7 @@ the replay engine pass around; no I/O happens here.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +36,21 @@ CONTACT_DTYPE = np.dtype(
         ("vertex", "<u4"),
     ]
 )
+
+
+def padded(sequences: Sequence[np.ndarray], length: int | None = None) -> np.ndarray:
+    """(n, length, D) float32: each (T_i, D) sequence from its start, zeros after it.
+
+    `length` defaults to the longest; a longer sequence is cut there. Batches of trials
+    of different lengths are stacked so (the LSTM is causal: the zeros never change a
+    real step's output).
+    """
+    if length is None:
+        length = max(len(s) for s in sequences)
+    out = np.zeros((len(sequences), length, sequences[0].shape[1]), np.float32)
+    for row, seq in enumerate(sequences):
+        out[row, : min(len(seq), length)] = seq[:length]
+    return out
 
 
 def contact_vectors(contacts: np.ndarray) -> np.ndarray:

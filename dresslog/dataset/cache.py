@@ -36,7 +36,7 @@ from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import Task
 from dresslog.stops import deferred_in_children, leave_stops_to_the_parent
-from dresslog.trial import STEP_HZ
+from dresslog.trial import STEP_HZ, padded
 
 CACHE_DIR = ".cache"
 CACHE_VERSION = 2
@@ -149,11 +149,8 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
     if len(widths) != 1:
         raise DatasetError(f"trials have different limb point counts {sorted(widths)}", path=root)
     lengths = np.array([len(p) for p, _ in decoded], np.int64)
-    s, t, n = len(decoded), int(lengths.max()), widths.pop()
-    phi = np.zeros((s, t, 9), np.float32)
-    forces = np.zeros((s, t, n), np.float32)
-    for i, (p, f) in enumerate(decoded):
-        phi[i, : len(p)], forces[i, : len(f)] = p, f
+    phi = padded([p for p, _ in decoded])
+    forces = padded([f for _, f in decoded])
     info = np.array([str(CACHE_VERSION), manifest.task.value, manifest.content_hash()])
     return {
         "phi": phi,

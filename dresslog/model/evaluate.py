@@ -28,6 +28,7 @@ from dresslog.model.bounds import error_split
 from dresslog.model.files import LoadedModel
 from dresslog.model.numpy_lstm import NumpyEstimator
 from dresslog.model.postprocess import apply_contact, sequence_rmse, split_output
+from dresslog.trial import padded
 
 
 @dataclass(frozen=True)
@@ -92,11 +93,7 @@ def evaluate(
     order = np.argsort([len(p) for p in sequences])  # similar lengths together
     for start in tqdm(range(0, len(order), batch_size), disable=not progress, unit="batch"):
         idx = order[start : start + batch_size]
-        length = max(len(sequences[k]) for k in idx)
-        x = np.zeros((len(idx), length, sequences[idx[0]].shape[1]), np.float32)
-        for row, k in enumerate(idx):
-            x[row, : len(sequences[k])] = sequences[k]
-        out = est.forward(x)
+        out = est.forward(padded([sequences[k] for k in idx]))
         for row, k in enumerate(idx):
             forces_u, contact = split_output(out[row, : len(sequences[k])])
             truth = np.asarray(forces[k], np.float32)

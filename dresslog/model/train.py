@@ -70,6 +70,7 @@ from dresslog.model.numpy_lstm import infer_sizes
 from dresslog.model.options import VAL_FRACTION, check_options, held_out
 from dresslog.model.postprocess import network_targets
 from dresslog.spec import Task
+from dresslog.trial import padded
 
 Batch = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
 
@@ -115,14 +116,14 @@ def _batch(
     phis: Sequence[np.ndarray], targets: Sequence[np.ndarray], idx: np.ndarray, length: int
 ) -> Batch:
     """Zero-pad the chosen sequences to `length` steps; mask marks the real steps."""
-    n = len(idx)
-    x = np.zeros((n, length, phis[0].shape[1]), np.float32)
-    y = np.zeros((n, length, targets[0].shape[1]), np.float32)
-    mask = np.zeros((n, length, 1), np.float32)
-    for row, k in enumerate(idx):
-        t = min(len(phis[k]), length)
-        x[row, :t], y[row, :t], mask[row, :t] = phis[k][:t], targets[k][:t], 1.0
-    return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
+    x = padded([phis[k] for k in idx], length)
+    y = padded([targets[k] for k in idx], length)
+    real = np.array([len(phis[k]) for k in idx])[:, None] > np.arange(length)
+    return (
+        torch.from_numpy(x),
+        torch.from_numpy(y),
+        torch.from_numpy(real[..., None] * np.float32(1)),
+    )
 
 
 def _crop(
