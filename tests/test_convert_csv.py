@@ -12,7 +12,8 @@ from click.testing import CliRunner
 from dresslog.cli.main import main
 from dresslog.convert import ConversionWarning, convert
 from dresslog.convert import resample as rs
-from dresslog.convert.csv import _value_scale, role_of
+from dresslog.convert.csv import role_of
+from dresslog.convert.units import value_scale
 from dresslog.errors import ConversionError
 from dresslog.io.reader import TrialReader, read_trial
 from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
@@ -158,7 +159,7 @@ HEADER_MILLI = ["Fx [sensor 1] (kN)", "Fy [kN]", "Fz (kN)", "Tx (N-mm)", "Ty (N.
 def test_a_bracket_is_a_unit_only_when_it_reads_as_one(header: str, unit: str | None) -> None:
     role = role_of(header)
     assert role is not None
-    found = _value_scale(header, role, Path("x.csv"))
+    found = value_scale(header, role, Path("x.csv"))
     assert (found[0] if found else None) == unit
 
 
@@ -172,7 +173,7 @@ def test_a_bracket_is_a_unit_only_when_it_reads_as_one(header: str, unit: str | 
 def test_units_written_the_other_usual_ways_are_scaled_alike(header: str, factor: float) -> None:
     role = role_of(header)
     assert role is not None
-    found = _value_scale(header, role, Path("x.csv"))
+    found = value_scale(header, role, Path("x.csv"))
     assert found is not None and found[1] == pytest.approx(factor)
 
 
@@ -208,7 +209,7 @@ def test_a_prefixed_unit_not_converted_is_refused_not_read_as_si(header: str) ->
     role = role_of(header)
     assert role is not None
     with pytest.raises(ConversionError, match="a unit dresslog does not convert"):
-        _value_scale(header, role, Path("x.csv"))
+        value_scale(header, role, Path("x.csv"))
 
 
 @pytest.mark.parametrize("bracket", ["raw", "counts", "ADC", "raw counts"])

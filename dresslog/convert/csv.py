@@ -27,6 +27,15 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.convert.source import Source, SourceStream
+from dresslog.convert.units import (
+    NO_UNIT,
+    RAW,
+    VALUE_UNITS,
+    bracketed,
+    is_unit,
+    si_factor,
+    value_scale,
+)
 from dresslog.errors import ConversionError
 
 #: Roles a column can play; each group is all-or-nothing except where noted.
@@ -60,101 +69,6 @@ _UNIT_NAMES = {
 }  # fmt: skip
 #: Time units a header may name that dresslog does not read: refused, never guessed past.
 _OTHER_TIME_UNITS = {"min", "mins", "minute", "minutes", "h", "hr", "hrs", "hour", "hours"}
-
-
-#: SI factor of each unit a value column's header may give in brackets, by role
-#: group (`fx` -> "f", `x` -> ""); matched ignoring case, spaces, dots and dashes.
-_VALUE_UNITS: dict[str, dict[str, float]] = {
-    "f": {"N": 1.0, "kN": 1e3, "mN": 1e-3, "lbf": 4.4482216152605},
-    "t": {"N m": 1.0, "N mm": 1e-3, "mN m": 1e-3, "kN m": 1e3,
-          "lbf in": 0.1129848290276167, "in lbf": 0.1129848290276167,
-          "lb in": 0.1129848290276167, "in lb": 0.1129848290276167,
-          "lbf ft": 1.3558179483314004, "ft lbf": 1.3558179483314004,
-          "lb ft": 1.3558179483314004, "ft lb": 1.3558179483314004},
-    "v": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
-    "w": {"rad/s": 1.0, "deg/s": np.pi / 180},
-    "": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
-    "q": {},
-}  # fmt: skip
-#: Units spelt out, by the key of their symbol.
-_SPELLED = {"newton": "n", "newtons": "n", "kilonewton": "kn", "kilonewtons": "kn"}
-#: What a unit is written with: a bracket made only of these (and `/`) names a unit,
-#: anything else (`Fx (tool)`, `Fx [sensor 2]`) is a label. SI bases take any common
-#: prefix (`dN`, `km/h`), so a unit not converted is refused, never read as SI.
-_UNIT_ATOMS = re.compile(
-    r"^((da|[kmcdunµμhg])?(n|m|s|g|h|hr|min|rad|deg)"
-    r"|lbf|lb|kgf|gf|ozf|oz|ft|in|yd|mi|mph|kph|kmh|rpm|rev|dps|sec|kn|knots?"
-    r"|dyn|dynes?|kips?|pdl)+$"  # these combine too: kip-ft, dyn-cm
-)
-#: Units written only whole: as atoms they would make words of others (`h` + `ips`).
-#: Volts are a DAQ's reading before calibration, never newtons.
-_WHOLE_UNITS = {
-    "fps",
-    "ips",
-    "v",
-    "mv",
-    "volt",
-    "volts",
-    "newton",
-    "newtons",
-    "kilonewton",
-    "kilonewtons",
-    "pound",
-    "pounds",
-}
-#: Brackets that say a column has no unit.
-_NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
-#: Brackets that say a column holds a sensor's raw readings, not a physical unit.
-_RAW = {"raw", "counts", "count", "cnt", "cnts", "adc", "lsb", "bits"}
-
-
-def _unit_key(unit: str) -> str:
-    """`N·m`, `N-m`, `Nm` -> `nm`; `°/sec`, `deg s-1`, `degree/s`, `dps` -> `deg/s`."""
-    unit = re.sub(r"\s+per\s+", "/", unit)  # mm per s
-    unit = re.sub(r"[\s·⋅×*._]*([a-zA-Zµμ°]+)\s*(?:\^-1|-1|⁻¹)", r"/\1", unit)  # s-1 -> /s
-    key = re.sub(r"[\s·⋅×*._\-]", "", unit.lower()).replace("\u00b0", "deg")
-    key = re.sub(r"/sec(ond)?s?$", "/s", key)
-    key = key.replace("degrees", "deg").replace("degree", "deg")
-    return "deg/s" if key == "dps" else key
-
-
-def _brackets(name: str) -> list[str]:
-    """What a header holds in round or square brackets: `Fx [sensor 1] (kN)` -> both."""
-    return [b.strip() for b in re.findall(r"[\(\[]([^\)\]]*)[\)\]]", name)]
-
-
-def _si_factor(written: str, group: str) -> float | None:
-    """The SI factor of a unit as written for a role group (`f`, `t`, ...), or None."""
-    if re.search(r"(?<![A-Za-z])M(?=[Nn])", written):  # MN is mega, not milli, newtons
-        return None
-    known = {_unit_key(unit): factor for unit, factor in _VALUE_UNITS[group].items()}
-    key = _unit_key(written)
-    return known.get(_SPELLED.get(key, key))
-
-
-def _is_unit(written: str) -> bool:
-    parts = re.sub(r"\^-?\d", "", _unit_key(written)).split("/")
-    return all(_UNIT_ATOMS.match(part) or part in _WHOLE_UNITS for part in parts)
-
-
-def _value_scale(name: str, role: str, path: Path) -> tuple[str, float] | None:
-    """The unit a value column's header gives and its SI factor; a unit not known is refused.
-
-    Values are stored in SI (N, N m, m/s, rad/s, m); a header that says `Fx (kN)` or
-    `Tz [N-mm]` is scaled, since reading its numbers as SI would be silently wrong.
-    Brackets holding a label rather than a unit are passed over.
-    """
-    units = [b for b in _brackets(name) if b.lower() not in _NO_UNIT and _is_unit(b)]
-    if not units:
-        return None
-    written, known = units[0], _VALUE_UNITS[role[:-1]]
-    if (scale := _si_factor(written, role[:-1])) is not None:
-        return written, scale
-    hint = f"give the values in one of {', '.join(known)}" if known else "a quaternion has none"
-    raise ConversionError(
-        f"column {name!r} is in {written!r}, a unit dresslog does not convert; {hint}",
-        path=path,
-    )
 
 
 def _preamble(path: Path, header_line: int) -> tuple[dict[str, str], str]:
@@ -210,12 +124,12 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
         counts = counts_per[quantity] or ""
         unit = keyed.get(f"{quantity}units", "")
         per = float(counts) if _is_number(counts) else math.nan
-        factor = _si_factor(unit, group)
+        factor = si_factor(unit, group)
         if factor is None or not (math.isfinite(per) and per > 0):
             raise ConversionError(
                 f"the {quantity} columns are in counts ({counts!r} per {unit or 'unit'!r}), "
                 f"which dresslog cannot scale; give the {quantity} units as one of "
-                f"{', '.join(_VALUE_UNITS[group])} and a positive count",
+                f"{', '.join(VALUE_UNITS[group])} and a positive count",
                 path=path,
             )
         scales[group] = factor / per
@@ -230,11 +144,11 @@ def _unit_in(name: str, path: Path) -> str | None:
     """
     if name.strip() == "%time" or name.strip().endswith("header.stamp"):
         return "ns"  # rostopic echo -p / rosbag-to-CSV exports
-    brackets = [b.rstrip(".").lower() for b in _brackets(name)]
+    brackets = [b.rstrip(".").lower() for b in bracketed(name)]
     if known := [b for b in brackets if b in _UNIT_NAMES]:
         return _UNIT_NAMES[known[0]]
     if other := [
-        b for b in brackets if b in _OTHER_TIME_UNITS or (b not in _NO_UNIT and _is_unit(b))
+        b for b in brackets if b in _OTHER_TIME_UNITS or (b not in NO_UNIT and is_unit(b))
     ]:
         raise ConversionError(
             f"time column {name!r} is in {other[0]!r}, a unit dresslog does not read; give "
@@ -491,16 +405,16 @@ def read_table(
     scaled = []
     counts = _counts_scales(path, line)
     for role in values:
-        brackets = _brackets(names[found[role]])
-        raw = [b for b in brackets if _RAW & set(re.findall(r"[a-z]+", b.lower()))]
-        has_unit = any(b.lower() not in _NO_UNIT and _is_unit(b) for b in brackets)
+        brackets = bracketed(names[found[role]])
+        raw = [b for b in brackets if RAW & set(re.findall(r"[a-z]+", b.lower()))]
+        has_unit = any(b.lower() not in NO_UNIT and is_unit(b) for b in brackets)
         if raw and not has_unit and role[:-1] not in counts:  # `Fx (N) [raw]` is unfiltered N
             raise ConversionError(
                 f"column {names[found[role]]!r} holds {raw[0]!r} readings, not a unit; scale "
                 "them to SI first (an ATI Net F/T log's counts per unit in its preamble are read)",
                 path=path,
             )
-        unit_scale = _value_scale(names[found[role]], role, path)
+        unit_scale = value_scale(names[found[role]], role, path)
         if role[:-1] in counts:
             if unit_scale is not None:
                 raise ConversionError(
