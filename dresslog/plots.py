@@ -6,9 +6,10 @@ Public API
     all-zero estimate of the same sequences and the in-range line (``dresslog sweep``).
 ``sweep_lines(report, kind)``: the points ``plot_sweep`` joins, per axis.
 ``plot_training(path, card)``: training and validation loss per epoch from a model card's
-    ``history``, log scale, the kept epoch marked (``dresslog train`` writes it beside the
-    model as ``training.png``).
-Both write atomically and import matplotlib (Agg, no display) only when called.
+    ``history``, log scale, the kept epoch marked when ``keep_best`` chose it (``dresslog
+    train`` writes it beside the model as ``training.png``).
+``plot_sweep`` and ``plot_training`` write atomically and import matplotlib (Agg, no
+display) only when called.
 """
 
 from __future__ import annotations

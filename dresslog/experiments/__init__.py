@@ -14,18 +14,26 @@ on_epoch=None) -> ModelCard``
     Trains on the training split (holding out a tenth of it,
     `dresslog.model.options.VAL_FRACTION`, for the per-epoch validation loss), scores
     the test split, and saves a model folder whose card names the data by its manifest
-    hash and keeps the per-epoch losses, with their plot (``training.png``). Resumes from
-    ``.<out>.checkpoint.safetensors`` beside `out`.
+    hash and keeps the per-epoch losses, with their plot (``TRAINING_PLOT``,
+    ``training.png``). Resumes from ``.<out>.checkpoint.safetensors`` beside `out`.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
 -> EvalReport``
-    RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome,
-    with contact-map precision and recall; with ``bounds``, the oracle ratios too.
+    RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome
+    (each a ``Scores``), with contact-map precision and recall; with ``bounds``, the
+    oracle ratios too (none when the split carries no force). ``.table()`` is what
+    ``eval`` prints, ``.to_json()`` what ``eval --json`` prints.
 ``dataset_bounds(data, *, split="test", workers=None) -> dict[str, float]``
-    Those oracle ratios alone (`dresslog.model.bounds`): how low the data let any model go.
+    Those oracle ratios alone (`dresslog.model.bounds`), each an estimate handed part of
+    the truth; empty when the split carries no force.
 ``sweep(model, out, *, speeds=(), rotations=(), n=128, seed=0, ...) -> SweepReport``
     Figs. 12 and 13: the same `n` fresh sequences (sweep seeds, disjoint from every
     training and test seed) re-simulated per setting; RMSE per setting and its ratio to
     the in-range setting; `out/sweep.csv`, `out/sweep.json` and `out/sweep.png`.
+    ``SweepReport.table()`` is what ``sweep`` prints. The pieces it is made of:
+    ``sweep_settings(task, speeds, rotations, duration)`` (the ``Setting``s, the
+    in-range one first; a rotation is swept at the task's mid-range ``ROTATION_SPEED``),
+    ``parse_speed("0.2")``, ``parse_rotation("y:-15")`` and
+    ``default_sweep_folder(model)`` (``./NAME-sweep``).
 """
 
 from dresslog.experiments.evaluation import EvalReport, dataset_bounds, evaluate_dataset

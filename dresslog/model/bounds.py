@@ -12,8 +12,8 @@ Public API
     the limb points (N, 3), m; ``train``: force maps whose per-step mean gives the
     "mean profile". Keys: ``blur <s> cm`` (the exact map blurred along the limb by a
     Gaussian of sigma s: every force known, placed to within s), ``total x mean
-    profile`` (exact total force per step, spread by the training maps' mean shape
-    at that step), ``total x own profile`` (spread by the sequence's own average
+    profile`` (only given ``train``: exact total force per step, spread by the training
+    maps' mean shape at that step), ``total x own profile`` (spread by the sequence's own average
     shape), ``3-step flicker`` (the truth against its own centred 3-step mean: the
     step-to-step noise no causal estimate follows).
 ``error_split(truth, estimate) -> (at_true_total, true_shape_at_estimated_total)``
@@ -21,6 +21,8 @@ Public API
     estimate rescaled to the true total force of each step (what its placement alone
     costs), and the true map rescaled to the estimate's total (what its total alone
     costs). Says whether a model errs in how much force there is or where it falls.
+``describe_oracle(name) -> str``
+    What an oracle's estimate is handed, in words, for ``eval --bounds``' rows.
 """
 
 from __future__ import annotations

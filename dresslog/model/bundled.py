@@ -2,6 +2,14 @@
 
 `infer`, `view` and `record --live` take the model for the trial's task from here when
 none is given, and check that a given one fits the trial.
+
+Public API
+----------
+``bundled_model(task) -> Path | None``: the model folder for `task` ($DRESSLOG_MODELS, the
+    checkout's samples, then the installed package's), None if there is none.
+``resolve_model(model, task, n_points, *, required=True) -> LoadedModel | None``: `model`,
+    or the bundled one, loaded and checked against the trial's task and limb points;
+    ``ModelError`` if it does not fit, or if none is found and `required`.
 """
 
 from __future__ import annotations

@@ -9,9 +9,10 @@ Public API
 ``Scores``: ``n`` (sequences), ``rmse`` (per-sequence RMSE averaged, N), ``zero_rmse`` (all-zero
     estimate), ``ratio`` (rmse / zero_rmse; the paper got 0.45 gown, 0.48 shorts),
     ``contact_precision`` / ``contact_recall`` (estimated contact = contact map > 0 vs
-    true force > 0, counted over all steps and points; nan when undefined),
+    true force > 0, counted over all steps and points),
     ``ratio_at_true_total`` / ``ratio_true_shape`` (the ratio with the estimate's total
-    or its shape replaced by the truth's, `dresslog.model.bounds.error_split`);
+    or its shape replaced by the truth's, `dresslog.model.bounds.error_split`); ratios,
+    precision and recall are nan where undefined (no force in the truth, no contact);
     ``as_metrics()`` gives the finite ones as a dict for ``ModelCard.metrics``.
 """
 

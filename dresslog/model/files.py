@@ -14,13 +14,19 @@ Public API
     ``history`` (one ``EpochRecord(epoch, train_loss, val_loss, seconds)`` per epoch
     trained; empty in cards written before dresslog kept it), ``weights_sha256``,
     ``dresslog_version``, ``created``.
-``save_model(path, weights, card, *, overwrite=False) -> ModelCard``
+``save_model(path, weights, card, *, overwrite=False, also=None) -> ModelCard``
     Writes both files into a temporary sibling folder, then renames it into place, so an
-    interrupted save never leaves a half model. Fills ``weights_sha256``; returns that card.
+    interrupted save never leaves a half model (where the folder cannot be swapped, a
+    symbolic link, a mount point, the working folder: file by file from a temporary
+    inside it, the card last). Fills ``weights_sha256``; returns that card. ``also(folder,
+    card)`` writes more into the folder before it is put in place (``training.png``).
 ``check_model_folder(path, overwrite)``: ``ModelError`` unless ``path`` may become a model
     folder (new, empty, or a model to replace with ``overwrite``).
+``read_card(path) -> ModelCard``: the card alone, unverified (what ``info`` shows of a
+    model that does not load).
 ``load_model(path) -> LoadedModel``: ``.path``, ``.card``, ``.weights`` (dict of float32
-    numpy arrays), ``.estimator() -> NumpyEstimator``. Raises ``ModelError`` (one line,
+    numpy arrays), ``.estimator() -> NumpyEstimator``, ``.describe()`` (the model in a
+    line: where, its network, its test ratio). Raises ``ModelError`` (one line,
     ``.path`` set) for a missing folder or file, a foreign or unreadable card, weights whose
     hash differs from the card (tampered or replaced), and missing or mis-shaped arrays.
 ``check_task(model, task, n_points=None, *, subject="trial", hint=...)``: ``ModelError``

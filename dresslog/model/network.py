@@ -8,10 +8,11 @@ Public API
     outputs ``[force map, contact map]``. Input normalisation ``(phi - mean) / std`` is
     held in buffers ``input_mean``/``input_std`` (identity by default; the paper used none).
 
-    ``forward(x (B, T, input_dim), state=None) -> (out (B, T, 2N), state)``: ``x`` is
+    ``forward(phi (B, T, input_dim), state=None) -> (out (B, T, 2N), state)``: ``phi`` is
     ``dresslog.model.inputs.network_inputs(phi, ...)``, phi itself for 9 inputs. Causal, so padding
     at the end of a sequence never changes its valid outputs; pass ``state`` back in to
-    continue a sequence (the stateful one-step use).
+    continue a sequence (the stateful one-step use). ``set_normalisation(mean, std)``
+    fills the normalisation buffers.
 
 ``ForceMapLSTM.from_weights(weights)`` / ``.weights() -> dict[str, np.ndarray]``
     To and from the flat float32 dict that ``dresslog.model.files`` saves and

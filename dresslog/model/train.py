@@ -36,6 +36,10 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
     The card for freshly trained weights: sizes and normalisation read from the weights,
     hyperparameters and the kept epoch's losses from the history; ``save_model`` adds the hash.
 
+``balanced_force_scale(forces) -> float``: what ``balance_loss`` multiplies the force
+    targets by (the mean non-zero force to the contact map's 0.1).
+``epoch_lr(settings, epoch) -> float``: the learning rate of a 0-based epoch.
+
 ``TrainHistory``: ``settings``, ``epochs`` (list of ``EpochRecord(epoch, train_loss,
     val_loss, seconds)``, the card's ``history``), ``n_train``, ``n_val``,
     ``kept`` (the record of the epoch whose
