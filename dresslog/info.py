@@ -62,6 +62,8 @@ def _dataset(path: Path, as_json: bool) -> Description:
     problem = damaged_error(path, *damaged[0]) if damaged else None
     if as_json:  # the manifest, and the damaged trials as a list beside it
         listed = json.loads(manifest.model_dump_json())
+        # what a model's card and `eval --json` name the data by (manifest_sha256)
+        listed["content_sha256"] = manifest.content_hash()
         listed["damaged"] = [{"file": file, "problem": how} for file, how in damaged]
         return Description(json.dumps(listed, indent=1), problem)
     lines = [f"{path}: {manifest.describe()}"]

@@ -98,6 +98,9 @@ def plot_sweep(path: str | Path, report: SweepReport) -> None:
             zero_label = f"{label}, all-zero" if axis else "all-zero estimate"
             ax.plot(values, zero, "x:", color=drawn.get_color(), label=zero_label)
         ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
+        swept = sorted({v for values, *_ in sweep_lines(report, kind).values() for v in values})
+        if len(swept) <= 8:  # ticks at the settings: one speed alone got a crowd of them
+            ax.set_xticks(swept)
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
         ax.set_ylabel("RMSE (N)")
         ax.set_title(f"{report.task}, {report.n} sequences per setting")

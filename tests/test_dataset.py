@@ -390,6 +390,7 @@ def test_missing_or_corrupt_trials_are_named(copy: Path) -> None:
     listed = json.loads(as_json.stdout)
     assert as_json.exit_code == 1 and len(listed["trials"]) == len(load_manifest(copy).trials)
     assert listed["damaged"] == [{"file": "train/000002.mcap", "problem": "missing"}]
+    assert listed["content_sha256"] == load_manifest(copy).content_hash()  # as cards name it
     with pytest.raises(DatasetError, match=r"train/000002\.mcap listed in the manifest is missing"):
         load_dataset(copy, workers=1, progress=False)
 

@@ -302,6 +302,9 @@ def test_sweep_writes_a_table_and_a_plot(
 
     saved = json.loads((out / "sweep.json").read_text(), parse_constant=strict)
     assert saved["settings"][0]["value"] is None  # the in-range setting has no swept value
+    # the JSON carries the table's ratio to in-range, as the CSV does
+    ratios = [float(row.split(",")[-1]) for row in rows[1:]]
+    assert [s["ratio_to_in_range"] for s in saved["settings"]] == pytest.approx(ratios, 1e-3)
     speeds = {e.spec.speed for e in load_manifest(out / "speed_0.2").trials}
     assert speeds == {0.2}
     # every setting re-simulates the same sequences: same seeds, same paths
@@ -338,6 +341,9 @@ def test_sweep_never_writes_into_a_dataset_or_a_model_folder(
 def test_a_sweep_value_given_twice_is_one_setting() -> None:
     settings = sweep_settings(Task.GOWN, ["0.2", "0.20", "0.25"], ["z:-0", "z:0", "z:0.0"])
     assert [s.name for s in settings] == ["in-range", "speed:0.2", "speed:0.25", "rot:z:0"]
+    # two values %g would print alike are two settings (the second was dropped)
+    close = sweep_settings(Task.GOWN, ["0.1234567", "0.1234568"], [])
+    assert [s.name for s in close[1:]] == ["speed:0.1234567", "speed:0.1234568"]
 
 
 def test_a_sweep_called_from_a_script_says_what_is_wrong_with_its_arguments(

@@ -109,7 +109,8 @@ def sweep_settings(
     extra = {} if duration is None else {"duration": duration}  # 0 is refused, not dropped
     settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
     for speed in map(parse_speed, speeds):
-        settings.append(Setting(f"speed:{speed:g}", "speed", speed, "", {"speed": speed, **extra}))
+        fixed = {"speed": speed, **extra}
+        settings.append(Setting(f"speed:{speed:.10g}", "speed", speed, "", fixed))
     for text in rotations:
         axis, degrees = parse_rotation(text)
         fields = {
@@ -117,7 +118,7 @@ def sweep_settings(
             "limb_rotation": {"axis": axis, "degrees": degrees},
             **extra,
         }
-        settings.append(Setting(f"rot:{axis}:{degrees:g}", "rotation", degrees, axis, fields))
+        settings.append(Setting(f"rot:{axis}:{degrees:.10g}", "rotation", degrees, axis, fields))
     unique: dict[str, Setting] = {}  # a value given twice (0.1 and 0.10) is swept once
     for setting in settings:
         unique.setdefault(setting.name, setting)
@@ -222,11 +223,14 @@ def _write_sweep(out: Path, report: SweepReport) -> None:
     rows = ["setting,kind,axis,value,n,rmse,zero_rmse,ratio_to_in_range"]
     for s in report.settings:
         assert s.scores is not None
-        value = "" if math.isnan(s.value) else f"{s.value:g}"
+        value = "" if math.isnan(s.value) else f"{s.value:.10g}"
         rows.append(
             f"{s.name},{s.kind},{s.axis},{value},{s.scores.n},{s.scores.rmse:.6g},"
             f"{s.scores.zero_rmse:.6g},{report.ratio(s):.4g}"
         )
+    summary_json = asdict(report)  # the table's ratio too: a method asdict leaves out
+    for row, s in zip(summary_json["settings"], report.settings, strict=True):
+        row["ratio_to_in_range"] = report.ratio(s)
     # all three written in full before any is put in place: a stopped or failing run
     # leaves the last sweep's table and plot together, never one beside the other's
     with contextlib.ExitStack() as stack:
@@ -235,5 +239,5 @@ def _write_sweep(out: Path, report: SweepReport) -> None:
             for name in ("sweep.csv", "sweep.json", "sweep.png")
         )
         table.write_text("\n".join(rows) + "\n")
-        summary.write_text(json.dumps(finite(asdict(report)), indent=2) + "\n")
+        summary.write_text(json.dumps(finite(summary_json), indent=2) + "\n")
         plot_sweep(plot, report)

@@ -105,6 +105,8 @@ class DataProvenance(BaseModel):
     """Which data trained the model: enough to tell two models' training sets apart."""
 
     model_config = ConfigDict(extra="forbid")
+    #: the manifest's content hash (`info DATA` prints it as content sha256): what the
+    #: trials are, not the bytes of manifest.json
     manifest_sha256: str | None = None
     n_train: int = 0
     n_val: int = 0
