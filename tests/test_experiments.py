@@ -146,7 +146,12 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     expected = {
         o: sum(e.outcome.value == o for e in entries) for o in {e.outcome.value for e in entries}
     }
-    assert {o: s["n"] for o, s in train["per_outcome"].items()} == expected
+    # every outcome listed, those absent from the split with n 0 and nulls
+    assert {o: s["n"] for o, s in train["per_outcome"].items()} == {
+        "dressed": 0, "missed": 0, "caught": 0, **expected,
+    }  # fmt: skip
+    absent = [s for s in train["per_outcome"].values() if s["n"] == 0]
+    assert all(s["rmse"] is None and s["ratio"] is None for s in absent)
     code, output = invoke("eval", model, data, "-q")
     assert code == 0 and f"{overall['rmse']:.5f}" in output
     code, output = invoke("eval", model, data, "--bounds", "--json")

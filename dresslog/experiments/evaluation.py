@@ -20,7 +20,10 @@ from dresslog.model.files import (
     check_task,
     load_model,
 )
-from dresslog.spec import Task
+from dresslog.spec import Outcome, Task
+
+#: The outcomes every report lists, with n 0 where a split has none (others where present).
+OUTCOMES = (Outcome.DRESSED.value, Outcome.MISSED.value, Outcome.CAUGHT.value)
 
 
 @dataclass(frozen=True)
@@ -45,7 +48,7 @@ class EvalReport:
             f"{'group':<10}{'n':>6}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}"
             f"{'prec':>7}{'rec':>7}"
         )
-        rows = [("all", self.overall), *self.per_outcome.items()]
+        rows = [("all", self.overall), *((o, s) for o, s in self.per_outcome.items() if s.n)]
         lines = [f"{self.task} model {self.model} on {self.data} ({self.split} split)", head]
         for name, s in rows:
             lines.append(
@@ -112,9 +115,12 @@ def evaluate_dataset(
     arrays = load_dataset(data, workers=workers, progress=progress)
     check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
+    # the three outcomes always, empty ones with n 0 (a script's keys do not come and go)
+    present = set(arrays.outcomes[rows].tolist())
     per_outcome = {}
-    for outcome in sorted(set(arrays.outcomes[rows].tolist())):
-        per_outcome[outcome] = score_rows(loaded, arrays, arrays.rows(split, outcome))
+    for outcome in [*OUTCOMES, *sorted(present - set(OUTCOMES))]:
+        chosen = arrays.rows(split, outcome)
+        per_outcome[outcome] = score_rows(loaded, arrays, chosen) if len(chosen) else Scores.none()
     return EvalReport(
         task=arrays.task.value,
         model=str(model),

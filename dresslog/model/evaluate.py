@@ -47,6 +47,11 @@ class Scores:
     #: the ratio of the true map rescaled to the estimate's total: how much it errs
     ratio_true_shape: float
 
+    @classmethod
+    def none(cls) -> Scores:
+        """The scores of an empty group: n 0, every figure nan (null in JSON)."""
+        return cls(0, *[math.nan] * 7)
+
     def as_metrics(self) -> dict[str, float]:
         """The summary numbers, finite only (JSON has no nan)."""
         values = {
