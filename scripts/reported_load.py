@@ -114,7 +114,7 @@ def main() -> None:
     p = SimParams()
     print(f"cloth resting on a box: contacts report {_cloth_on_box(p):.1%} of its weight")
     for task in Task:
-        shares = ", ".join(f"{share:.0%}" for share in _hanging(task, p))
+        shares = ", ".join(f"{round(share, 2) + 0.0:.0%}" for share in _hanging(task, p))
         print(
             f"{task.value} hanging from the gripper: the constraint carries {shares} of its "
             "weight in the first four seconds"

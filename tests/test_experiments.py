@@ -349,6 +349,9 @@ def test_a_sweep_value_given_twice_is_one_setting() -> None:
     # two values %g would print alike are two settings (the second was dropped)
     close = sweep_settings(Task.GOWN, ["0.1234567", "0.1234568"], [])
     assert [s.name for s in close[1:]] == ["speed:0.1234567", "speed:0.1234568"]
+    # a script's float32 speeds name the folders a command-line sweep made
+    single = sweep_settings(Task.GOWN, list(np.array([0.2, 0.25], np.float32)), [])
+    assert [s.name for s in single[1:]] == ["speed:0.2", "speed:0.25"]
 
 
 def test_a_sweep_called_from_a_script_says_what_is_wrong_with_its_arguments(

@@ -3,6 +3,16 @@
 `Fx (kN)`, `Tz [N-mm]`, `vx (mm/s)` are scaled to SI; a unit dresslog does not convert
 (`dN`, `km/h`, a DAQ's `V`) is refused rather than read as SI; a bracket that reads as
 no unit (`Fx (tool)`) is a label.
+
+Public API
+----------
+``value_scale(name, role, path) -> (unit, factor) | None``: the unit a value column's
+    header gives and its SI factor; a unit not converted is a ``ConversionError``.
+``si_factor(written, group) -> float | None``, ``is_unit(written) -> bool``,
+``bracketed(name) -> list[str]``, ``unit_key(unit) -> str``: the pieces, for the
+    counts-per-unit preamble and time columns of `dresslog.convert.csv`.
+``VALUE_UNITS`` (SI factors by role group), ``NO_UNIT`` and ``RAW`` (brackets that mean
+    no unit, or raw sensor readings).
 """
 
 from __future__ import annotations
@@ -95,6 +105,7 @@ def si_factor(written: str, group: str) -> float | None:
 
 
 def is_unit(written: str) -> bool:
+    """Whether a bracket's text is a unit (known or not), rather than a label."""
     parts = re.sub(r"\^-?\d", "", unit_key(written)).split("/")
     return all(_UNIT_ATOMS.match(part) or part in _WHOLE_UNITS for part in parts)
 
