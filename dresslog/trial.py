@@ -45,6 +45,8 @@ def padded(sequences: Sequence[np.ndarray], length: int | None = None) -> np.nda
     of different lengths are stacked so (the LSTM is causal: the zeros never change a
     real step's output).
     """
+    if not len(sequences):
+        raise ValueError("no sequences to pad")
     if length is None:
         length = max(len(s) for s in sequences)
     out = np.zeros((len(sequences), length, sequences[0].shape[1]), np.float32)

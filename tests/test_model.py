@@ -574,3 +574,16 @@ def test_a_training_window_starts_with_no_change_as_a_trial_does_in_inference() 
         starts.append(start)
         np.testing.assert_array_equal(crop, network_inputs(phi[start : start + 10], True))
     assert max(starts) > 0  # some windows start inside the sequence
+
+
+def test_sequences_of_different_lengths_are_padded_with_zeros_after_them() -> None:
+    from dresslog.trial import padded
+
+    a, b = np.arange(6.0).reshape(3, 2), np.full((1, 2), 7.0)
+    batch = padded([a, b])
+    assert batch.dtype == np.float32 and batch.shape == (2, 3, 2)
+    np.testing.assert_array_equal(batch[0], a)
+    np.testing.assert_array_equal(batch[1], [[7, 7], [0, 0], [0, 0]])
+    np.testing.assert_array_equal(padded([a, b], length=2)[0], a[:2])  # cut at length
+    with pytest.raises(ValueError, match="no sequences to pad"):
+        padded([])
