@@ -95,6 +95,10 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     assert re.search(r"Trial RMSE [0-9.e-]+ N against [0-9.e-]+ N for an all-zero", text)
     names = view_names(rrd)
     assert {"Force map: ground truth", "Force map: estimate", "RMSE per step (N)"} <= names
+    # one application per task: a viewer keeps one layout per application, and a shorts
+    # trial opened beside a gown one took the arm's layout
+    (entry,) = rc.RrdReader(rrd).recordings()
+    assert entry.application_id == "dresslog-gown"
 
 
 def test_logged_estimate_equals_the_engines_output(inferred) -> None:

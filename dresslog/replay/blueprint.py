@@ -10,6 +10,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from dresslog.replay.colors import ZERO
+
 if TYPE_CHECKING:
     import rerun.blueprint as rrb
 
@@ -51,30 +53,31 @@ def is_long(points: np.ndarray) -> bool:
     return bool(extent[0] > 1.5 * extent[2])
 
 
-def eye(points: np.ndarray) -> rrb.EyeControls3D:
+def eye(points: np.ndarray, alone: bool = False) -> rrb.EyeControls3D:
     """A camera in front of the limb (looking along +y, z up) that frames all of it.
 
-    Far enough that the limb fits its view: half the window wide for an arm, whose
-    maps sit side by side; a wide, low view for a leg, whose maps are stacked.
+    Far enough that the limb fits its view: half the window wide for an arm, whose two
+    maps sit side by side; a wide, low view for a leg, whose maps are stacked; the
+    whole of the maps' area when one map is `alone` (no ground truth, or no model).
     """
     import rerun.blueprint as rrb
 
     low, high = points.min(axis=0), points.max(axis=0)
     center = (low + high) / 2
     size = float(np.max(high - low))
-    distance = 0.6 if is_long(points) else 1.7
-    position = center + np.array([0.07, -1.0, 0.24]) * distance * size
+    # from the limb, in limb sizes: (leg, arm), with one view or with two
+    distance = (1.3, 1.2) if alone else (0.6, 1.7)
+    position = center + np.array([0.07, -1.0, 0.24]) * distance[not is_long(points)] * size
     return rrb.EyeControls3D(position=position, look_target=center, eye_up=[0, 0, 1])
 
 
-def _map_views(has_truth: bool, has_estimate: bool, camera: Any) -> list[rrb.Spatial3DView]:
-    """Ground truth and estimate, each in its own view (one camera each).
+def _maps(has_truth: bool, has_estimate: bool) -> list[tuple[str, str]]:
+    """The force maps to show, each (entity root, view name).
 
-    One view holding both had to place one limb apart from the other, and the garment
-    hanging from the gripper fell across it; apart, each limb has its view to itself.
+    Ground truth and estimate each get a view of their own: one view holding both had to
+    place one limb apart from the other, and the garment hanging from the gripper fell
+    across it.
     """
-    import rerun.blueprint as rrb
-
     views = []
     if has_truth:
         views.append((TRUTH, "Force map: ground truth"))
@@ -83,6 +86,16 @@ def _map_views(has_truth: bool, has_estimate: bool, camera: Any) -> list[rrb.Spa
         views.append((ESTIMATE, f"Force map: estimate{alone}"))
     if not views:
         views.append((TRUTH, "Force map (no ground truth, no model: nothing to show)"))
+    return views
+
+
+def _map_views(maps: list[tuple[str, str]], camera: Any) -> list[rrb.Spatial3DView]:
+    """One 3D view per map, the gripper in each; limb points grey until a step colours them
+    (a live view shows the limb before its first steps arrive)."""
+    import rerun as rr
+    import rerun.blueprint as rrb
+
+    grey = rr.Points3D.from_fields(colors=[ZERO.tolist()])
     return [
         rrb.Spatial3DView(
             name=name,
@@ -90,8 +103,9 @@ def _map_views(has_truth: bool, has_estimate: bool, camera: Any) -> list[rrb.Spa
             contents=[f"+ /{root}/**", f"+ /{EE}/**", f"+ /{EE_PATH}"],
             background=[250, 250, 252],
             eye_controls=camera,
+            defaults=[grey],
         )
-        for root, name in views
+        for root, name in maps
     ]
 
 
@@ -116,10 +130,12 @@ def default_blueprint(
     """
     import rerun.blueprint as rrb
 
+    maps = _maps(has_truth, has_estimate)
     camera, stacked = None, False
     if limb_points is not None and len(limb_points):
-        camera, stacked = eye(limb_points), is_long(limb_points)
-    maps = _map_views(has_truth, has_estimate, camera)
+        camera = eye(limb_points, alone=len(maps) == 1)
+        stacked = is_long(limb_points)
+    views = _map_views(maps, camera)
     comparison = [
         rrb.TimeSeriesView(name=_total_title(has_truth, has_estimate), origin=TOTAL_FORCE)
     ]
@@ -128,7 +144,7 @@ def default_blueprint(
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
-                rrb.Vertical(*maps) if stacked else rrb.Horizontal(*maps),
+                rrb.Vertical(*views) if stacked else rrb.Horizontal(*views),
                 rrb.Horizontal(*comparison, rrb.TextDocumentView(name="Trial spec", origin=SPEC)),
                 row_shares=[3, 1],
             ),

@@ -105,7 +105,7 @@ def live_source(
 
     loaded = resolve_model(model, Task(task), None, required=False)
     estimator = loaded.estimator() if loaded is not None else None
-    rec = recording if recording is not None else live_viewer(connect=connect)
+    rec = recording if recording is not None else live_viewer(task, connect=connect)
     sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS)
     return SimulationSource(estimator, [sink], loaded.describe() if loaded is not None else None)
 

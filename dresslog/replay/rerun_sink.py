@@ -22,6 +22,7 @@ from dresslog.io.files import check_output, discard, printable, temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.replay.metrics import MetricsSink
+from dresslog.spec import Task
 from dresslog.trial import contact_magnitudes, contact_vectors
 
 if TYPE_CHECKING:
@@ -30,6 +31,14 @@ if TYPE_CHECKING:
     from dresslog.replay.engine import StepResult, TrialContext
 
 APPLICATION_ID = "dresslog"
+
+
+def application_id(task: Task | str) -> str:
+    """One per task: a viewer keeps one layout per application, and a gown's (maps side by
+    side, the arm's camera) would show a shorts trial opened beside it, and the reverse."""
+    return f"{APPLICATION_ID}-{Task(task).value}"
+
+
 POINT_RADIUS = 0.01
 #: Contact arrows grow with force but saturate: ARROW_MAX m long, half of it at ARROW_HALF N.
 ARROW_MAX = 0.08
@@ -137,7 +146,8 @@ class RerunSink:
         import rerun as rr
 
         self._tmp = temporary_path(self.path)
-        rec = rr.RecordingStream(APPLICATION_ID, recording_id=self._recording_id())
+        task = self.context.metadata.task if self.context else Task.GOWN
+        rec = rr.RecordingStream(application_id(task), recording_id=self._recording_id())
         self.recording = rec
         try:
             rec.save(self._tmp, default_blueprint=self.blueprint())

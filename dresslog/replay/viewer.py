@@ -26,6 +26,7 @@ from dresslog.errors import DresslogError, TrialWriteError
 from dresslog.io.files import atomic_path, check_output
 from dresslog.io.reader import RRD_MAGIC
 from dresslog.replay.pipeline import InferenceReport, replay_file
+from dresslog.spec import Task
 from dresslog.stops import stop_signals
 
 if TYPE_CHECKING:
@@ -44,8 +45,9 @@ SPAWN_GRACE_S = 3.0
 SPAWN_SETTLE_S = 1.0
 
 
-def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
-    """A recording stream to a viewer: spawn a native one, or connect to a gRPC URL."""
+def live_viewer(task: Task | str, *, connect: str | None = None) -> rr.RecordingStream:
+    """A recording stream of a `task` trial to a viewer: spawn a native one, or connect
+    to a gRPC URL."""
     if connect is not None:
         check_reachable(connect)
     elif not has_display():
@@ -57,9 +59,9 @@ def live_viewer(*, connect: str | None = None) -> rr.RecordingStream:
     import rerun as rr
 
     from dresslog.replay.blueprint import default_blueprint
-    from dresslog.replay.rerun_sink import APPLICATION_ID
+    from dresslog.replay.rerun_sink import application_id
 
-    rec = rr.RecordingStream(APPLICATION_ID)
+    rec = rr.RecordingStream(application_id(task))
     if connect is not None:
         rec.connect_grpc(connect, default_blueprint=default_blueprint())
         return rec
