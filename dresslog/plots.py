@@ -91,14 +91,15 @@ def plot_sweep(path: str | Path, report: SweepReport) -> None:
     kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
     fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 4.4), squeeze=False)
     for ax, kind in zip(axes[0], kinds, strict=True):
-        for axis, (values, rmse, zero) in sweep_lines(report, kind).items():
+        lines = sweep_lines(report, kind)
+        for axis, (values, rmse, zero) in lines.items():
             label = f"about {axis} (paper's {PAPER_AXES[axis]})" if axis else "model"
             (drawn,) = ax.plot(values, rmse, "o-", label=label)
             # the all-zero estimate of the same sequences: how much force there was to find
             zero_label = f"{label}, all-zero" if axis else "all-zero estimate"
             ax.plot(values, zero, "x:", color=drawn.get_color(), label=zero_label)
         ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
-        swept = sorted({v for values, *_ in sweep_lines(report, kind).values() for v in values})
+        swept = sorted({v for values, *_ in lines.values() for v in values})
         if len(swept) <= 8:  # ticks at the settings: one speed alone got a crowd of them
             ax.set_xticks(swept)
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")

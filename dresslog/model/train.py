@@ -123,11 +123,8 @@ def _batch(
     x = padded([phis[k] for k in idx], length)
     y = padded([targets[k] for k in idx], length)
     real = np.array([len(phis[k]) for k in idx])[:, None] > np.arange(length)
-    return (
-        torch.from_numpy(x),
-        torch.from_numpy(y),
-        torch.from_numpy(real[..., None] * np.float32(1)),
-    )
+    mask = real[..., None].astype(np.float32)
+    return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
 
 
 def _crop(

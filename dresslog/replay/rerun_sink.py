@@ -92,9 +92,7 @@ class RerunSink:
         self.path = None if path is None else Path(path)
         self.recording = recording
         self.flush_every = flush_every if recording is not None else None
-        # a file's colour scale is fitted to each trial's truth as it closes
-        self._asked_vmax = FIXED_VMAX if recording is not None else None
-        self.vmax = self._asked_vmax
+        self.vmax = self._initial_vmax()
         self._metrics = MetricsSink()
         self.context: TrialContext | None = None
         self._buf = _Buffer()
@@ -105,7 +103,7 @@ class RerunSink:
     # -- sink protocol -----------------------------------------------------------
     def open(self, context: TrialContext) -> None:
         self.context = context
-        self.vmax = self._asked_vmax  # a second trial through the sink gets its own scale
+        self.vmax = self._initial_vmax()  # a second trial through the sink gets its own scale
         self._edges = _edges(context.garment_triangles)
         self._buf = _Buffer()
         self._path_so_far = []
@@ -146,8 +144,10 @@ class RerunSink:
         import rerun as rr
 
         self._tmp = temporary_path(self.path)
-        task = self.context.metadata.task if self.context else Task.GOWN
-        rec = rr.RecordingStream(application_id(task), recording_id=self._recording_id())
+        assert self.context is not None
+        rec = rr.RecordingStream(
+            application_id(self.context.metadata.task), recording_id=self._recording_id()
+        )
         self.recording = rec
         try:
             rec.save(self._tmp, default_blueprint=self.blueprint())
@@ -178,6 +178,10 @@ class RerunSink:
             self.recording = None
         if self._tmp is not None:
             discard(self._tmp)
+
+    def _initial_vmax(self) -> float | None:
+        """A live view's fixed colour scale; a file's (None) is fitted to its truth as it closes."""
+        return FIXED_VMAX if self.path is None else None
 
     def blueprint(self) -> Any:
         """The default layout, its camera framed on this trial's limb."""
