@@ -42,14 +42,16 @@ def static_paths(rrd: Path) -> set[str]:
 
 
 def spec_text(rrd: Path) -> str:
-    """The trial panel's markdown (its last version: a live view sends it again at the end)."""
-    texts = [
-        chunk.to_record_batch().column("TextDocument:text").to_pylist()[0][0]
-        for chunk in rc.RrdReader(rrd).store().stream()
-        if chunk.is_static and chunk.entity_path.lstrip("/") == bp.SPEC
-    ]
+    """The trial panel's markdown, as the viewer shows it: the version logged last (a live
+    view sends it again at the end), by row id, not by where the store lists its chunk."""
+    texts = []
+    for chunk in rc.RrdReader(rrd).store().stream():
+        if chunk.is_static and chunk.entity_path.lstrip("/") == bp.SPEC:
+            batch = chunk.to_record_batch()
+            row_id = batch.column("rerun.controls.RowId").to_pylist()[-1]
+            texts.append((row_id, batch.column("TextDocument:text").to_pylist()[-1][0]))
     assert texts, "no trial panel"
-    return texts[-1]
+    return max(texts)[1]
 
 
 def view_names(rrd: Path) -> set[str]:
