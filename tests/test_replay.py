@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -358,3 +359,40 @@ def test_an_estimate_copy_needs_a_model_that_runs(tmp_path: Path) -> None:
     with pytest.raises(TrialFormatError, match="is at 50 Hz"):
         replay_file(trial, require_model=False, mcap=tmp_path / "copy.mcap")
     assert not (tmp_path / "copy.mcap").exists()
+
+
+def _csv_of(trial: Path, out: Path, fz_offset: float) -> Path:
+    """The trial's wrench and velocity as a force/torque CSV, fz shifted (a sensor not tared)."""
+    with TrialReader(trial) as reader:
+        m = reader.read().measurements
+    phi = m.phi.astype(np.float64)
+    phi[:, 2] += fz_offset
+    header = "Time (s),Fx (N),Fy (N),Fz (N),Mx (Nm),My (Nm),Mz (Nm),vx (m/s),vy (m/s),vz (m/s)"
+    rows = np.column_stack([(m.t_ns - m.t_ns[0]) / 1e9, phi])
+    out.write_text(header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
+    return out
+
+
+def test_a_signal_far_from_the_training_data_is_warned_about_with_its_likely_cause(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """A robot's log whose sensor still reads the gripper's weight (1.5 kg) in fz: the
+    bundled model extrapolates on every step, and says so; tared, the same log does not."""
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+    runner = CliRunner()
+    said = {}
+    for name, offset in (("tared", 0.0), ("untared", -1.5 * 9.81)):
+        csv = _csv_of(SAMPLES / "gown.mcap", tmp_path / f"{name}.csv", offset)
+        mcap = tmp_path / f"{name}.mcap"
+        converted = runner.invoke(main, ["convert", str(csv), "-o", str(mcap), "--task", "gown"])
+        assert converted.exit_code == 0, converted.output
+        result = runner.invoke(main, ["infer", str(mcap), "-o", str(tmp_path / f"{name}.rrd")])
+        assert result.exit_code == 0 and (tmp_path / f"{name}.rrd").exists(), result.output
+        said[name] = result.stderr
+    assert "Warning" not in said["tared"]
+    warning = said["untared"]
+    assert warning.startswith(f"Warning: {tmp_path / 'untared.mcap'}: fz lies beyond 10 ")
+    share = re.search(r"on (\d+)% of steps \(median (\S+) N", warning)
+    assert share and int(share[1]) >= 90 and float(share[2]) < -10, warning
+    assert "convert --tare" in warning
+    assert len(warning.strip().splitlines()) == 1

@@ -57,7 +57,7 @@ from dresslog.io.files import (
     sha256_file,
     temporary_path,
 )
-from dresslog.model.inputs import PHI_DIM
+from dresslog.model.inputs import PHI_DIM, unfamiliar
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.spec import Task
 
@@ -171,6 +171,12 @@ class LoadedModel:
     def estimator(self) -> NumpyEstimator:
         """A fresh stateful estimator (each caller gets its own recurrent state)."""
         return NumpyEstimator(self.weights)
+
+    def unfamiliar(self, phi: np.ndarray) -> str | None:
+        """Why the signal (T, 9) is far from this model's training data; None if it is not
+        (or if the card records no standardisation to tell by)."""
+        norm = self.card.normalisation
+        return None if norm is None else unfamiliar(phi, np.array(norm.mean), np.array(norm.std))
 
     def describe(self) -> str:
         """Which model, in a line: where it is, its network and its recorded test ratio."""

@@ -14,6 +14,15 @@ import numpy as np
 
 #: The end effector's measurement per step: force (3), torque (3), velocity (3).
 PHI_DIM = 9
+#: phi's channels and their units, as a warning names them.
+PHI_NAMES = ("fx", "fy", "fz", "tx", "ty", "tz", "vx", "vy", "vz")
+PHI_UNITS = ("N", "N", "N", "N m", "N m", "N m", "m/s", "m/s", "m/s")
+#: A channel is unfamiliar when more than FAR_SHARE of a trial's steps lie beyond FAR_SD
+#: of the training data's standard deviations: 32 simulated trials the bundled models
+#: never saw have at most 1.7% of steps beyond 10, an untared sensor (the gripper's own
+#: weight in fz) every step.
+FAR_SD = 10.0
+FAR_SHARE = 0.1
 
 
 def network_inputs(phi: np.ndarray, differences: bool) -> np.ndarray:
@@ -29,3 +38,24 @@ def reads_differences(input_dim: int) -> bool:
     if input_dim not in (PHI_DIM, 2 * PHI_DIM):
         raise ValueError(f"input width {input_dim}: expected {PHI_DIM} or {2 * PHI_DIM}")
     return input_dim == 2 * PHI_DIM
+
+
+def unfamiliar(phi: np.ndarray, mean: np.ndarray, std: np.ndarray) -> str | None:
+    """Why a trial's signal (T, 9) is far from the training data's, or None if it is not.
+
+    `mean` and `std` are the model's input standardisation (the first 9 are phi's).
+    A network extrapolates there without a sign of it, and the usual causes are the
+    recording's (a sensor not tared, in its own axes, in other units), not the model's.
+    """
+    mean, std = np.asarray(mean[:PHI_DIM]), np.asarray(std[:PHI_DIM])
+    share = (np.abs((phi - mean) / std) > FAR_SD).mean(axis=0)
+    k = int(share.argmax())
+    if not share[k] > FAR_SHARE:
+        return None
+    unit = PHI_UNITS[k]
+    return (
+        f"{PHI_NAMES[k]} lies beyond {FAR_SD:g} standard deviations of the model's training "
+        f"data on {share[k]:.0%} of steps (median {np.median(phi[:, k]):.3g} {unit}, trained on "
+        f"{mean[k]:.3g} +- {std[k]:.3g} {unit}), so the estimate there is a guess; is the "
+        "sensor tared (`convert --tare`), in world axes and SI units?"
+    )
