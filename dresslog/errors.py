@@ -32,7 +32,7 @@ class TrialFormatError(DresslogError):
 
 
 class TrialWriteError(DresslogError):
-    """A trial could not be written (exists, folder missing, bad values)."""
+    """A trial could not be written (exists, a file where its folder goes, bad values)."""
 
 
 class SimulationError(DresslogError):

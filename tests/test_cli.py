@@ -102,6 +102,32 @@ def test_a_trial_not_named_mcap_is_refused_before_any_work(tmp_path: Path, args:
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("command", ["record", "convert"])
+def test_a_trial_into_a_missing_folder_makes_the_folder_as_train_and_generate_do(
+    tmp_path: Path, command: str
+) -> None:
+    """Both refused with "folder does not exist; create it first"."""
+    (csv := tmp_path / "ft.csv").write_text(
+        "time,fx,fy,fz,tx,ty,tz,vx,vy,vz\n"
+        + "".join(f"{t / 100},0,0,0,0,0,0,0,0,0\n" for t in range(50))
+    )
+    args = {
+        "record": ["record", "--task", "gown", "--duration", "0.1"],
+        "convert": ["convert", str(csv), "--task", "gown"],
+    }[command]
+    out = tmp_path / "runs" / "day1" / "trial.mcap"
+    result = CliRunner().invoke(main, [*args, "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert [p.name for p in out.parent.iterdir()] == ["trial.mcap"]  # no temporary left over
+    assert read_trial(out).metadata.task is Task.GOWN
+    (blocker := tmp_path / "notes").write_text("")  # a file where a folder would go
+    under = blocker / "day2" / "trial.mcap"
+    refused = CliRunner().invoke(main, [*args, "-o", str(under)])
+    assert refused.exit_code == 1
+    assert refused.output == f"Error: {under}: {blocker} is not a folder\n"
+    assert blocker.read_text() == ""
+
+
 def test_record_model_without_live_and_an_upper_case_suffix(tmp_path: Path) -> None:
     args = ["record", "--task", "gown", "--duration", "0.1"]
     unused = CliRunner().invoke(main, [*args, "--model", "m", "-o", str(tmp_path / "a.mcap")])

@@ -242,7 +242,8 @@ def no_bundled_model(tmp: Path, trial: Path, model: Path) -> tuple[Path, None]:
     return trial, None
 
 
-def missing_folder(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
+def folder_is_a_file(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
+    (tmp / "blocker").write_text("")  # where the output's folder would be made
     return trial, model
 
 
@@ -252,7 +253,7 @@ BAD = [
     (no_wrench, "missing channel /ee/wrench", "out.rrd"),
     (nan_measurement, "channel /ee/wrench: NaN", "out.rrd"),
     (no_bundled_model, "no bundled gown model", "out.rrd"),
-    (missing_folder, "folder does not exist", "missing/out.rrd"),
+    (folder_is_a_file, "blocker is not a folder", "../blocker/out.rrd"),
 ]
 
 
@@ -281,6 +282,16 @@ def test_infer_never_writes_over_its_trial_or_one_output_over_the_other(
     assert result.exit_code == 1 and message in result.output, result.output
     assert copy.read_bytes() == trial.read_bytes() == other.read_bytes()
     assert sorted(p.name for p in work.iterdir()) == ["other.mcap", "trial.mcap"]
+
+
+def test_infer_makes_its_outputs_missing_folders(gown, tmp_path: Path) -> None:
+    trial, model = gown
+    rrd, copy = tmp_path / "a" / "b" / "t.rrd", tmp_path / "c" / "t.mcap"
+    args = ["infer", str(trial), "-m", str(model), "-o", str(rrd), "--mcap-out", str(copy)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert [p.name for p in rrd.parent.iterdir()] == ["t.rrd"]
+    assert [p.name for p in copy.parent.iterdir()] == ["t.mcap"]
 
 
 def test_infer_names_a_rerun_recording_given_as_the_trial_or_as_an_mcap_output(

@@ -30,13 +30,16 @@ def check_output(
     """Fail before any work if the output cannot be written or would replace `source`.
 
     `suffix` (".mcap" or ".rrd") is the name the output must have: tools open a file by
-    it. Without `overwrite` an existing file is refused (what took time to make).
+    it. Without `overwrite` an existing file is refused (what took time to make). Missing
+    folders above it are fine: the writer makes them (`make_folders`), so the nearest one
+    that exists is checked.
     """
-    if not path.parent.is_dir():
-        raise TrialWriteError("folder does not exist; create it first", path=path)
+    folder = nearest_folder(path)
+    if not folder.is_dir():  # a file, or a link to nothing, where a folder would go
+        raise TrialWriteError(f"{folder} is not a folder", path=path)
     if path.is_dir():
         raise TrialWriteError("is a folder; give a file name", path=path)
-    check_writable(path.parent)
+    check_writable(folder)
     if source is not None and resolved(path) == resolved(source):
         raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
     if source is not None and source.is_dir() and resolved(path).is_relative_to(resolved(source)):
@@ -55,6 +58,21 @@ def check_output(
             "Rerun cannot write a file whose path is not UTF-8; name the recording otherwise",
             path=printable(path),
         )
+
+
+def nearest_folder(path: Path) -> Path:
+    """`path`'s folder, or the nearest name above it that exists (what a missing folder
+    would be made in); it may be a file, which the caller refuses."""
+    return next((f for f in path.parents if os.path.lexists(f)), path.parent)
+
+
+def make_folders(path: Path) -> None:
+    """Make the missing folders above `path` (`-o runs/day1/trial.mcap`), as `train` and
+    `generate` do; called just before its temporary is created, so a failed check makes none."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # a file put there since the check, permissions
+        raise TrialWriteError(f"cannot make its folder: {err.strerror or err}", path=path) from None
 
 
 def resolved(path: Path) -> Path:
@@ -82,7 +100,7 @@ def _name_max(folder: Path) -> int:
 def check_name_fits(path: Path, longest: str) -> None:
     """Fail before any work if `longest`, a name written beside `path` (its temporary, a
     checkpoint), is too long for the folder's file system: the error names `path`."""
-    if len(os.fsencode(longest)) > _name_max(path.parent):  # bytes, undecodable ones too
+    if len(os.fsencode(longest)) > _name_max(nearest_folder(path)):  # bytes, undecodable too
         raise TrialWriteError(
             f"file name is too long once dresslog's working name beside it ({longest[:12]}...) "
             "is made from it; shorten it",
@@ -168,6 +186,7 @@ def put_in_place(tmp: Path, path: Path, *, overwrite: bool) -> None:
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside `path`; rename it into place on success, else delete it."""
     path = Path(path)
+    make_folders(path)
     tmp = temporary_path(path)
     try:
         yield tmp

@@ -20,7 +20,13 @@ from dresslog import __version__
 from dresslog.errors import TrialWriteError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
-from dresslog.io.files import check_output, discard, put_in_place, temporary_path
+from dresslog.io.files import (
+    check_output,
+    discard,
+    make_folders,
+    put_in_place,
+    temporary_path,
+)
 from dresslog.io.msgdefs import schema_text
 from dresslog.spec import TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
@@ -83,6 +89,7 @@ class TrialWriter:
                 path=self.path,
             )
         check_output(self.path, suffix=".mcap", overwrite=self.overwrite)
+        make_folders(self.path)
         self._tmp = temporary_path(self.path)
         self._stream = self._tmp.open("wb")
         self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dresslog.errors import TrialWriteError
-from dresslog.io.files import check_output, discard, printable, temporary_path
+from dresslog.io.files import check_output, discard, make_folders, printable, temporary_path
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.replay.metrics import MetricsSink
@@ -143,6 +143,7 @@ class RerunSink:
             return
         import rerun as rr
 
+        make_folders(self.path)
         self._tmp = temporary_path(self.path)
         assert self.context is not None
         rec = rr.RecordingStream(
