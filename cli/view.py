@@ -22,10 +22,12 @@ def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int
     An MCAP is inferred first when a model for its task is available (--model or
     the bundled one), otherwise shown with ground truth alone.
     """
-    from dresslog.replay.viewer import save_rrd, view_file
+    from dresslog.replay.viewer import MODEL_FOR_RRD, is_rrd, save_rrd, view_file
 
     if port is not None and not web:
         raise click.UsageError("--port is the web viewer's; use it with --web")
+    if model is not None and is_rrd(path):  # known by its bytes too; the library refuses it too
+        raise click.UsageError(f"{path}: {MODEL_FOR_RRD}")
     if save is not None:
         if web:
             raise click.UsageError("--save writes a file and opens no viewer; drop --web")

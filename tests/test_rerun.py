@@ -206,8 +206,14 @@ def test_view_knows_a_recording_by_its_bytes_and_refuses_a_model_for_it(
     result = CliRunner().invoke(main, ["view", str(renamed), "--save", str(out)])
     assert result.exit_code == 0, result.output
     assert out.read_bytes() == rrd.read_bytes()
-    again = CliRunner().invoke(main, ["view", str(rrd), "-m", str(model), "--save", str(out)])
-    assert again.exit_code == 1 and "holds its estimate already" in again.output
+    for shown, save in [(rrd, ["--save", str(out)]), (renamed, []), (rrd, [])]:
+        again = CliRunner().invoke(main, ["view", str(shown), "-m", str(model), *save])
+        assert again.exit_code == 2 and again.output.startswith("Usage:"), again.output
+        assert again.output.splitlines()[-1] == (
+            f"Error: {shown}: is a Rerun recording, which already holds its estimates; "
+            "--model applies only to an MCAP trial"
+        )
+    assert out.read_bytes() == rrd.read_bytes()
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")

@@ -139,6 +139,12 @@ def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = No
     return report.summary()
 
 
+#: Why a model given with a recording is refused (the CLI's usage error says the same).
+MODEL_FOR_RRD = (
+    "is a Rerun recording, which already holds its estimates; --model applies only to an MCAP trial"
+)
+
+
 def is_rrd(path: Path, model: str | Path | None = None) -> bool:
     """Whether `path` is a Rerun recording (by name, or by its first bytes under another name).
 
@@ -149,11 +155,7 @@ def is_rrd(path: Path, model: str | Path | None = None) -> bool:
     elif not _starts_with(path, RRD_MAGIC):
         return False
     if model is not None:
-        raise DresslogError(
-            "is a Rerun recording, which holds its estimate already; "
-            "--model applies to an MCAP trial",
-            path=path,
-        )
+        raise DresslogError(MODEL_FOR_RRD, path=path)
     return True
 
 
