@@ -328,6 +328,36 @@ def test_sweep_writes_a_table_and_a_plot(
     assert (out / "in-range" / "manifest.json").read_bytes() == before
 
 
+@pytest.mark.slow
+def test_a_sweep_run_again_with_other_values_tables_every_complete_setting(
+    model: Path, tmp_path: Path
+) -> None:
+    """The table, JSON and plot held only the settings of the last run, the others'
+    folders left on disk unsaid."""
+    out = tmp_path / "sweep"
+    common = ["--duration", "0.3", "--workers", "2", "-q", "-o", out]
+    code, output = invoke(
+        "sweep", model, "--speeds", "0.2", "--rotations", "z:10", "-n", "2", *common
+    )
+    assert code == 0, output
+    code, output = invoke("sweep", model, "--speeds", "0.15", "-n", "2", *common)
+    assert code == 0 and "Warning" not in output, output
+    names = ["in-range", "speed:0.15", "speed:0.2", "rot:z:10"]
+    assert [row.split()[0] for row in output.splitlines()[1:5]] == names
+    rows = (out / "sweep.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == names
+    saved = json.loads((out / "sweep.json").read_text())
+    assert [s["name"] for s in saved["settings"]] == names
+    # of other sequences (-n 3 extends in-range): not comparable, left out and named
+    code, output = invoke("sweep", model, "--speeds", "0.25", "-n", "3", *common)
+    assert code == 0, output
+    rows = (out / "sweep.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == ["in-range", "speed:0.25"]
+    warning = [line for line in output.splitlines() if line.startswith("Warning: ")]
+    assert len(warning) == 1, output
+    assert "speed:0.15 (2/2 sweep), speed:0.2 (2/2 sweep), rot:z:10 (2/2 sweep);" in warning[0]
+
+
 def test_sweep_never_writes_into_a_dataset_or_a_model_folder(
     model: Path, data: Path, tmp_path: Path
 ) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -12,24 +13,27 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from dresslog.dataset import Split, generate, load_dataset
+from dresslog.dataset import Split, generate, load_dataset, load_manifest
 from dresslog.dataset.executors import check_executor
 from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
-from dresslog.dataset.manifest import MANIFEST_FILE
-from dresslog.errors import DatasetError, SimulationError, first_problem
+from dresslog.dataset.manifest import MANIFEST_FILE, Manifest, damaged_files
+from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
 from dresslog.experiments.evaluation import check_data_task, finite, score_rows
 from dresslog.io.files import atomic_path, resolved
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,
+    LoadedModel,
     load_model,
 )
 from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.plots import plot_sweep
 from dresslog.spec import Task, TrialSpec
 
+#: The kinds of setting, in the order the table lists them.
+_KINDS = ("baseline", "speed", "rotation")
 #: Mid-range speeds (m/s) the paper used for the rotation sweep (12.5 and 17.5 cm/s).
 ROTATION_SPEED = {Task.GOWN: 0.125, Task.SHORTS: 0.175}
 
@@ -169,6 +173,8 @@ def sweep(
 
     Each setting is a dataset folder under `out` (so an interrupted sweep resumes); the
     sweep seeds are the same in every setting, so settings differ only in what they fix.
+    The report also scores the settings earlier runs left complete in `out` (`_earlier`),
+    so a sweep extended a value at a time keeps one table of them all.
     """
     if not 1 <= n <= MAX_TRIALS:
         raise DatasetError(
@@ -195,11 +201,10 @@ def sweep(
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []
     for setting in settings:
-        folder = out / setting.folder
         generate(
             task,
             n,
-            folder,
+            out / setting.folder,
             splits={Split.SWEEP: n},
             overrides=setting.overrides,
             seed=seed,
@@ -208,15 +213,60 @@ def sweep(
             progress=progress,
             label=f"{task.value} {setting.name}",
         )
-        arrays = load_dataset(folder, workers=workers, progress=False)
-        check_data_task(loaded, arrays.task, arrays.n_points)
-        scores = score_rows(loaded, arrays, arrays.rows(Split.SWEEP))
-        done.append(Setting(**{**asdict(setting), "scores": scores}))
+        done.append(_scored(loaded, out, setting, workers))
+    done += [_scored(loaded, out, s, workers) for s in _earlier(out, task, settings, n, seed)]
+    done.sort(key=lambda s: _KINDS.index(s.kind))  # stable: the asked first within a kind
     baseline = done[0].scores
     assert baseline is not None
     report = SweepReport(task.value, str(model), n, baseline.rmse, done)
     _write_sweep(out, report)
     return report
+
+
+def _scored(loaded: LoadedModel, out: Path, setting: Setting, workers: int | None) -> Setting:
+    """`setting` with the model's scores on its folder's sequences."""
+    arrays = load_dataset(out / setting.folder, workers=workers, progress=False)
+    check_data_task(loaded, arrays.task, arrays.n_points)
+    scores = score_rows(loaded, arrays, arrays.rows(Split.SWEEP))
+    return Setting(**{**asdict(setting), "scores": scores})
+
+
+def _earlier(out: Path, task: Task, asked: list[Setting], n: int, seed: int) -> list[Setting]:
+    """The settings earlier sweeps left in `out` that compare with the `asked` ones:
+    complete and whole, of the same `n` sequences, seed and fixed fields (the duration).
+    The others are named in a warning, as the table leaves them out."""
+    names, duration = {s.folder for s in asked}, asked[0].overrides.get("duration")
+    found: list[tuple[Setting, Manifest]] = []
+    for folder in (f for f in out.iterdir() if f.is_dir() and f.name not in names):
+        kind, _, value = folder.name.partition("_")
+        if kind not in ("speed", "rot"):
+            continue
+        value = value.replace("_", ":", 1) if kind == "rot" else value
+        try:  # not a setting's name, or not a dataset: not the sweep's
+            (setting,) = sweep_settings(
+                task, [value] * (kind == "speed"), [value] * (kind == "rot"), duration
+            )[1:]
+            manifest = load_manifest(folder)
+        except DatasetError:
+            continue
+        if setting.folder == folder.name:  # not `speed_0.20`: a name the sweep never gives
+            found.append((setting, manifest))
+    found.sort(key=lambda f: (_KINDS.index(f[0].kind), f[0].axis, f[0].value))
+    fits = [
+        s
+        for s, m in found
+        if (m.task, m.seed, m.overrides, m.n_sweep) == (task, seed, s.overrides, n)
+        and m.complete
+        and not any(damaged_files(out / s.folder, m))
+    ]
+    if left_out := [f"{s.name} ({m.counts() or 'no trials'})" for s, m in found if s not in fits]:
+        warnings.warn(
+            f"{out}: left out of the table, as not {n} complete sequences of this sweep's seed "
+            f"and fields: {', '.join(left_out)}; sweep them again with these options to add them",
+            DresslogWarning,
+            stacklevel=3,
+        )
+    return fits
 
 
 def _write_sweep(out: Path, report: SweepReport) -> None:
