@@ -630,3 +630,30 @@ def test_sweep_without_a_setting_or_with_a_bad_speed_is_refused(
     exit_code, output = invoke("sweep", model, *options, "-o", tmp_path / "s")
     assert exit_code == code and message in output, output
     assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.slow
+def test_a_model_trained_without_standardisation_still_warns_of_a_signal_far_from_its_data(
+    model: Path, data: Path, tmp_path: Path
+) -> None:
+    """The paper's recipe (no --normalise) records its training signal in the card, so
+    `infer` can still say when a log lies far from it (here a sensor not tared)."""
+    from dresslog.dataset import Split, load_dataset
+    from tests.test_replay import _csv_of
+
+    card = load_model(model).card
+    assert card.normalisation is None and card.data.signal is not None
+    arrays = load_dataset(data, progress=False)
+    signal = np.concatenate(arrays.sequences(arrays.rows(Split.TRAIN)))
+    np.testing.assert_allclose(card.data.signal.mean, signal.mean(axis=0), rtol=1e-5, atol=1e-7)
+    csv = _csv_of(SAMPLES / "gown.mcap", tmp_path / "untared.csv", -1.5 * 9.81)
+    code, out = invoke("convert", csv, "-o", tmp_path / "untared.mcap", "--task", "gown")
+    assert code == 0, out
+    result = CliRunner().invoke(
+        main,
+        ["infer", str(tmp_path / "untared.mcap"), "-m", str(model), "-o", str(tmp_path / "u.rrd")],
+    )
+    assert result.exit_code == 0, result.output
+    assert (
+        "Warning: " in result.stderr and ": fz lies beyond 10 standard deviations" in result.stderr
+    )

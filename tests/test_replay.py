@@ -179,7 +179,20 @@ def test_infer_prints_rmse_and_writes_both_outputs(gown, tmp_path: Path) -> None
     assert again.exit_code == 0, again.output  # derived outputs are replaced on a re-run
     report = replay_file(trial_path, model=model_path)  # the same replay, no outputs
     assert "40 steps" in result.output
-    assert f"RMSE {report.rmse:.4g} N (all-zero estimate {report.zero_rmse:.4g} N)" in result.output
+    rmse, zero = report.rmse, report.zero_rmse
+    assert rmse is not None and zero is not None
+    said = f"RMSE {rmse:.4g} N (all-zero estimate {zero:.4g} N, ratio {rmse / zero:.3f})"
+    assert said in result.output
+    # the estimate's total force, as the copy holds it: what a log without truth shows
+    estimate = read_trial(mcap).estimate
+    assert estimate is not None
+    totals = estimate.forces.astype(np.float64).sum(axis=1)
+    peak_s = (estimate.t_ns[totals.argmax()] - estimate.t_ns[0]) / 1e9
+    said = (
+        f"estimated force on the limb {totals.mean():.3g} N on average, at most "
+        f"{totals.max():.3g} N ({peak_s:.2f} s), on {(totals > 0).mean():.0%} of steps"
+    )
+    assert said in result.output
     assert rrd.stat().st_size > 0 and mcap.stat().st_size > 0
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
 
@@ -372,12 +385,15 @@ def test_an_estimate_copy_needs_a_model_that_runs(tmp_path: Path) -> None:
     assert not (tmp_path / "copy.mcap").exists()
 
 
-def _csv_of(trial: Path, out: Path, fz_offset: float) -> Path:
-    """The trial's wrench and velocity as a force/torque CSV, fz shifted (a sensor not tared)."""
+def _csv_of(trial: Path, out: Path, fz_offset: float = 0.0, turn: np.ndarray | None = None) -> Path:
+    """The trial's wrench and velocity as a force/torque CSV, fz shifted (a sensor not
+    tared) and every vector turned by the rotation matrix `turn` (another robot's axes)."""
     with TrialReader(trial) as reader:
         m = reader.read().measurements
     phi = m.phi.astype(np.float64)
     phi[:, 2] += fz_offset
+    if turn is not None:
+        phi = (phi.reshape(-1, 3, 3) @ turn.T).reshape(-1, 9)
     header = "Time (s),Fx (N),Fy (N),Fz (N),Mx (Nm),My (Nm),Mz (Nm),vx (m/s),vy (m/s),vz (m/s)"
     rows = np.column_stack([(m.t_ns - m.t_ns[0]) / 1e9, phi])
     out.write_text(header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
@@ -403,7 +419,45 @@ def test_a_signal_far_from_the_training_data_is_warned_about_with_its_likely_cau
     assert "Warning" not in said["tared"]
     warning = said["untared"]
     assert warning.startswith(f"Warning: {tmp_path / 'untared.mcap'}: fz lies beyond 10 ")
-    share = re.search(r"on (\d+)% of steps \(median (\S+) N", warning)
+    share = re.search(r"on (\d+)% of steps \(median there (\S+) N", warning)
     assert share and int(share[1]) >= 90 and float(share[2]) < -10, warning
     assert "convert --tare" in warning
     assert len(warning.strip().splitlines()) == 1
+
+
+def test_a_knock_or_a_channel_constant_in_training_is_not_called_far() -> None:
+    """A 30 N knock over 8 steps, 10% of a short trial, is not a recording far from the
+    training data; nor is any value of a channel that never varied in training."""
+    from dresslog.model.inputs import unfamiliar
+
+    mean, std = np.zeros(9), np.ones(9)
+    phi = np.zeros((80, 9))
+    phi[10:18, 0] = 30.0
+    assert unfamiliar(phi, mean, std) is None
+    phi[:, 0] = 30.0  # the whole trial: far
+    assert (said := unfamiliar(phi, mean, std)) and said.startswith("fx lies beyond 10 ")
+    std[0] = 0.0
+    assert unfamiliar(phi, mean, std) is None
+
+
+def test_a_log_in_another_robots_axes_is_warned_about_and_rotate_puts_it_right(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """The same trial logged in axes turned 90 degrees about z: every value in range, but
+    the gripper heads along y, not -x; `convert --rotate` back makes the warning go."""
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    csv = _csv_of(SAMPLES / "gown.mcap", tmp_path / "turned.csv", turn=turn)
+    runner = CliRunner()
+    said = {}
+    back = ["--rotate", "0", "0", str(-np.sqrt(0.5)), str(np.sqrt(0.5))]  # -90 deg about z
+    for name, extra in (("turned", []), ("rotated", back)):
+        mcap = tmp_path / f"{name}.mcap"
+        args = ["convert", str(csv), "-o", str(mcap), "--task", "gown", *extra]
+        assert (converted := runner.invoke(main, args)).exit_code == 0, converted.output
+        result = runner.invoke(main, ["infer", str(mcap), "-o", str(tmp_path / f"{name}.rrd")])
+        assert result.exit_code == 0, result.output
+        said[name] = result.stderr
+    assert "Warning" not in said["rotated"], said["rotated"]
+    assert said["turned"].startswith(f"Warning: {tmp_path / 'turned.mcap'}: the gripper moves ")
+    assert "where the model's training trials move along (-1.00, 0.00, 0.01)" in said["turned"]

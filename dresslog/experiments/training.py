@@ -7,6 +7,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Literal
 
+import numpy as np
+
 from dresslog.dataset import Split, load_dataset, load_manifest
 from dresslog.errors import DatasetError, DresslogWarning
 from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
@@ -16,6 +18,7 @@ from dresslog.model.files import (
     DataProvenance,
     EpochRecord,
     ModelCard,
+    Normalisation,
     check_model_folder,
 )
 from dresslog.model.options import VAL_FRACTION, check_options, held_out
@@ -102,8 +105,11 @@ def train_dataset(
                 NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test)
             )
             metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
+        signal = np.concatenate(arrays.sequences(rows))
         provenance = DataProvenance(
-            manifest_sha256=arrays.manifest_sha256, description=printable(data)
+            manifest_sha256=arrays.manifest_sha256,
+            description=printable(data),
+            signal=Normalisation(mean=signal.mean(0).tolist(), std=signal.std(0).tolist()),
         )
         card = make_card(arrays.task, weights, history, data=provenance, metrics=metrics)
         card = save_model(

@@ -111,6 +111,9 @@ class DataProvenance(BaseModel):
     n_train: int = 0
     n_val: int = 0
     description: str = ""
+    #: the training sequences' 9-D signal, per channel: what `infer` tells a trial far
+    #: from the training data by (a model without input standardisation has no other)
+    signal: Normalisation | None = None
 
 
 class EpochRecord(BaseModel):
@@ -174,9 +177,9 @@ class LoadedModel:
 
     def unfamiliar(self, phi: np.ndarray) -> str | None:
         """Why the signal (T, 9) is far from this model's training data; None if it is not
-        (or if the card records no standardisation to tell by)."""
-        norm = self.card.normalisation
-        return None if norm is None else unfamiliar(phi, np.array(norm.mean), np.array(norm.std))
+        (or if the card records neither the training signal nor a standardisation of it)."""
+        stats = self.card.data.signal or self.card.normalisation
+        return None if stats is None else unfamiliar(phi, np.array(stats.mean), np.array(stats.std))
 
     def describe(self) -> str:
         """Which model, in a line: where it is, its network and its recorded test ratio."""

@@ -17,12 +17,28 @@ PHI_DIM = 9
 #: phi's channels and their units, as a warning names them.
 PHI_NAMES = ("fx", "fy", "fz", "tx", "ty", "tz", "vx", "vy", "vz")
 PHI_UNITS = ("N", "N", "N", "N m", "N m", "N m", "m/s", "m/s", "m/s")
-#: A channel is unfamiliar when more than FAR_SHARE of a trial's steps lie beyond FAR_SD
-#: of the training data's standard deviations: 32 simulated trials the bundled models
-#: never saw have at most 1.7% of steps beyond 10, an untared sensor (the gripper's own
-#: weight in fz) every step.
+#: A channel is unfamiliar when more than FAR_SHARE of a trial's steps, and at least
+#: FAR_STEPS (0.5 s: not one knock), lie beyond FAR_SD of the training data's standard
+#: deviations: 32 simulated trials the bundled models never saw have at most 1.7% of
+#: steps beyond 10, an untared sensor (the gripper's own weight in fz) every step.
 FAR_SD = 10.0
 FAR_SHARE = 0.1
+FAR_STEPS = 50
+#: A channel that barely varied in training (a constant column) cannot say what is far.
+STILL_STD = 1e-6
+#: The gripper's median heading while it moves (over MOVING m/s) is unfamiliar when its
+#: cosine with the training trials' mean velocity is below HEADING_COS (45 degrees off):
+#: 32 simulated trials the bundled models never saw reach 0.985 at least.
+MOVING = 0.02
+HEADING_COS = float(np.cos(np.radians(45)))
+#: What most often puts a channel far from the training data, by kind.
+_CAUSES = {
+    "N": "is the sensor tared (`convert --tare`), in world axes (`--wrench-frame pose`) and in N?",
+    "N m": "is the sensor tared (`convert --tare`), in world axes and in N m, about the gripper "
+    "centre (`--sensor-offset`)?",
+    "m/s": "is the velocity in m/s and in the world axes of the simulated trials (README, "
+    '"Your robot\'s data")?',
+}
 
 
 def network_inputs(phi: np.ndarray, differences: bool) -> np.ndarray:
@@ -43,19 +59,45 @@ def reads_differences(input_dim: int) -> bool:
 def unfamiliar(phi: np.ndarray, mean: np.ndarray, std: np.ndarray) -> str | None:
     """Why a trial's signal (T, 9) is far from the training data's, or None if it is not.
 
-    `mean` and `std` are the model's input standardisation (the first 9 are phi's).
+    `mean` and `std` describe the training signal per channel (the first 9 are phi's).
     A network extrapolates there without a sign of it, and the usual causes are the
     recording's (a sensor not tared, in its own axes, in other units), not the model's.
     """
     mean, std = np.asarray(mean[:PHI_DIM]), np.asarray(std[:PHI_DIM])
-    share = (np.abs((phi - mean) / std) > FAR_SD).mean(axis=0)
-    k = int(share.argmax())
-    if not share[k] > FAR_SHARE:
-        return None
+    far = np.abs(phi - mean) > FAR_SD * np.maximum(std, STILL_STD)
+    far[:, std < STILL_STD] = False
+    counts = far.sum(axis=0)
+    k = int(counts.argmax())
+    if counts[k] < max(FAR_STEPS, FAR_SHARE * len(phi)) or counts[k] == 0:
+        return _heading(phi[:, 6:9], mean[6:9])
     unit = PHI_UNITS[k]
     return (
         f"{PHI_NAMES[k]} lies beyond {FAR_SD:g} standard deviations of the model's training "
-        f"data on {share[k]:.0%} of steps (median {np.median(phi[:, k]):.3g} {unit}, trained on "
-        f"{mean[k]:.3g} +- {std[k]:.3g} {unit}), so the estimate there is a guess; is the "
-        "sensor tared (`convert --tare`), in world axes and SI units?"
+        f"data on {counts[k] / len(phi):.0%} of steps (median there "
+        f"{np.median(phi[far[:, k], k]):.3g} {unit}; trained on {mean[k]:.3g} +- {std[k]:.3g} "
+        f"{unit}), so the estimate there is a guess; {_CAUSES[unit]}"
+    )
+
+
+def _heading(velocity: np.ndarray, trained: np.ndarray) -> str | None:
+    """Why the gripper's heading (velocity (T, 3)) is not the training trials', or None.
+
+    The simulated gripper draws the garment along the limb, hand to shoulder or foot to
+    hip (-x), so a log in another robot's axes, whose values all lie in range, moves
+    elsewhere; the model reads the signal in the simulated trials' axes only.
+    """
+    moving = velocity[np.sqrt((velocity * velocity).sum(axis=1)) > MOVING]
+    speed = float(np.linalg.norm(trained))
+    if len(moving) < FAR_STEPS or speed < MOVING:
+        return None
+    heading = np.median(moving, axis=0)
+    norm = float(np.linalg.norm(heading))
+    if norm > 0 and heading @ trained / (norm * speed) >= HEADING_COS:
+        return None
+    shown = ", ".join(f"{round(v, 2) + 0.0:.2f}" for v in (heading / norm if norm else heading))
+    usual = ", ".join(f"{round(v, 2) + 0.0:.2f}" for v in trained / speed)
+    return (
+        f"the gripper moves along ({shown}) where the model's training trials move along "
+        f"({usual}), so the estimate is a guess; is the log in the simulated trials' axes "
+        '(`convert --rotate`; README, "Your robot\'s data")?'
     )

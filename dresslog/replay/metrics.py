@@ -24,12 +24,25 @@ def step_rmse(truth: np.ndarray, estimate: np.ndarray) -> float:
 
 @dataclass
 class TrialMetrics:
-    """What a replay measured: step count, RMSE (None without truth), zero-estimate RMSE."""
+    """What a replay measured: step count, RMSE (None without truth), zero-estimate RMSE,
+    and the estimate's total force on the limb (None without a model), which is all a
+    log without ground truth can be summed up by."""
 
     steps: int = 0
     rmse: float | None = None
     zero_rmse: float | None = None
     per_step: list[float] = field(default_factory=list)
+    mean_total: float | None = None  # N, over the steps
+    peak_total: float | None = None  # N
+    peak_s: float | None = None  # when the peak came, s from the first step
+    touching: float | None = None  # share of steps whose estimate puts force on the limb
+
+    @property
+    def ratio(self) -> float | None:
+        """RMSE over the all-zero estimate's, the figure the paper compares by."""
+        if self.rmse is None or not self.zero_rmse:
+            return None
+        return self.rmse / self.zero_rmse
 
 
 class MetricsSink:
@@ -43,6 +56,8 @@ class MetricsSink:
         self._sq = 0.0
         self._truth_sq = 0.0
         self._count = 0
+        self._totals: list[float] = []
+        self._t_ns: list[int] = []
 
     def open(self, context: TrialContext) -> None:
         self._reset()
@@ -50,6 +65,9 @@ class MetricsSink:
     def write(self, result: StepResult) -> None:
         self.metrics.steps += 1
         truth, estimate = result.step.truth, result.estimate
+        if estimate is not None:
+            self._totals.append(float(estimate.sum(dtype=np.float64)))
+            self._t_ns.append(result.step.t_ns)
         if truth is None or estimate is None or result.rmse is None:
             return
         n = len(truth)
@@ -60,6 +78,12 @@ class MetricsSink:
         self.metrics.per_step.append(result.rmse)
 
     def close(self) -> None:
+        if self._totals:
+            totals, m = np.asarray(self._totals), self.metrics
+            peak = int(totals.argmax())
+            m.mean_total, m.peak_total = float(totals.mean()), float(totals[peak])
+            m.peak_s = (self._t_ns[peak] - self._t_ns[0]) / 1e9
+            m.touching = float((totals > 0).mean())
         if self._count:
             self.metrics.rmse = math.sqrt(self._sq / self._count)
             self.metrics.zero_rmse = math.sqrt(self._truth_sq / self._count)

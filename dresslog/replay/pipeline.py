@@ -19,7 +19,7 @@ from dresslog.io.reader import TrialReader
 from dresslog.model.bundled import resolve_model
 from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
 from dresslog.replay.mcap_sink import McapSink
-from dresslog.replay.metrics import MetricsSink
+from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
 from dresslog.trial import STEP_HZ, Trial, median_rate
@@ -33,19 +33,34 @@ class InferenceReport:
     task: Task
     steps: int
     model: Path | None = None
-    rmse: float | None = None
-    zero_rmse: float | None = None
+    metrics: TrialMetrics = field(default_factory=TrialMetrics)
     outputs: list[Path] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
 
+    @property
+    def rmse(self) -> float | None:
+        return self.metrics.rmse
+
+    @property
+    def zero_rmse(self) -> float | None:
+        return self.metrics.zero_rmse
+
     def summary(self) -> str:
-        """One line for the terminal."""
+        """One line for the terminal: what ran, where it went, how the estimate compares
+        with the truth, and (what a log without truth has) how much force it estimates."""
+        m = self.metrics
         model = f"model {self.model}" if self.model else "ground truth only (no model)"
         line = f"{self.trial}: {self.steps} steps, {self.task.value}, {model}"
         if self.outputs:
             line += " -> " + ", ".join(str(p) for p in self.outputs)
-        if self.rmse is not None:
-            line += f"; RMSE {self.rmse:.4g} N (all-zero estimate {self.zero_rmse:.4g} N)"
+        if m.rmse is not None:
+            line += f"; RMSE {m.rmse:.4g} N (all-zero estimate {m.zero_rmse:.4g} N"
+            line += f", ratio {m.ratio:.3f})" if m.ratio is not None else ")"
+        if m.peak_total is not None:
+            line += (
+                f"; estimated force on the limb {m.mean_total:.3g} N on average, at most "
+                f"{m.peak_total:.3g} N ({m.peak_s:.2f} s), on {m.touching:.0%} of steps"
+            )
         return line
 
 
@@ -133,8 +148,7 @@ def replay_file(
         task=task,
         steps=metrics.metrics.steps,
         model=loaded.path if loaded is not None else None,
-        rmse=metrics.metrics.rmse,
-        zero_rmse=metrics.metrics.zero_rmse,
+        metrics=metrics.metrics,
         outputs=outputs,
         timings=timings,
     )
