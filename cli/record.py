@@ -60,7 +60,10 @@ def record(
             spec, output, model=model, overwrite=overwrite, connect=connect
         )
         if metrics.rmse is not None:
-            click.echo(f"estimate RMSE {metrics.rmse:.4g} N (all-zero {metrics.zero_rmse:.4g} N)")
+            ratio = f", ratio {metrics.ratio:.3f}" if metrics.ratio is not None else ""
+            click.echo(
+                f"estimate RMSE {metrics.rmse:.4g} N (all-zero {metrics.zero_rmse:.4g} N{ratio})"
+            )
     else:
         result = record_trial(spec, output, overwrite=overwrite, progress=True)
     click.echo(result.summary())
