@@ -358,6 +358,39 @@ def test_a_sweep_run_again_with_other_values_tables_every_complete_setting(
     assert "speed:0.15 (2/2 sweep), speed:0.2 (2/2 sweep), rot:z:10 (2/2 sweep);" in warning[0]
 
 
+@pytest.mark.slow
+def test_a_damaged_earlier_sweep_setting_is_left_out_and_named_not_fatal(tmp_path: Path) -> None:
+    """A corrupt trial in an earlier run's setting stopped the new sweep with "run `dresslog
+    generate` on the folder again" (which refuses a sweep's folder), and a missing one was
+    called "not 1 complete sequences" beside "(1/1 sweep)"."""
+    model, out = SAMPLES / "models" / "gown", tmp_path / "sweep"
+    common = ["-n", "1", "--duration", "0.3", "--workers", "1", "-q", "-o", out]
+    code, output = invoke("sweep", model, "--speeds", "0.2,0.25", "--rotations", "z:10", *common)
+    assert code == 0, output
+    trial = out / "speed_0.2" / "sweep" / "000000.mcap"
+    data = bytearray(trial.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 400] = bytes(400)  # the same size: only its checksum tells
+    trial.write_bytes(bytes(data))
+    (out / "rot_z_10" / "sweep" / "000000.mcap").unlink()
+    for folder in ("speed_0.2", "rot_z_10"):
+        shutil.rmtree(out / folder / ".cache", ignore_errors=True)
+    code, output = invoke("sweep", model, "--speeds", "0.15", *common)
+    assert code == 0, output
+    rows = (out / "sweep.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == ["in-range", "speed:0.15", "speed:0.25"]
+    warning = [line for line in output.splitlines() if line.startswith("Warning: ")]
+    assert warning == [
+        f"Warning: {out}: left out of the table, as damaged: "
+        "speed:0.2 (a trial is damaged or missing; sweep it again with --speeds 0.2), "
+        "rot:z:10 (a trial is damaged or missing; sweep it again with --rotations z:10)"
+    ], output
+    code, output = invoke("sweep", model, "--speeds", "0.2", "--rotations", "z:10", *common)
+    assert code == 0 and "Warning" not in output, output  # the cure it names works
+    rows = (out / "sweep.csv").read_text().splitlines()[1:]
+    assert len(rows) == 5, rows
+
+
 def test_sweep_never_writes_into_a_dataset_or_a_model_folder(
     model: Path, data: Path, tmp_path: Path
 ) -> None:

@@ -17,7 +17,7 @@ from dresslog.dataset import Split, generate, load_dataset, load_manifest
 from dresslog.dataset.executors import check_executor
 from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
-from dresslog.dataset.manifest import MANIFEST_FILE, Manifest, damaged_files
+from dresslog.dataset.manifest import MANIFEST_FILE, Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
 from dresslog.experiments.evaluation import check_data_task, finite, score_rows
 from dresslog.io.files import atomic_path, resolved
@@ -214,7 +214,7 @@ def sweep(
             label=f"{task.value} {setting.name}",
         )
         done.append(_scored(loaded, out, setting, workers))
-    done += [_scored(loaded, out, s, workers) for s in _earlier(out, task, settings, n, seed)]
+    done += _earlier(loaded, out, settings, n, seed, workers)
     done.sort(key=lambda s: _KINDS.index(s.kind))  # stable: the asked first within a kind
     baseline = done[0].scores
     assert baseline is not None
@@ -231,10 +231,50 @@ def _scored(loaded: LoadedModel, out: Path, setting: Setting, workers: int | Non
     return Setting(**{**asdict(setting), "scores": scores})
 
 
-def _earlier(out: Path, task: Task, asked: list[Setting], n: int, seed: int) -> list[Setting]:
-    """The settings earlier sweeps left in `out` that compare with the `asked` ones:
+def _earlier(
+    loaded: LoadedModel, out: Path, asked: list[Setting], n: int, seed: int, workers: int | None
+) -> list[Setting]:
+    """The settings earlier sweeps left in `out` that compare with the `asked` ones, scored:
     complete and whole, of the same `n` sequences, seed and fixed fields (the duration).
-    The others are named in a warning, as the table leaves them out."""
+
+    The others are named in one warning with why, as the table leaves them out: an earlier
+    folder is this run's context, not its subject, so its damage must not stop the sweep.
+    """
+    task = loaded.card.task
+    other: list[str] = []  # another -n, seed or duration, or unfinished
+    damaged: list[str] = []  # a trial missing, resized or not matching its checksum
+    fits: list[Setting] = []
+    for setting, manifest in _found(out, task, asked):
+        if (manifest.task, manifest.seed, manifest.overrides, manifest.n_sweep) != (
+            task, seed, setting.overrides, n
+        ) or not manifest.complete:  # fmt: skip
+            other.append(f"{setting.name} ({manifest.counts() or 'no trials'})")
+            continue
+        try:
+            check_files(out / setting.folder, manifest)  # missing or resized
+            fits.append(_scored(loaded, out, setting, workers))  # checksums, as it decodes
+        except DatasetError:  # its own cure, `generate`, refuses a sweep's folder
+            option, _, value = setting.name.partition(":")
+            again = f"--{'speeds' if option == 'speed' else 'rotations'} {value}"
+            damaged.append(
+                f"{setting.name} (a trial is damaged or missing; sweep it again with {again})"
+            )
+    reasons = []
+    if other:
+        reasons.append(
+            f"as not {n} complete sequence{'s' * (n != 1)} of this sweep's seed and fields: "
+            f"{', '.join(other)}; sweep them again with these options to add them"
+        )
+    if damaged:
+        reasons.append(f"as damaged: {', '.join(damaged)}")
+    if reasons:
+        message = f"{out}: left out of the table, {'; and '.join(reasons)}"
+        warnings.warn(message, DresslogWarning, stacklevel=3)
+    return fits
+
+
+def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, Manifest]]:
+    """The sweep setting folders in `out` besides the `asked` ones, with their manifests."""
     names, duration = {s.folder for s in asked}, asked[0].overrides.get("duration")
     found: list[tuple[Setting, Manifest]] = []
     for folder in (f for f in out.iterdir() if f.is_dir() and f.name not in names):
@@ -252,21 +292,7 @@ def _earlier(out: Path, task: Task, asked: list[Setting], n: int, seed: int) -> 
         if setting.folder == folder.name:  # not `speed_0.20`: a name the sweep never gives
             found.append((setting, manifest))
     found.sort(key=lambda f: (_KINDS.index(f[0].kind), f[0].axis, f[0].value))
-    fits = [
-        s
-        for s, m in found
-        if (m.task, m.seed, m.overrides, m.n_sweep) == (task, seed, s.overrides, n)
-        and m.complete
-        and not any(damaged_files(out / s.folder, m))
-    ]
-    if left_out := [f"{s.name} ({m.counts() or 'no trials'})" for s, m in found if s not in fits]:
-        warnings.warn(
-            f"{out}: left out of the table, as not {n} complete sequences of this sweep's seed "
-            f"and fields: {', '.join(left_out)}; sweep them again with these options to add them",
-            DresslogWarning,
-            stacklevel=3,
-        )
-    return fits
+    return found
 
 
 def _write_sweep(out: Path, report: SweepReport) -> None:
