@@ -391,6 +391,25 @@ def test_a_damaged_earlier_sweep_setting_is_left_out_and_named_not_fatal(tmp_pat
     assert len(rows) == 5, rows
 
 
+@pytest.mark.slow
+def test_the_sweep_table_lists_settings_by_kind_axis_and_value_as_the_plot_does(
+    tmp_path: Path,
+) -> None:
+    """Rows came in the order asked, this run's before earlier runs': 0.25, 0.2, 0.15."""
+    model, out = SAMPLES / "models" / "gown", tmp_path / "sweep"
+    common = ["-n", "1", "--duration", "0.3", "--workers", "1", "-q", "-o", out]
+    code, output = invoke("sweep", model, "--speeds", "0.15", "--rotations", "z:10", *common)
+    assert code == 0, output
+    code, output = invoke("sweep", model, "--speeds", "0.25,0.2", "--rotations", "y:-5", *common)
+    assert code == 0, output
+    names = ["in-range", "speed:0.15", "speed:0.2", "speed:0.25", "rot:y:-5", "rot:z:10"]
+    assert [row.split()[0] for row in output.splitlines()[1:7]] == names, output
+    rows = (out / "sweep.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == names
+    saved = json.loads((out / "sweep.json").read_text())
+    assert [s["name"] for s in saved["settings"]] == names
+
+
 def test_sweep_never_writes_into_a_dataset_or_a_model_folder(
     model: Path, data: Path, tmp_path: Path
 ) -> None:

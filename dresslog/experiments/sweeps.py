@@ -215,7 +215,7 @@ def sweep(
         )
         done.append(_scored(loaded, out, setting, workers))
     done += _earlier(loaded, out, settings, n, seed, workers)
-    done.sort(key=lambda s: _KINDS.index(s.kind))  # stable: the asked first within a kind
+    done.sort(key=lambda s: (_KINDS.index(s.kind), s.axis, s.value))  # as the plot reads
     baseline = done[0].scores
     assert baseline is not None
     report = SweepReport(task.value, str(model), n, baseline.rmse, done)
