@@ -602,6 +602,32 @@ def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -
     assert matplotlib.image.imread(tmp_path / "sweep.png").std() > 0.05
 
 
+def test_the_sweep_table_csv_and_json_give_each_settings_ratio_to_all_zero(
+    tmp_path: Path,
+) -> None:
+    """The README's sweep tables read the RMSE over all-zero per setting; the sweep's own
+    table and CSV gave only the ratio to in-range."""
+    from dresslog.experiments import sweeps
+
+    settings = sweep_settings(Task.GOWN, [0.2], [])
+    scores = [
+        Scores(8, 0.01, 0.02, 0.5, 0.8, 0.6, 0.3, 0.4),
+        Scores(8, 0.03, 0.04, 0.75, *[0.5] * 4),
+    ]
+    report = SweepReport(
+        "gown", "m", 8, 0.01, [replace(s, scores=c) for s, c in zip(settings, scores, strict=True)]
+    )
+    table = report.table().splitlines()
+    assert table[0].endswith("RMSE (N)    zero (N)   ratio  x in-range"), table[0]
+    assert table[2].split() == ["speed:0.2", "8", "0.03000", "0.04000", "0.750", "3.00"]
+    sweeps._write_sweep(tmp_path, report)
+    rows = (tmp_path / "sweep.csv").read_text().splitlines()
+    assert rows[0] == "setting,kind,axis,value,n,rmse,zero_rmse,ratio,ratio_to_in_range"
+    assert rows[2] == "speed:0.2,speed,,0.2,8,0.03,0.04,0.75,3"
+    saved = json.loads((tmp_path / "sweep.json").read_text())["settings"]  # keys as before
+    assert [(s["scores"]["ratio"], s["ratio_to_in_range"]) for s in saved] == [(0.5, 1), (0.75, 3)]
+
+
 def test_a_sweep_stopped_while_writing_leaves_the_last_table_and_plot_together(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

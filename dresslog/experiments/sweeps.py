@@ -67,12 +67,18 @@ class SweepReport:
         return setting.scores.rmse / self.baseline_rmse if self.baseline_rmse else math.nan
 
     def table(self) -> str:
-        lines = [f"{'setting':<18}{'n':>5}{'RMSE (N)':>12}{'zero (N)':>12}{'x in-range':>12}"]
+        """Per setting: RMSE, all-zero RMSE, their ratio and x in-range. The ratio tells a
+        setting that only puts more force on the limb (ratio steady) from one the model
+        misreads (ratio up), which x in-range alone cannot."""
+        head = (
+            f"{'setting':<18}{'n':>5}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}{'x in-range':>12}"
+        )
+        lines = [head]
         for s in self.settings:
             assert s.scores is not None
             lines.append(
                 f"{s.name:<18}{s.scores.n:>5}{s.scores.rmse:>12.5f}"
-                f"{s.scores.zero_rmse:>12.5f}{self.ratio(s):>12.2f}"
+                f"{s.scores.zero_rmse:>12.5f}{s.scores.ratio:>8.3f}{self.ratio(s):>12.2f}"
             )
         return "\n".join(lines)
 
@@ -296,15 +302,16 @@ def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, M
 
 
 def _write_sweep(out: Path, report: SweepReport) -> None:
-    rows = ["setting,kind,axis,value,n,rmse,zero_rmse,ratio_to_in_range"]
+    # ratio (to all-zero) before ratio_to_in_range: the last column stays where it was
+    rows = ["setting,kind,axis,value,n,rmse,zero_rmse,ratio,ratio_to_in_range"]
     for s in report.settings:
         assert s.scores is not None
         value = "" if math.isnan(s.value) else f"{s.value:.10g}"
         rows.append(
             f"{s.name},{s.kind},{s.axis},{value},{s.scores.n},{s.scores.rmse:.6g},"
-            f"{s.scores.zero_rmse:.6g},{report.ratio(s):.4g}"
+            f"{s.scores.zero_rmse:.6g},{s.scores.ratio:.4g},{report.ratio(s):.4g}"
         )
-    summary_json = asdict(report)  # the table's ratio too: a method asdict leaves out
+    summary_json = asdict(report)  # ratio to all-zero under scores; to in-range added here
     for row, s in zip(summary_json["settings"], report.settings, strict=True):
         row["ratio_to_in_range"] = report.ratio(s)
     # all three written in full before any is put in place: a stopped or failing run
