@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from ctypes import c_bool
 from multiprocessing.synchronize import Event
 from pathlib import Path
@@ -30,7 +31,7 @@ from dresslog.dataset import (
 )
 from dresslog.dataset import cache as cache_module
 from dresslog.dataset.manifest import check_files
-from dresslog.errors import DatasetError, DresslogError, SimulationError
+from dresslog.errors import DatasetError, DresslogError, DresslogWarning, SimulationError
 from dresslog.io.files import exclusive
 from dresslog.io.reader import TrialReader
 from dresslog.spec import TrialSpec
@@ -417,6 +418,29 @@ def test_cli_generate_seed_reaches_every_trial(tmp_path: Path) -> None:
     assert {(e.split, e.spec.seed) for e in manifest.trials} == {
         (split, trial_seed(5, split, 0)) for split in (Split.TRAIN, Split.TEST)
     }
+
+
+def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
+    """3 trials at the default 1/6 made no test trials, found only when `eval` failed."""
+    out = tmp_path / "d"
+    args = ["generate", "--task", "gown", "--trials", "3", "--duration", "0.1", "--workers", "1"]
+    result = CliRunner().invoke(main, [*args, "-q", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert result.stderr == (
+        f"Warning: {out}: no test trials: 3 trials at --test-fraction 0.167 leave none; "
+        "eval needs some (more --trials or a larger --test-fraction)\n"
+    )
+    with pytest.warns(
+        DresslogWarning,
+        match="no training trials: 2 trials at --test-fraction "
+        r"0.9 leave none; train needs some \(more --trials or a smaller",
+    ):
+        generate("gown", 2, tmp_path / "t", workers=1, test_fraction=0.9, recorder=FAKE)
+    with warnings.catch_warnings():  # none asked for, or none but the sweep's: no warning
+        warnings.simplefilter("error")
+        generate("gown", 3, tmp_path / "a", workers=1, test_fraction=0, recorder=FAKE)
+        generate("gown", 6, tmp_path / "b", workers=1, recorder=FAKE)
+        generate("gown", 0, tmp_path / "s", workers=1, splits={"sweep": 1}, recorder=FAKE)
 
 
 def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkeypatch) -> None:

@@ -17,6 +17,7 @@ import re
 import signal
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
@@ -45,7 +46,7 @@ from dresslog.dataset.manifest import (
     load_manifest,
     trial_seed,
 )
-from dresslog.errors import DatasetError, first_problem
+from dresslog.errors import DatasetError, DresslogWarning, first_problem
 from dresslog.io.files import exclusive, is_temporary, resolved
 from dresslog.spec import Task, TrialSpec
 from dresslog.stops import stop_signals
@@ -102,6 +103,27 @@ def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
         raise DatasetError(f"test fraction must be in [0, 1), not {test_fraction}")
     n_test = round(trials * test_fraction) if trials > 1 else 0
     return {Split.TRAIN: trials - n_test, Split.TEST: n_test}
+
+
+def _warn_if_a_split_is_empty(
+    root: Path, trials: int, test_fraction: float, counts: Mapping[Split, int]
+) -> None:
+    """Rounding can leave `train` or `eval` nothing to read, found only once they run: say
+    so while the trials are still to be made. A fraction of 0 asks for no test trials."""
+    if not counts[Split.TEST] and test_fraction > 0:
+        split, who, cure = "test", "eval", "a larger"
+    elif not counts[Split.TRAIN]:
+        split, who, cure = "training", "train", "a smaller"
+    else:
+        return
+    asked = f"{trials} trial{'s' * (trials != 1)} at --test-fraction {test_fraction:.3g}"
+    leave = "leaves" if trials == 1 else "leave"
+    warnings.warn(
+        f"{root}: no {split} trials: {asked} {leave} none; {who} needs some "
+        f"(more --trials or {cure} --test-fraction)",
+        DresslogWarning,
+        stacklevel=3,
+    )
 
 
 def _given_counts(splits: Mapping[Split | str, int]) -> dict[Split, int]:
@@ -306,6 +328,8 @@ def generate(
         jobs = _plan(root, manifest, recorder, workers)
         _tidy(root, manifest)
         manifest.save(root)
+        if splits is None:  # a sweep asks for its one split by count
+            _warn_if_a_split_is_empty(Path(out), trials, test_fraction, counts)
         if jobs:
             label = (label or manifest.task.value) if progress else None
             _run(root, manifest, jobs, executor, workers, max_attempts, label)
