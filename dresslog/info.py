@@ -67,6 +67,9 @@ def _dataset(path: Path, as_json: bool) -> Description:
         listed["damaged"] = [{"file": file, "problem": how} for file, how in damaged]
         return Description(json.dumps(listed, indent=1), problem)
     lines = [f"{path}: {manifest.describe()}"]
+    if manifest.overrides:  # what sets this dataset apart (short trials, a sweep's speed)
+        fixed = ", ".join(f"{k}={json.dumps(v)}" for k, v in manifest.overrides.items())
+        lines.append(f"  fixed for every trial: {fixed}")
     if damaged:
         names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
         more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""

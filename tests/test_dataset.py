@@ -443,6 +443,21 @@ def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
         generate("gown", 0, tmp_path / "s", workers=1, splits={"sweep": 1}, recorder=FAKE)
 
 
+def test_info_on_a_dataset_names_the_spec_fields_fixed_for_every_trial(tmp_path: Path) -> None:
+    """Two folders of 0.3 s and 7 s trials, or of two sweep speeds, read alike in `info`."""
+    fixed = {"duration": 0.3, "limb_rotation": {"axis": "z", "degrees": 10.0}}
+    generate(
+        "gown", 2, tmp_path / "d", workers=1, test_fraction=0.5, overrides=fixed, recorder=FAKE
+    )
+    generate("gown", 2, tmp_path / "e", workers=1, test_fraction=0.5, recorder=FAKE)
+    shown = CliRunner().invoke(main, ["info", str(tmp_path / "d")])
+    assert shown.exit_code == 0 and shown.output.splitlines()[1:] == [
+        '  fixed for every trial: duration=0.3, limb_rotation={"axis": "z", "degrees": 10.0}'
+    ], shown.output
+    shown = CliRunner().invoke(main, ["info", str(tmp_path / "e")])  # none fixed: no line
+    assert shown.exit_code == 0 and len(shown.output.splitlines()) == 1, shown.output
+
+
 def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkeypatch) -> None:
     import sys
 
