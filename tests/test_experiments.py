@@ -539,6 +539,22 @@ def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) 
     assert code == 1 and "model folder exists; pass --overwrite" in output
 
 
+@pytest.mark.parametrize("name", ["x.mcap", "x.rrd", "X.MCAP", "x.bag"])
+def test_train_refuses_a_model_folder_named_as_a_recording(tmp_path: Path, name: str) -> None:
+    """`-o models/x.mcap` made a model folder named x.mcap, which every tool that opens a
+    file by its name then took for a trial or a recording."""
+    data = tmp_path / "d"
+    generate("gown", 2, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
+    before = sorted(tmp_path.rglob("*"))
+    code, output = invoke("train", data, "-o", tmp_path / "models" / name, "-q")
+    stem, suffix = Path(name).stem, Path(name).suffix
+    assert code == 1 and output == (
+        f"Error: {tmp_path / 'models' / name}: a model is a folder, not a {suffix.lower()} "
+        f"recording; name it without {suffix} (e.g. {tmp_path / 'models' / stem})\n"
+    ), output
+    assert sorted(tmp_path.rglob("*")) == before  # no folder, lock or checkpoint
+
+
 @pytest.mark.parametrize(
     ("option", "problem"),
     [

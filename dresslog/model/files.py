@@ -21,7 +21,8 @@ Public API
     inside it, the card last). Fills ``weights_sha256``; returns that card. ``also(folder,
     card)`` writes more into the folder before it is put in place (``training.png``).
 ``check_model_folder(path, overwrite)``: ``ModelError`` unless ``path`` may become a model
-    folder (new, empty, or a model to replace with ``overwrite``).
+    folder (new, empty, or a model to replace with ``overwrite``; not named as a recording,
+    ``.mcap``, ``.rrd``, ``.bag`` or ``.db3``).
 ``read_card(path) -> ModelCard``: the card alone, unverified (what ``info`` shows of a
     model that does not load).
 ``load_model(path) -> LoadedModel``: ``.path``, ``.card``, ``.weights`` (dict of float32
@@ -66,6 +67,9 @@ CARD_FILE = "card.json"
 TRAINING_PLOT = "training.png"
 #: What a model folder holds; --overwrite replaces these and nothing else.
 MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
+#: Names of recordings (a trial, a Rerun recording, ROS bags): `-o x.mcap` for a model
+#: folder is a slip for the trial or recording meant elsewhere, not a folder wanted so.
+RECORDING_SUFFIXES = (".mcap", ".rrd", ".bag", ".db3")
 FORMAT: Final = "dresslog-model"
 FORMAT_VERSION = 1
 
@@ -213,6 +217,12 @@ def check_model_folder(path: Path, overwrite: bool) -> None:
     --overwrite replaces a model, never anything else: a dataset or any other folder
     given as the output by mistake is refused, with or without it.
     """
+    if (suffix := path.suffix.lower()) in RECORDING_SUFFIXES:  # before anything is made
+        raise ModelError(
+            f"a model is a folder, not a {suffix} recording; name it without {path.suffix} "
+            f"(e.g. {path.with_suffix('')})",
+            path=path,
+        )
     made = next(p for p in (path.parent, *path.parent.parents) if p.exists())  # the rest is made
     if not made.is_dir():
         raise ModelError(f"{made} is a file, not a folder", path=path)
