@@ -122,6 +122,28 @@ def test_a_time_unit_guessed_wrong_is_refused_with_the_option_to_give_it(tmp_pat
     assert report.steps == 199  # 2 s at 100 Hz, less the half bins the averaging needs
 
 
+def test_a_time_unit_the_header_gets_wrong_is_refused_as_a_guessed_one_is(tmp_path: Path) -> None:
+    """`Time (s)` over milliseconds made a 33-minute trial of interpolation with exit 0,
+    where the same numbers under `time` were refused; --time-unit overrides the header."""
+    t = np.arange(1000) / 500.0  # 2 s at 500 Hz, written in ms
+    names = ["Time (s)", "Fx (N)", "Fy (N)", "Fz (N)", "Mx (Nm)", "My (Nm)", "Mz (Nm)"]
+    path = write_csv(tmp_path / "ms.csv", [*names, "vx", "vy", "vz"],
+                     [t * 1000, *wrench(t).T, *twist(t)[:, :3].T])  # fmt: skip
+    out = tmp_path / "t.mcap"
+    args = ["convert", str(path), "-o", str(out), "--task", "gown"]
+    refused = CliRunner().invoke(main, args)
+    assert refused.exit_code == 1
+    assert refused.output == (
+        f"Error: {path}: time column 'Time (s)' read as s, as its header says, gives samples "
+        "2 s apart (0.5 Hz), no sensor's rate; if the header is wrong, give the unit with "
+        "--time-unit ms|us|s|ns\n"
+    )
+    assert not out.exists()
+    given = CliRunner().invoke(main, [*args, "--time-unit", "ms"])
+    assert given.exit_code == 0 and "Warning" not in given.output, given.output
+    assert read_trial(out).wrench.t_ns[-1] < 2e9
+
+
 def test_units_in_the_header_are_scaled_to_si_and_unknown_ones_refused(tmp_path: Path) -> None:
     """A sensor exporting kN, N-mm and mm/s gives the trial of one exporting N, N m, m/s."""
     t_ns = times(1000, 2.0)

@@ -12,7 +12,9 @@ Time: seconds or nanoseconds, absolute or relative. A unit in the header
 (`time_ns`, `Time (s)`, rostopic's `%time`) wins; otherwise nanoseconds are
 recognised by size (epoch times above 1e12, or steps of 1000 or more, which
 no seconds column at a sensor rate has). Milliseconds and microseconds need
-the header to say so, or `time_unit`.
+the header to say so, or `time_unit`. A unit guessed or written in a header
+must give a sensor's rate, since a label can be wrong (`Time (s)` over
+milliseconds); `time_unit` is the user's override and is taken as given.
 """
 
 from __future__ import annotations
@@ -142,8 +144,8 @@ def _unit_in(name: str, path: Path) -> str | None:
     Any bracket may hold it (`Time (UTC) [ms]`); one that names another unit (`min`)
     is refused, since reading its values as seconds would be silently wrong.
     """
-    if name.strip() == "%time" or name.strip().endswith("header.stamp"):
-        return "ns"  # rostopic echo -p / rosbag-to-CSV exports
+    if _ros_stamp(name):
+        return "ns"
     brackets = [b.rstrip(".").lower() for b in bracketed(name)]
     if known := [b for b in brackets if b in _UNIT_NAMES]:
         return _UNIT_NAMES[known[0]]
@@ -161,6 +163,11 @@ def _unit_in(name: str, path: Path) -> str | None:
     if match and match.group(1) in ("sec", "secs", "seconds", "ns", "nsec"):
         return _UNIT_NAMES[match.group(1)]
     return None
+
+
+def _ros_stamp(name: str) -> bool:
+    """A time column written by ROS tools (rostopic echo -p, rosbag-to-CSV): always in ns."""
+    return name.strip() == "%time" or name.strip().endswith("header.stamp")
 
 
 def _key(name: str) -> str:
@@ -344,21 +351,25 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _check_guessed_unit(t_ns: np.ndarray, unit: str, name: str, path: Path) -> None:
-    """A unit guessed from the numbers must give a sensor's rate (10 Hz-20 kHz), or say so.
+def _check_rate(t_ns: np.ndarray, unit: str, name: str, path: Path, *, header: bool) -> None:
+    """The unit read (guessed from the numbers, or written in the `header`) must give a
+    sensor's rate (10 Hz-20 kHz), or say so.
 
     Milliseconds read as seconds would make a 1 kHz log 1,000 times too long (and a
     file of mostly gap); microseconds read as nanoseconds, 1,000 times too short (a
     100 Hz log in microseconds would read as 100 kHz: above any F/T sensor's rate).
+    A header's unit is checked too: a logger's `Time (s)` over milliseconds is as wrong.
     """
     if len(t_ns) < 2:
         return
     step = float(np.median(np.diff(t_ns)))
     if step <= 0 or 5e4 <= step <= 1e8:  # 20 kHz ... 10 Hz
         return
+    read = f"read as {unit}, as its header says," if header else f"read as {unit}"
+    fix = "if the header is wrong, give the unit" if header else "give its unit"
     raise ConversionError(
-        f"time column {name!r} read as {unit} gives samples {step / 1e9:.3g} s apart "
-        f"({1e9 / step:.3g} Hz), no sensor's rate; give its unit with --time-unit ms|us|s|ns",
+        f"time column {name!r} {read} gives samples {step / 1e9:.3g} s apart "
+        f"({1e9 / step:.3g} Hz), no sensor's rate; {fix} with --time-unit ms|us|s|ns",
         path=path,
     )
 
@@ -398,8 +409,8 @@ def read_table(
     if nanos is not None:
         t_ns = t_ns + _time_ns(data.pop("nanoseconds"), "ns", names[nanos], line, path)[0]
         unit = f"s + {names[nanos]!r} in ns"
-    elif given is None:
-        _check_guessed_unit(t_ns, unit, time_name, path)
+    elif time_unit is None and not _ros_stamp(time_name):  # ROS tools write ns, always
+        _check_rate(t_ns, unit, time_name, path, header=given is not None)
     values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
     notes = [f"{path.name}: time column {time_name!r} read as {unit}"]
     scaled = []
