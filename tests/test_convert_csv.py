@@ -442,6 +442,44 @@ def test_an_empty_cell_is_named_by_column_and_line(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
+    ("cut", "what"),
+    [
+        ("1.999,0.5,0.2", "3 of 10 fields"),
+        ("1.999,0.5,0.2,1,0,0,0,0.1,0,-", "its last field '-' is not a number"),
+    ],
+)
+def test_a_last_line_cut_off_mid_write_is_dropped_with_a_warning(
+    tmp_path: Path, cut: str, what: str
+) -> None:
+    """A logger killed mid-write: the whole file was refused with numpy's `at row 2000`
+    (line 2001); only that line goes, and a short line inside the log names its line."""
+    whole = _with_velocity(tmp_path / "whole.csv", np.arange(1999) / 1000.0)  # lines 2-2000
+    path = tmp_path / "cut.csv"
+    path.write_text(whole.read_text() + cut)  # no line end: the write never finished
+    args = ["convert", str(path), "-o", str(tmp_path / "t.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines()[0] == (
+        f"Warning: cut.csv: line 2001 is incomplete ({what}), as a log cut off mid-write; dropped"
+    )
+    assert result.output.count("Warning") == 1
+    convert(whole, tmp_path / "whole.mcap", "gown")
+    np.testing.assert_array_equal(
+        read_trial(tmp_path / "t.mcap").wrench.values,
+        read_trial(tmp_path / "whole.mcap").wrench.values,
+    )
+    lines = whole.read_text().splitlines()
+    inside = tmp_path / "inside.csv"
+    inside.write_text("\n".join([*lines[:50], "0.049,0.5,0.2", *lines[51:]]) + "\n")
+    refused = CliRunner().invoke(main, ["convert", str(inside), *args[2:], "--overwrite"])
+    assert refused.exit_code == 1
+    assert refused.output == (
+        f"Error: {inside}: line 51 is incomplete (3 of 10 fields); only a last line cut off "
+        "mid-write is dropped, so mend or remove this one\n"
+    )
+
+
+@pytest.mark.parametrize(
     ("header", "unit"),
     [("Time (s)", "s"), ("time_ms", "ms"), ("Time [\u00b5s]", "us"), ("t (\u03bcs)", "us"),
      ("%time", "ns"), ("stamp[ns]", "ns"), ("time", None)],

@@ -272,7 +272,7 @@ def convert(
     averaged = rs.averages(source.wrench.t_ns)
     grid = common_grid(source, averaged)
 
-    found = reordered + left_out + log_warnings(source, grid, max_gap_s)
+    found = source.warnings + reordered + left_out + log_warnings(source, grid, max_gap_s)
     if message := frames_differ(source, wrench_frame, rotate is not None):
         found.append(message)
     for message in found:

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dresslog.convert.csv_lines import data_rows, is_number
 from dresslog.convert.source import Source, SourceStream
 from dresslog.convert.units import (
     NO_UNIT,
@@ -125,7 +126,7 @@ def _counts_scales(path: Path, header_line: int) -> dict[str, float]:
     for group, quantity in (("f", "force"), ("t", "torque")):
         counts = counts_per[quantity] or ""
         unit = keyed.get(f"{quantity}units", "")
-        per = float(counts) if _is_number(counts) else math.nan
+        per = float(counts) if is_number(counts) else math.nan
         factor = si_factor(unit, group)
         if factor is None or not (math.isfinite(per) and per > 0):
             raise ConversionError(
@@ -209,7 +210,7 @@ def _header(path: Path) -> tuple[int, list[str], str | None]:
                 )
                 cells = [c.strip() for c in cells]
                 filled = [c for c in cells if c]
-                numbers = sum(_is_number(c) for c in filled)
+                numbers = sum(is_number(c) for c in filled)
                 commas = [c for c in filled if _DECIMAL_COMMA.match(c)]
                 if header is not None and 2 * len(commas) > len(filled):
                     raise ConversionError(
@@ -218,7 +219,7 @@ def _header(path: Path) -> tuple[int, list[str], str | None]:
                         path=path,
                     )
                 if header is not None and 2 * numbers > len(filled):  # mostly numbers: data
-                    text_above = not all(_is_number(c) for c in header[1] if c)
+                    text_above = not all(is_number(c) for c in header[1] if c)
                     if text_above and abs(len(cells) - len(header[1])) > 1:
                         continue  # numbers in the preamble (`Tool Transform,0,0,0,0,0,0`)
                     if not text_above:  # numbers above numbers
@@ -331,7 +332,7 @@ def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.
     try:
         return column.astype(np.float64)
     except ValueError:
-        row = next(i for i, cell in enumerate(column) if not _is_number(cell))
+        row = next(i for i, cell in enumerate(column) if not is_number(cell))
         raise ConversionError(
             f"column {name!r}, line {header_line + row + 2}: {str(column[row])!r} is not a "
             "number (empty cells and decimal commas are not read)",
@@ -341,14 +342,6 @@ def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.
 
 #: A number written with a decimal comma, as spreadsheets in many locales export them.
 _DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+([eE][-+]?\d+)?$")
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _check_rate(t_ns: np.ndarray, unit: str, name: str, path: Path, *, header: bool) -> None:
@@ -376,8 +369,9 @@ def _check_rate(t_ns: np.ndarray, unit: str, name: str, path: Path, *, header: b
 
 def read_table(
     path: Path, columns: Mapping[str, str] | None = None, time_unit: str | None = None
-) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
-    """Time (int64 ns) and one float column per recognised role; notes on what was assumed."""
+) -> tuple[np.ndarray, dict[str, np.ndarray], list[str], list[str]]:
+    """Time (int64 ns) and one float column per recognised role; notes on what was assumed,
+    and warnings (a last line cut off, dropped)."""
     if not path.is_file():
         raise ConversionError("no such file", path=path)
     if time_unit is not None and time_unit not in UNITS:
@@ -391,13 +385,7 @@ def read_table(
         found["nanoseconds"] = nanos
         ignored = [n for n in ignored if n != names[nanos]]
     roles = sorted(found, key=found.__getitem__)
-    try:
-        text = np.loadtxt(
-            path, delimiter=delimiter, skiprows=line + 1, usecols=[found[r] for r in roles],
-            dtype=str, ndmin=2, comments="#", encoding="utf-8-sig",
-        )  # fmt: skip
-    except (ValueError, IndexError) as err:
-        raise ConversionError(f"cannot parse CSV: {err}", path=path) from None
+    text, cut = data_rows(path, line, delimiter, [found[r] for r in roles], len(names))
     if len(text) == 0:
         raise ConversionError("CSV has a header but no rows", path=path)
     data = dict(zip(roles, text.T, strict=True))
@@ -451,7 +439,7 @@ def read_table(
         notes.append(f"{path.name}: scaled to SI units: {', '.join(scaled)}")
     if ignored:
         notes.append(f"{path.name}: ignored columns {', '.join(ignored)}")
-    return t_ns, values, notes
+    return t_ns, values, notes, cut
 
 
 def _group(values: dict[str, np.ndarray], roles: tuple[str, ...]) -> np.ndarray | None:
@@ -507,7 +495,7 @@ def read_csv(
     headers = set(_header(path)[1]) | (set(_header(motion)[1]) if motion else set())
     if unknown := [f"{r}={n}" for r, n in columns.items() if n not in headers]:
         raise ConversionError(f"--column {', '.join(unknown)}: no such column", path=path)
-    t_ns, values, notes = read_table(path, columns, time_unit)
+    t_ns, values, notes, found = read_table(path, columns, time_unit)
     if missing := [r for r in (*FORCE, *TORQUE) if r not in values]:
         raise ConversionError(_missing_hint(missing, _header(path)[1]), path=path)
     _incomplete(values, path)
@@ -517,9 +505,10 @@ def read_csv(
     )  # fmt: skip
     twist, pose = _motion(t_ns, values, path.name)
     if motion is not None:
-        m_ns, m_values, m_notes = read_table(motion, columns, time_unit)
+        m_ns, m_values, m_notes, m_found = read_table(motion, columns, time_unit)
         _incomplete(m_values, motion)
         notes += m_notes
+        found += m_found
         twist, pose = _motion(m_ns, m_values, motion.name)
         if twist is None and pose is None:
             names = _header(motion)[1]
@@ -530,4 +519,7 @@ def read_csv(
             "add them, or give a second file with --motion FILE",
             path=path,
         )
-    return Source(path=path, format="csv", wrench=wrench, twist=twist, pose=pose, notes=notes)
+    return Source(
+        path=path, format="csv", wrench=wrench, twist=twist, pose=pose, notes=notes,
+        warnings=found,
+    )  # fmt: skip

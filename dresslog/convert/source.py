@@ -52,6 +52,8 @@ class Source:
     twist: SourceStream | None = None
     pose: SourceStream | None = None
     notes: list[str] = field(default_factory=list)
+    #: what reading found worth a warning (a CSV's last line cut off), for `convert` to report
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def streams(self) -> list[SourceStream]:
