@@ -47,7 +47,14 @@ def convert(source: str, output: str, columns: tuple[str, ...], **options: objec
             f"--{mount[0].replace('_', '-')} places a sensor on the gripper: use it with "
             "--wrench-frame pose (a sensor fixed in the world is turned with --rotate)"
         )
-    mapping = dict(c.split("=", 1) for c in columns)
+    mapping: dict[str, str] = {}
+    for role, name in (c.split("=", 1) for c in columns):
+        if mapping.setdefault(role, name) != name:  # else the last would win unsaid
+            raise click.BadParameter(
+                f"{role} is given twice ({role}={mapping[role]}, {role}={name}); map each role "
+                "to one column",
+                param_hint="'--column'",
+            )
     report = run(source, output, columns=mapping, **options)  # type: ignore[arg-type]
     click.echo(f"{output}: {report.steps} steps ({report.duration_s:.2f} s at 100 Hz) "
                f"from {report.messages_in} messages in {report.elapsed_s:.2f} s")  # fmt: skip

@@ -663,6 +663,30 @@ def test_a_column_given_two_roles_is_refused(tmp_path: Path) -> None:
     assert not (tmp_path / "t.mcap").exists()
 
 
+def test_a_role_mapped_twice_or_a_header_name_written_twice_is_refused_naming_it(
+    tmp_path: Path,
+) -> None:
+    """Each was `no column recognised as fy`: the last --column fx won unsaid, and the
+    second `Fx (N)` of a header was ignored as a column already placed."""
+    source, out = ati_style(tmp_path), tmp_path / "t.mcap"
+    args = ["convert", str(source), "-o", str(out), "--task", "gown"]
+    twice = CliRunner().invoke(main, [*args, "--column", "fx=Fx (N)", "--column", "fx=Fy (N)"])
+    assert twice.exit_code == 2, twice.output
+    assert twice.output.splitlines()[-1] == (
+        "Error: Invalid value for '--column': fx is given twice (fx=Fx (N), fx=Fy (N)); "
+        "map each role to one column"
+    )
+    lines = source.read_text().splitlines(keepends=True)
+    source.write_text(lines[0].replace("Fy (N)", "Fx (N)") + "".join(lines[1:]))
+    header = CliRunner().invoke(main, args)
+    assert header.exit_code == 1
+    assert header.output == (
+        f"Error: {source}: column 'Fx (N)' appears twice in the header (columns 2 and 3); "
+        "rename one, as --column cannot tell them apart\n"
+    )
+    assert not out.exists()
+
+
 def test_a_log_far_beyond_dressing_is_converted_with_a_warning_about_its_units(
     tmp_path: Path,
 ) -> None:

@@ -240,7 +240,20 @@ def _header(path: Path) -> tuple[int, list[str], str | None]:
 def assign_columns(
     names: list[str], columns: Mapping[str, str], path: Path
 ) -> tuple[dict[str, int], list[str]]:
-    """Column index per role (explicit mapping first), and the names left unrecognised."""
+    """Column index per role (explicit mapping first), and the names left unrecognised.
+
+    A name the header holds twice is refused where it would be used: the second `Fx (N)`
+    was ignored unsaid (then `fy` reported missing), and a mapping cannot tell them apart.
+    """
+    for name, count in Counter(names).items():
+        role = role_of(name)
+        if count > 1 and (name in columns.values() or (role is not None and role not in columns)):
+            first, second = [i + 1 for i, n in enumerate(names) if n == name][:2]
+            raise ConversionError(
+                f"column {name!r} appears twice in the header (columns {first} and {second}); "
+                "rename one, as --column cannot tell them apart",
+                path=path,
+            )
     found: dict[str, int] = {}
     for role, name in columns.items():
         if role not in ROLES:
