@@ -104,9 +104,11 @@ def test_a_trial_not_named_mcap_is_refused_before_any_work(tmp_path: Path, args:
 
 @pytest.mark.parametrize("command", ["record", "convert"])
 def test_a_trial_into_a_missing_folder_makes_the_folder_as_train_and_generate_do(
-    tmp_path: Path, command: str
+    tmp_path: Path, command: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Both refused with "folder does not exist; create it first"."""
+    """Both used to refuse a missing folder ("folder does not exist; create it first"); they
+    make it, and a run that fails or is interrupted removes the folders it made, where it
+    left them behind empty. A file, or a link to nothing, where a folder goes is one line."""
     (csv := tmp_path / "ft.csv").write_text(
         "time,fx,fy,fz,tx,ty,tz,vx,vy,vz\n"
         + "".join(f"{t / 100},0,0,0,0,0,0,0,0,0\n" for t in range(50))
@@ -126,6 +128,46 @@ def test_a_trial_into_a_missing_folder_makes_the_folder_as_train_and_generate_do
     assert refused.exit_code == 1
     assert refused.output == f"Error: {under}: {blocker} is not a folder\n"
     assert blocker.read_text() == ""
+    (dangling := tmp_path / "linked").symlink_to(tmp_path / "nowhere")
+    linked = CliRunner().invoke(main, [*args, "-o", str(dangling / "day3" / "trial.mcap")])
+    assert linked.exit_code == 1
+    assert linked.output.endswith(
+        f": {dangling} is a symbolic link to nothing; create its folder or give another\n"
+    )
+
+    def interrupted(*_: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("dresslog.io.writer.TrialWriter.write_twist", interrupted)
+    (kept := tmp_path / "kept").mkdir()  # existed before: stays, with what it holds
+    (kept / "notes.txt").write_text("")
+    for folder in (tmp_path / "new", kept):
+        stopped = CliRunner().invoke(main, [*args, "-o", str(folder / "a" / "b" / "t.mcap")])
+        assert stopped.exit_code == 1 and "Aborted!" in stopped.output, stopped.output
+    assert not (tmp_path / "new").exists()
+    assert [p.name for p in kept.iterdir()] == ["notes.txt"]
+
+
+def test_infer_and_view_save_interrupted_remove_the_folders_they_made(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The Rerun recording's folders (made as it closes) and view --save's copy's were left."""
+    rrd = tmp_path / "g.rrd"
+    assert (
+        CliRunner().invoke(main, ["infer", str(SAMPLES / "gown.mcap"), "-o", str(rrd)]).exit_code
+        == 0
+    )
+
+    def interrupted(*_: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("dresslog.replay.rerun_sink.RerunSink.flush", interrupted)
+    args = ["infer", str(SAMPLES / "gown.mcap"), "-o", str(tmp_path / "a" / "b" / "g.rrd")]
+    assert "Aborted!" in CliRunner().invoke(main, args).output
+    monkeypatch.setattr("shutil.copyfile", interrupted)
+    saved = CliRunner().invoke(main, ["view", str(rrd), "--save", str(tmp_path / "c" / "g.rrd")])
+    assert "Aborted!" in saved.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.rrd"]
 
 
 def test_record_model_without_live_and_an_upper_case_suffix(tmp_path: Path) -> None:

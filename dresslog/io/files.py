@@ -36,7 +36,7 @@ def check_output(
     """
     folder = nearest_folder(path)
     if not folder.is_dir():  # a file, or a link to nothing, where a folder would go
-        raise TrialWriteError(f"{folder} is not a folder", path=path)
+        raise TrialWriteError(_not_a_folder(folder), path=path)
     if path.is_dir():
         raise TrialWriteError("is a folder; give a file name", path=path)
     check_writable(folder)
@@ -66,13 +66,52 @@ def nearest_folder(path: Path) -> Path:
     return next((f for f in path.parents if os.path.lexists(f)), path.parent)
 
 
-def make_folders(path: Path) -> None:
+def _not_a_folder(folder: Path) -> str:
+    """Why `folder`, a name that exists, cannot hold an output, as the other commands say it."""
+    if folder.is_symlink():
+        try:
+            folder.stat()
+        except OSError as err:
+            if err.errno == errno.ENOENT:
+                return f"{folder} is a symbolic link to nothing; create its folder or give another"
+            if err.errno == errno.ELOOP:
+                return f"{folder} is a symbolic link that leads round in a loop; remove it"
+    return f"{folder} is not a folder"
+
+
+def make_folders(path: Path) -> list[Path]:
     """Make the missing folders above `path` (`-o runs/day1/trial.mcap`), as `train` and
-    `generate` do; called just before its temporary is created, so a failed check makes none."""
+    `generate` do; called just before its temporary is created, so a failed check makes none.
+
+    Returns the folders made, outermost first: a write that fails hands them to
+    `remove_folders`, so an interrupted run leaves no empty `runs/day1` behind. One
+    another process made meanwhile is not counted.
+    """
+    missing = list(itertools.takewhile(lambda f: not os.path.lexists(f), path.parents))
+    made: list[Path] = []
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        if not (above := nearest_folder(path)).is_dir():
+            raise TrialWriteError(_not_a_folder(above), path=path)
+        for folder in reversed(missing):
+            try:
+                folder.mkdir()
+            except FileExistsError:
+                if not folder.is_dir():
+                    raise
+            else:
+                made.append(folder)
     except OSError as err:  # a file put there since the check, permissions
+        remove_folders(made)
         raise TrialWriteError(f"cannot make its folder: {err.strerror or err}", path=path) from None
+    return made
+
+
+def remove_folders(made: list[Path]) -> None:
+    """Remove the folders `make_folders` made that are still empty, deepest first; one that
+    holds anything stays. Cleaning up must never raise over the real error."""
+    for folder in reversed(made):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
 
 
 def resolved(path: Path) -> Path:
@@ -184,15 +223,17 @@ def put_in_place(tmp: Path, path: Path, *, overwrite: bool) -> None:
 
 @contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path beside `path`; rename it into place on success, else delete it."""
+    """Yield a temporary path beside `path`; rename it into place on success, else delete it
+    and the folders made for it."""
     path = Path(path)
-    make_folders(path)
+    made = make_folders(path)
     tmp = temporary_path(path)
     try:
         yield tmp
         tmp.replace(path)
     except BaseException:
         discard(tmp)
+        remove_folders(made)
         raise
 
 

@@ -25,6 +25,7 @@ from dresslog.io.files import (
     discard,
     make_folders,
     put_in_place,
+    remove_folders,
     temporary_path,
 )
 from dresslog.io.msgdefs import schema_text
@@ -68,6 +69,7 @@ class TrialWriter:
         self.metadata = metadata
         self.overwrite = overwrite
         self._tmp: Path | None = None  # named when opened, once the output is checked
+        self._made: list[Path] = []  # folders made for it, removed again if it fails
         self._stream: IO[bytes] | None = None
         self._writer: Writer | None = None
         self._schemas: dict[str, int] = {}
@@ -89,7 +91,7 @@ class TrialWriter:
                 path=self.path,
             )
         check_output(self.path, suffix=".mcap", overwrite=self.overwrite)
-        make_folders(self.path)
+        self._made = make_folders(self.path)
         self._tmp = temporary_path(self.path)
         self._stream = self._tmp.open("wb")
         self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
@@ -101,6 +103,7 @@ class TrialWriter:
         """Write the metadata and summary, then move the file into place."""
         if self._writer is not None:
             put_in_place(self.finish(), self.path, overwrite=self.overwrite)
+            self._made = []  # they hold the trial now
 
     def finish(self) -> Path:
         """Write the metadata and summary; the file stays under the temporary name returned
@@ -133,6 +136,8 @@ class TrialWriter:
         self._writer = self._stream = None
         if self._tmp is not None:
             discard(self._tmp)
+        remove_folders(self._made)  # those still empty
+        self._made = []
 
     def __enter__(self) -> Self:
         try:

@@ -18,7 +18,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dresslog.errors import TrialWriteError
-from dresslog.io.files import check_output, discard, make_folders, printable, temporary_path
+from dresslog.io.files import (
+    check_output,
+    discard,
+    make_folders,
+    printable,
+    remove_folders,
+    temporary_path,
+)
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.replay.metrics import MetricsSink
@@ -97,6 +104,7 @@ class RerunSink:
         self.context: TrialContext | None = None
         self._buf = _Buffer()
         self._tmp: Path | None = None
+        self._made: list[Path] = []  # folders made for the file, removed again if it fails
         self._path_so_far: list[np.ndarray] = []
         self._edges: np.ndarray | None = None
 
@@ -143,7 +151,7 @@ class RerunSink:
             return
         import rerun as rr
 
-        make_folders(self.path)
+        self._made = make_folders(self.path)
         self._tmp = temporary_path(self.path)
         assert self.context is not None
         rec = rr.RecordingStream(
@@ -172,6 +180,7 @@ class RerunSink:
         if self.path is not None and self._tmp is not None:
             self._tmp.replace(self.path)
             self._tmp = None
+            self._made = []
 
     def abort(self) -> None:
         if self.path is not None and self.recording is not None:
@@ -179,6 +188,8 @@ class RerunSink:
             self.recording = None
         if self._tmp is not None:
             discard(self._tmp)
+        remove_folders(self._made)  # those still empty
+        self._made = []
 
     def _initial_vmax(self) -> float | None:
         """A live view's fixed colour scale; a file's (None) is fitted to its truth as it closes."""
