@@ -14,7 +14,7 @@ import numpy as np
 
 from dresslog.errors import TrialFormatError, TrialWriteError
 from dresslog.io import well_known as wk
-from dresslog.io.files import check_output, discard
+from dresslog.io.files import check_output
 from dresslog.io.reader import TrialReader
 from dresslog.io.writer import TrialWriter
 from dresslog.trial import LimbPoints, Trial
@@ -34,6 +34,7 @@ class McapSink:
         self._forces: list[np.ndarray] = []
         self._contact: list[np.ndarray] = []
         self._staged: Path | None = None  # the finished copy, until `commit` names it
+        self._finished: TrialWriter | None = None  # its writer, to undo it (and its folders)
 
     def open(self, context: TrialContext) -> None:
         if context.trial is None:
@@ -71,6 +72,7 @@ class McapSink:
                     estimate=True,
                 )
             self._staged = writer.finish()  # named by `commit`, beside the other outputs
+            self._finished = writer
         except BaseException:  # an interrupt while finishing included
             writer.abort()
             raise
@@ -78,13 +80,14 @@ class McapSink:
     def commit(self) -> None:
         if self._staged is not None:
             self._staged.replace(self.path)
-            self._staged = None
+            self._staged = self._finished = None
 
     def abort(self) -> None:
-        """Drop the finished copy not yet named; `close` removes a half-written one itself."""
-        if self._staged is not None:
-            discard(self._staged)
-            self._staged = None
+        """Drop the finished copy not yet named, and the folders made for it; `close`
+        removes a half-written one itself."""
+        if self._finished is not None:
+            self._finished.abort()
+        self._staged = self._finished = None
 
 
 def _holds_an_estimate(path: Path) -> bool:
