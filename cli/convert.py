@@ -11,28 +11,40 @@ from .common import reports_errors
 
 @click.command("convert")
 @click.argument("source", type=click.Path(path_type=str))
-@click.option("-o", "--output", required=True, type=click.Path(path_type=str), help="Trial file.")
-@click.option("--task", required=True, type=click.Choice([t.value for t in Task]))
-@click.option("--wrench-topic", help="WrenchStamped topic, when the bag has several.")
-@click.option("--twist-topic", help="TwistStamped topic for the velocity.")
-@click.option("--pose-topic", help="PoseStamped topic (velocity by differentiation if no twist).")
-@click.option("--motion", type=click.Path(path_type=str), help="CSV with velocity or position.")
+@click.option("-o", "--output", "--out", "output", required=True, type=click.Path(path_type=str),
+              help="Trial file to write (.mcap).")  # fmt: skip
+@click.option("--task", required=True, type=click.Choice([t.value for t in Task]),
+              help="Dressing task: gown (arm) or shorts (leg).")  # fmt: skip
+@click.option("--wrench-topic", help="A bag's WrenchStamped topic.",
+              show_default="the only one")  # fmt: skip
+@click.option("--twist-topic", help="A bag's TwistStamped topic, for the velocity.",
+              show_default="the only one")  # fmt: skip
+@click.option("--pose-topic", help="A bag's PoseStamped topic (velocity by differentiation if "
+              "no twist).", show_default="the only one")  # fmt: skip
+@click.option("--motion", type=click.Path(path_type=str),
+              help="CSV with velocity or position, beside a force/torque CSV.")  # fmt: skip
 @click.option("--column", "columns", multiple=True, metavar="ROLE=HEADER",
-              help="Map a CSV column: time, fx..tz, vx..vz, wx..wz, x..z, qx..qw.")  # fmt: skip
-@click.option("--time-unit", type=click.Choice(["s", "ms", "us", "ns"]), help="CSV time unit.")
+              help="Map a CSV column: time, fx..tz, vx..vz, wx..wz, x..z, qx..qw; repeatable.",
+              show_default="recognised by header")  # fmt: skip
+@click.option("--time-unit", type=click.Choice(["s", "ms", "us", "ns"]), help="A CSV's time unit.",
+              show_default="from the header, else s or ns by size")  # fmt: skip
 @click.option("--clock", type=click.Choice(["header", "log"]), default="header", show_default=True,
               help="A bag's times: header stamps, or receive times (clocks differ).")  # fmt: skip
 @click.option("--wrench-frame", type=click.Choice(["world", "pose"]), default="world",
               show_default=True, help="The wrench's axes: world, or the gripper's own "
               "(turned by the pose's orientation).")  # fmt: skip
 @click.option("--sensor-rotation", nargs=4, type=float, metavar="QX QY QZ QW",
-              help="With --wrench-frame pose: the sensor's axes in the gripper's.")  # fmt: skip
+              help="With --wrench-frame pose: the sensor's axes in the gripper's (quaternion).",
+              show_default="none")  # fmt: skip
 @click.option("--sensor-offset", nargs=3, type=float, metavar="X Y Z",
-              help="With --wrench-frame pose: sensor origin from gripper centre (m).")  # fmt: skip
+              help="With --wrench-frame pose: sensor origin from gripper centre, m.",
+              show_default="0 0 0")  # fmt: skip
 @click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
-              help="Rotate every vector into the model's frame.")  # fmt: skip
+              help="Rotate every vector into the model's frame (quaternion).",
+              show_default="none")  # fmt: skip
 @click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",
-              help="Subtract the mean wrench of the first SECONDS.")  # fmt: skip
+              show_default=True,
+              help="Subtract the mean wrench of the first SECONDS, s; 0: no tare.")  # fmt: skip
 @click.option("--overwrite", is_flag=True, help="Replace OUTPUT if it exists.")
 @reports_errors
 def convert(source: str, output: str, columns: tuple[str, ...], **options: object) -> None:

@@ -10,7 +10,8 @@ from .common import reports_errors
 @click.command("eval")
 @click.argument("model", type=click.Path())
 @click.argument("data", type=click.Path())
-@click.option("--split", type=click.Choice(["test", "train"]), default="test", show_default=True)
+@click.option("--split", type=click.Choice(["test", "train"]), default="test", show_default=True,
+              help="The dataset split to score.")  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option(
     "--bounds",

@@ -4,22 +4,30 @@ from __future__ import annotations
 
 import click
 
-from dresslog.spec import Task
+from dresslog.spec import MAX_DURATION, Task, TrialSpec
 
 from .common import reports_errors
 
 
 @click.command("generate")
-@click.option("--task", type=click.Choice([t.value for t in Task]), required=True)
-@click.option("--trials", type=click.IntRange(min=1), required=True, help="Train + test.")
-@click.option("--out", "-o", type=click.Path(file_okay=False), required=True)
-@click.option("--workers", type=click.IntRange(min=1), help="Parallel trials [all cores].")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
-@click.option(
-    "--test-fraction", type=click.FloatRange(0, 1, max_open=True), default=1 / 6, help="[1/6]"
-)
-@click.option("--duration", type=click.FloatRange(min=0, min_open=True), help="Seconds/trial.")
-@click.option("--executor", type=click.Choice(["process", "ray"]), default="process")
+@click.option("--task", type=click.Choice([t.value for t in Task]), required=True,
+              help="Dressing task: gown (arm) or shorts (leg).")  # fmt: skip
+@click.option("--trials", type=click.IntRange(min=1), required=True,
+              help="Trials in all, train + test (at most 1,000,000).")  # fmt: skip
+@click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
+              help="Dataset folder to write or extend.")  # fmt: skip
+@click.option("--workers", type=click.IntRange(min=1), help="Trials simulated at once.",
+              show_default="all cores")  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Draws every trial's spec.")  # fmt: skip
+@click.option("--test-fraction", type=click.FloatRange(0, 1, max_open=True), default=1 / 6,
+              show_default="1/6", help="Share of the trials in the test split.")  # fmt: skip
+@click.option("--duration", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
+              help=f"Recorded motion per trial, s (at most {MAX_DURATION:g}).",
+              show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
+@click.option("--executor", type=click.Choice(["process", "ray"]), default="process",
+              show_default=True,
+              help="Local processes, or Ray ($RAY_ADDRESS's cluster, else local).")  # fmt: skip
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
 def generate(

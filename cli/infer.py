@@ -11,15 +11,12 @@ from .common import reports_errors
 
 @click.command("infer")
 @click.argument("trial", type=click.Path(path_type=Path))
-@click.option(
-    "--model", "-m", type=click.Path(path_type=Path), help="Model folder (default: bundled)."
-)
-@click.option(
-    "-o", "--output", type=click.Path(path_type=Path), help="Rerun recording (default: TRIAL.rrd)."
-)
-@click.option(
-    "--mcap-out", type=click.Path(path_type=Path), help="Also write the trial with the estimate."
-)
+@click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder.",
+              show_default="bundled, for the trial's task")  # fmt: skip
+@click.option("-o", "--output", "--out", "output", type=click.Path(path_type=Path),
+              help="Rerun recording to write (.rrd).", show_default="TRIAL.rrd")  # fmt: skip
+@click.option("--mcap-out", type=click.Path(path_type=Path),
+              help="Also write the trial with the estimate (.mcap).")  # fmt: skip
 @click.option("--timings", is_flag=True, help="Print the time of each stage.")
 @reports_errors
 def infer(

@@ -6,24 +6,35 @@ from pathlib import Path
 
 import click
 
-from dresslog.spec import Task
+from dresslog.spec import MAX_DURATION, MAX_OFFSET, Task, TrialSpec
 
 from .common import reports_errors
 
 
 @click.command("record")
-@click.option("--task", type=click.Choice([t.value for t in Task]), required=True)
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True)
-@click.option(
-    "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Draws the spec."
-)
-@click.option("--speed", type=float, help="End-effector speed, m/s.")
-@click.option("--offset", type=float, nargs=3, help="Limb offset X Y Z, m.")
-@click.option("--rotation", type=(click.Choice(["x", "y", "z"]), float), help="AXIS DEG.")
-@click.option("--duration", type=float, help="Recorded motion, s.")
+@click.option("--task", type=click.Choice([t.value for t in Task]), required=True,
+              help="Dressing task: gown (arm) or shorts (leg).")  # fmt: skip
+@click.option("-o", "--output", "--out", "output", type=click.Path(dir_okay=False, path_type=Path),
+              required=True, help="Trial file to write (.mcap).")  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Draws speed, limb offset and path.")  # fmt: skip
+@click.option("--speed", type=float, metavar="M/S",
+              help="End-effector speed, m/s (0<x<=1).",
+              show_default="from --seed: gown 0.10-0.15, shorts 0.15-0.20")  # fmt: skip
+@click.option("--offset", type=float, nargs=3, metavar="X Y Z",
+              help=f"Limb offset from its nominal pose, m (each within +-{MAX_OFFSET:g}).",
+              show_default="from --seed, within the paper's ranges")  # fmt: skip
+@click.option("--rotation", type=(click.Choice(["x", "y", "z"]), float), metavar="AXIS DEG",
+              help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
+              "(-90<=DEG<=90).", show_default="none")  # fmt: skip
+@click.option("--duration", type=float, metavar="SECONDS",
+              help=f"Recorded motion, s (0<x<={MAX_DURATION:g}).",
+              show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
-@click.option("--model", type=click.Path(path_type=Path), help="Model for --live [bundled].")
+@click.option("--model", "-m", type=click.Path(path_type=Path),
+              help="Model folder for --live or --connect.",
+              show_default="bundled, for the task")  # fmt: skip
 @click.option(
     "--connect",
     metavar="URL",

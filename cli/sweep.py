@@ -6,6 +6,8 @@ from typing import Any
 
 import click
 
+from dresslog.spec import MAX_DURATION, TrialSpec
+
 from .common import reports_errors
 
 
@@ -26,18 +28,27 @@ def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
 
 @click.command("sweep")
 @click.argument("model", type=click.Path())
-@click.option(
-    "--speeds", multiple=True, callback=_items, help="End-effector speeds, m/s (comma-separated)."
-)
-@click.option(
-    "--rotations", multiple=True, callback=_items, help="Limb rotations AXIS:DEGREES: y:-15,z:10."
-)
-@click.option("--out", "-o", type=click.Path(file_okay=False), help="[./MODEL-sweep]")
-@click.option("--sequences", "-n", type=click.IntRange(min=1), default=128, show_default=True)
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
-@click.option("--duration", type=click.FloatRange(min=0, min_open=True), help="Seconds/trial.")
-@click.option("--workers", type=click.IntRange(min=1), help="Parallel trials [all cores].")
-@click.option("--executor", type=click.Choice(["process", "ray"]), default="process")
+@click.option("--speeds", multiple=True, callback=_items, metavar="LIST",
+              help="End-effector speeds to sweep, m/s, comma-separated: 0.2,0.25 (each 0<x<=1). "
+              "Give --speeds, --rotations or both.")  # fmt: skip
+@click.option("--rotations", multiple=True, callback=_items, metavar="LIST",
+              help="Limb rotations to sweep, AXIS:DEG, comma-separated: y:-15,z:10 "
+              "(-90<=DEG<=90). Give --speeds, --rotations or both.")  # fmt: skip
+@click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False),
+              help="Sweep folder to write or extend.",
+              show_default="./NAME-sweep, NAME the model folder's")  # fmt: skip
+@click.option("--sequences", "-n", type=click.IntRange(min=1), default=128, show_default=True,
+              help="Fresh sequences per setting (at most 1,000,000).")  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Draws the sequences' specs.")  # fmt: skip
+@click.option("--duration", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
+              help=f"Recorded motion per sequence, s (at most {MAX_DURATION:g}).",
+              show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
+@click.option("--workers", type=click.IntRange(min=1), help="Sequences simulated at once.",
+              show_default="all cores")  # fmt: skip
+@click.option("--executor", type=click.Choice(["process", "ray"]), default="process",
+              show_default=True,
+              help="Local processes, or Ray ($RAY_ADDRESS's cluster, else local).")  # fmt: skip
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors
 def sweep(

@@ -12,12 +12,18 @@ from .common import reports_errors
 
 @click.command("train")
 @click.argument("data", type=click.Path(file_okay=False))
-@click.option("--out", "-o", type=click.Path(file_okay=False), required=True, help="Model folder.")
-@click.option("--epochs", type=click.IntRange(min=1), default=10, show_default=True)
-@click.option("--batch-size", type=click.IntRange(min=1), default=16, show_default=True)
-@click.option("--hidden", type=click.IntRange(min=1), default=50, show_default=True)
-@click.option("--layers", type=click.IntRange(min=1), default=3, show_default=True)
-@click.option("--lr", type=click.FloatRange(min=0, min_open=True), default=1e-3, show_default=True)
+@click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
+              help="Model folder to write.")  # fmt: skip
+@click.option("--epochs", type=click.IntRange(min=1), default=10, show_default=True,
+              help="Passes over the training split.")  # fmt: skip
+@click.option("--batch-size", type=click.IntRange(min=1), default=16, show_default=True,
+              help="Sequences per batch.")  # fmt: skip
+@click.option("--hidden", type=click.IntRange(min=1), default=50, show_default=True,
+              help="LSTM cells per layer.")  # fmt: skip
+@click.option("--layers", type=click.IntRange(min=1), default=3, show_default=True,
+              help="LSTM layers.")  # fmt: skip
+@click.option("--lr", type=click.FloatRange(min=0, min_open=True), default=1e-3, show_default=True,
+              help="RMSprop learning rate.")  # fmt: skip
 @click.option("--normalise", is_flag=True, help="Standardise inputs (not in the paper).")
 @click.option(
     "--balance-loss", is_flag=True, help="Scale force targets to the contact map's 0.1 in the loss."
@@ -37,8 +43,11 @@ from .common import reports_errors
     is_flag=True,
     help="The network also reads the signal's change per step (9 more inputs; not in the paper).",
 )
-@click.option("--window", type=click.IntRange(min=2), help="Train on random crops of W steps.")
-@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True)
+@click.option("--window", type=click.IntRange(min=2), metavar="W",
+              help="Train on random crops of W steps (10 ms each; below the longest training "
+              "sequence).", show_default="whole sequences")  # fmt: skip
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
+              help="Draws the validation split, the batches and the initial weights.")  # fmt: skip
 @click.option(
     "--overwrite",
     is_flag=True,

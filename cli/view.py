@@ -11,10 +11,12 @@ from .common import reports_errors
 
 @click.command("view")
 @click.argument("path", type=click.Path(path_type=Path))
-@click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder for an MCAP.")
+@click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder for an MCAP.",
+              show_default="bundled, for the trial's task")  # fmt: skip
 @click.option("--web", is_flag=True, help="Serve the web viewer on localhost; print its address.")
 @click.option("--save", type=click.Path(path_type=Path), help="Only write this .rrd; no viewer.")
-@click.option("--port", type=click.IntRange(1, 65535), help="Web viewer port (--web) [9090|free].")
+@click.option("--port", type=click.IntRange(1, 65535), help="Web viewer port, with --web.",
+              show_default="9090, else a free one")  # fmt: skip
 @reports_errors
 def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int | None) -> None:
     """Open a trial (MCAP) or a Rerun recording (.rrd) in the Rerun viewer.

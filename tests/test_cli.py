@@ -4,18 +4,20 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import socket
 import subprocess
 import sys
 from pathlib import Path
 
+import click
 import pytest
 from click.testing import CliRunner
 
 from dresslog import __version__
 from dresslog.cli.main import COMMANDS, main
 from dresslog.io.reader import read_trial
-from dresslog.spec import Task
+from dresslog.spec import Task, TrialSpec
 from tests.conftest import SAMPLES
 
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "gown.mcap"
@@ -43,6 +45,47 @@ def test_help_does_not_import_heavy_packages() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def _option_help(command: str, option: str) -> str:
+    """The help entry of `option` in `dresslog COMMAND --help`, on one line."""
+    result = CliRunner().invoke(main, [command, "--help"])
+    assert result.exit_code == 0, result.output
+    entry = re.search(rf"^  (?:-\w, )?{option}\b.*?(?=^  -)", result.output, re.M | re.S)
+    assert entry, result.output
+    return " ".join(entry.group().split())
+
+
+def test_every_option_has_help() -> None:
+    for name in COMMANDS:
+        command = main.get_command(click.Context(main), name)
+        assert command is not None
+        bare = [p.name for p in command.params if isinstance(p, click.Option) and not p.help]
+        assert not bare, f"{name}: {bare}"
+
+
+def test_record_help_states_the_default_duration() -> None:
+    entry = _option_help("record", "--duration")
+    default = TrialSpec.model_fields["duration"].default
+    assert re.search(rf"default: \(?{default:g}\b", entry), entry
+
+
+@pytest.mark.parametrize("spelling", ["-o", "--out", "--output"])
+def test_the_output_option_takes_every_spelling(tmp_path: Path, spelling: str) -> None:
+    """record/convert/infer named it --output, generate/train/sweep --out: both work in all."""
+    rrd = tmp_path / "t.rrd"
+    inferred = CliRunner().invoke(main, ["infer", str(SAMPLE), spelling, str(rrd)])
+    assert inferred.exit_code == 0 and rrd.is_file(), inferred.output
+    (taken := tmp_path / "taken").mkdir()
+    (taken / "notes.txt").write_text("")  # not a model: train refuses it, naming it
+    trained = CliRunner().invoke(main, ["train", str(tmp_path), spelling, str(taken)])
+    assert trained.exit_code == 1 and str(taken) in trained.output, trained.output
+
+
+def test_record_takes_m_for_model(tmp_path: Path) -> None:
+    args = ["record", "--task", "gown", "-m", "m", "-o", str(tmp_path / "t.mcap")]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and "use it with --live" in result.output
 
 
 def test_info_reports_task_steps_channels_and_spec(make_trial) -> None:
