@@ -719,3 +719,17 @@ def test_convert_called_from_a_script_says_what_is_wrong_with_its_options(
     with pytest.raises(ConversionError, match=message):
         convert(ati_style(tmp_path), tmp_path / "t.mcap", "gown", **options)
     assert not (tmp_path / "t.mcap").exists()
+
+
+def test_a_csv_with_a_header_and_no_rows_is_one_line(tmp_path: Path) -> None:
+    """numpy's own "input contained no data" warning stays out of it."""
+    empty = tmp_path / "empty.csv"
+    empty.write_text(
+        "Time (s),Fx (N),Fy (N),Fz (N),Mx (Nm),My (Nm),Mz (Nm),vx (m/s),vy (m/s),vz (m/s)\n"
+    )
+    result = CliRunner().invoke(
+        main, ["convert", str(empty), "-o", str(tmp_path / "e.mcap"), "--task", "gown"]
+    )
+    assert result.exit_code == 1
+    assert result.stderr == f"Error: {empty}: CSV has a header but no rows\n"
+    assert not (tmp_path / "e.mcap").exists()

@@ -9,6 +9,7 @@ counted from 1 as an editor counts (numpy's own `row N` counts data rows).
 from __future__ import annotations
 
 import itertools
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -96,7 +97,9 @@ def data_rows(
     problem = ""
     if cut is None:
         try:
-            rows = np.loadtxt(path, skiprows=header_line + 1, encoding="utf-8-sig", **options)
+            with warnings.catch_warnings():  # "no data": the caller says so in its own words
+                warnings.simplefilter("ignore", UserWarning)
+                rows = np.loadtxt(path, skiprows=header_line + 1, encoding="utf-8-sig", **options)
         except (ValueError, IndexError) as err:
             problem = f"cannot parse CSV: {err}"  # numpy's words, when no short line explains it
         else:
