@@ -727,9 +727,12 @@ def test_a_csv_with_a_header_and_no_rows_is_one_line(tmp_path: Path) -> None:
     empty.write_text(
         "Time (s),Fx (N),Fy (N),Fz (N),Mx (Nm),My (Nm),Mz (Nm),vx (m/s),vy (m/s),vz (m/s)\n"
     )
-    result = CliRunner().invoke(
-        main, ["convert", str(empty), "-o", str(tmp_path / "e.mcap"), "--task", "gown"]
-    )
+    with warnings.catch_warnings(record=True) as shown:
+        warnings.simplefilter("always")
+        result = CliRunner().invoke(
+            main, ["convert", str(empty), "-o", str(tmp_path / "e.mcap"), "--task", "gown"]
+        )
+    assert [str(w.message) for w in shown] == []
     assert result.exit_code == 1
     assert result.stderr == f"Error: {empty}: CSV has a header but no rows\n"
     assert not (tmp_path / "e.mcap").exists()
