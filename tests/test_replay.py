@@ -461,3 +461,26 @@ def test_a_log_in_another_robots_axes_is_warned_about_and_rotate_puts_it_right(
     assert "Warning" not in said["rotated"], said["rotated"]
     assert said["turned"].startswith(f"Warning: {tmp_path / 'turned.mcap'}: the gripper moves ")
     assert "where the model's training trials move along (-1.00, 0.00, 0.01)" in said["turned"]
+
+
+def test_a_force_map_that_fits_neither_its_limb_nor_the_tasks_is_one_line(tmp_path: Path) -> None:
+    """Ground truth without /limb/points is drawn on the task's limb; 100 values per step
+    cannot be, which had surfaced as numpy's broadcast error mid-replay."""
+    from dresslog.io.writer import TrialWriter
+    from dresslog.spec import TrialMetadata, TrialSpec
+
+    path = tmp_path / "narrow.mcap"
+    spec = TrialSpec(task=Task.GOWN, seed=1)
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN, spec=spec)) as writer:
+        for i in range(20):
+            t = 1_000_000_000 + i * 10_000_000
+            writer.write_wrench(t, np.zeros(6))
+            writer.write_twist(t, np.zeros(6))
+            writer.write_force_map(t, np.zeros(100, np.float32))
+    result = CliRunner().invoke(main, ["infer", str(path), "-o", str(tmp_path / "n.rrd")])
+    assert result.exit_code == 1 and not (tmp_path / "n.rrd").exists()
+    assert result.output == (
+        f"Error: {path}: channel {wk.FORCE_MAP}: force maps have 100 values but the trial has "
+        f"no {wk.LIMB_POINTS} and the gown's limb has 300 points; write its limb points with "
+        "the maps\n"
+    )

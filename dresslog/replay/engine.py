@@ -19,6 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from dresslog.errors import ModelError, TrialFormatError
+from dresslog.io import well_known as wk
 from dresslog.model.postprocess import apply_contact
 from dresslog.replay.metrics import step_rmse
 from dresslog.spec import TrialMetadata
@@ -198,6 +199,15 @@ def trial_context(trial: Trial, path: str | Path | None = None) -> TrialContext:
         from dresslog.limb import build_limb, limb_points
 
         limb = limb_points(build_limb(trial.metadata.task))
+        maps = trial.force_map
+        if maps is not None and maps.forces.shape[1] != len(limb):  # (the reader checks
+            raise TrialFormatError(  # a map against limb points the trial holds itself)
+                f"force maps have {maps.forces.shape[1]} values but the trial has no "
+                f"{wk.LIMB_POINTS} and the {trial.metadata.task.value}'s limb has {len(limb)} "
+                "points; write its limb points with the maps",
+                path=path,
+                channel=wk.FORCE_MAP,
+            )
     return TrialContext(
         metadata=trial.metadata,
         limb_points=limb,
