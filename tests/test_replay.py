@@ -112,8 +112,8 @@ def test_a_live_simulation_goes_through_the_same_engine(gown) -> None:
             wrench, twist = trial.wrench.values[i], trial.twist.values[i]
             sim = SimStep(i, step.t_ns, wrench, twist, step.pose, step.contacts, step.truth, None)
             live.step(sim)
-    assert live.metrics.metrics.steps == STEPS
-    assert live.metrics.metrics.per_step == pytest.approx([r.rmse for r in expected])
+    assert live.metrics.steps == STEPS
+    assert live.metrics.per_step == pytest.approx([r.rmse for r in expected])
 
 
 def test_a_nan_measurement_stops_a_live_replay(gown) -> None:

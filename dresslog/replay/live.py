@@ -35,15 +35,21 @@ class SimulationSource:
     """A `simulate()` sink that replays each step through an estimator into engine sinks.
 
     Use as a context manager around `simulate(spec, source)`: leaving it commits
-    the sinks, or aborts them if the simulation raised.
+    the sinks, or aborts them if the simulation raised; `metrics` then holds the trial's
+    RMSE against the simulation's ground truth.
     """
 
     def __init__(
         self, estimator: Estimator | None, sinks: Sequence[Sink] = (), model: str | None = None
     ) -> None:
-        self.metrics = MetricsSink()
-        self.replay = Replay(estimator, [self.metrics, *sinks])
+        self._scores = MetricsSink()
+        self.replay = Replay(estimator, [self._scores, *sinks])
         self.model = model
+
+    @property
+    def metrics(self) -> TrialMetrics:
+        """What the replay measured so far: whole once the source is finished."""
+        return self._scores.metrics
 
     def start(self, info: SimStart) -> None:
         metadata = TrialMetadata(task=info.spec.task, spec=info.spec)
@@ -67,7 +73,7 @@ class SimulationSource:
 
     def finish(self) -> TrialMetrics:
         self.replay.finish()
-        return self.metrics.metrics
+        return self.metrics
 
     def abort(self) -> None:
         self.replay.abort()
@@ -148,4 +154,4 @@ def record_live(
             DresslogWarning,
             stacklevel=2,
         )
-    return result, live.metrics.metrics
+    return result, live.metrics
