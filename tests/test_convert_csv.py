@@ -86,6 +86,17 @@ def test_rostopic_exports_with_a_motion_file(tmp_path: Path) -> None:
     np.testing.assert_allclose(got_pose.values, pose(t), atol=1e-4)
 
 
+def test_load_takes_paths_as_text_too(tmp_path: Path) -> None:
+    """A script passes `"ft.csv"`, as the Python API's other path arguments take it."""
+    from dresslog.convert import load
+
+    wrench_file, pose_file = rostopic_style(tmp_path)
+    source = load(str(wrench_file), motion=str(pose_file))
+    assert source.path == wrench_file and source.pose is not None
+    with pytest.raises(ConversionError, match="no such file or folder"):
+        load(str(tmp_path / "missing.csv"))
+
+
 @pytest.mark.parametrize(
     ("seconds", "nanoseconds"),
     [("header.stamp.secs", "header.stamp.nsecs"), ("header.stamp.sec", "header.stamp.nanosec")],

@@ -29,7 +29,7 @@ from dresslog.model import (
 )
 from dresslog.model.bounds import error_split
 from dresslog.model.evaluate import evaluate
-from dresslog.model.files import EpochRecord, Hyperparameters
+from dresslog.model.files import EpochRecord, Hyperparameters, check_model_folder
 from dresslog.model.inputs import network_inputs
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.postprocess import sequence_rmse
@@ -397,6 +397,9 @@ def test_save_refuses_to_overwrite_unless_asked(saved: Path, trained):
     with pytest.raises(ModelError, match="also holds data, which replacing the model would"):
         save_model(saved, weights, card, overwrite=True)
     assert (saved / "data" / "manifest.json").exists()
+    with pytest.raises(ModelError, match="exists; pass --overwrite"):  # a path as text too
+        check_model_folder(str(saved), False)
+    check_model_folder(str(saved.parent / "new"), False)
 
 
 def test_more_files_go_into_the_model_folder_before_it_is_in_place(tmp_path: Path, trained):

@@ -60,17 +60,18 @@ class ConversionReport(BaseModel):
 
 
 def load(
-    path: Path,
+    path: str | Path,
     *,
     wrench_topic: str | None = None,
     twist_topic: str | None = None,
     pose_topic: str | None = None,
-    motion: Path | None = None,
+    motion: str | Path | None = None,
     columns: Mapping[str, str] | None = None,
     time_unit: str | None = None,
     clock: Literal["header", "log"] = "header",
 ) -> Source:
     """Read an external log of any supported kind, chosen by what `path` is."""
+    path, motion = Path(path), None if motion is None else Path(motion)
     if not path.exists():
         raise ConversionError("no such file or folder", path=path)
     suffix = path.suffix.lower()

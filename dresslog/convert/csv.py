@@ -381,10 +381,11 @@ def _check_rate(t_ns: np.ndarray, unit: str, name: str, path: Path, *, header: b
 
 
 def read_table(
-    path: Path, columns: Mapping[str, str] | None = None, time_unit: str | None = None
+    path: str | Path, columns: Mapping[str, str] | None = None, time_unit: str | None = None
 ) -> tuple[np.ndarray, dict[str, np.ndarray], list[str], list[str]]:
     """Time (int64 ns) and one float column per recognised role; notes on what was assumed,
     and warnings (a last line cut off, dropped)."""
+    path = Path(path)
     if not path.is_file():
         raise ConversionError("no such file", path=path)
     if time_unit is not None and time_unit not in UNITS:
@@ -497,13 +498,14 @@ def _motion(
 
 
 def read_csv(
-    path: Path,
+    path: str | Path,
     *,
-    motion: Path | None = None,
+    motion: str | Path | None = None,
     columns: Mapping[str, str] | None = None,
     time_unit: str | None = None,
 ) -> Source:
     """Wrench from `path`; velocity or position from `path` itself or from `motion`."""
+    path, motion = Path(path), None if motion is None else Path(motion)
     columns = dict(columns or {})
     headers = set(_header(path)[1]) | (set(_header(motion)[1]) if motion else set())
     if unknown := [f"{r}={n}" for r, n in columns.items() if n not in headers]:

@@ -83,13 +83,14 @@ def _scan(
 
 
 def data_rows(
-    path: Path, header_line: int, delimiter: str | None, usecols: list[int], width: int
+    path: str | Path, header_line: int, delimiter: str | None, usecols: list[int], width: int
 ) -> tuple[np.ndarray, list[str]]:
     """The used columns' cells as text, and a warning when a last line cut off is dropped.
 
     A whole file is parsed by `np.loadtxt` from its path, the fast way; only one that
     fails it, or whose last line is cut, is read again to find and name the line.
     """
+    path = Path(path)
     options: dict[str, Any] = {
         "delimiter": delimiter, "usecols": usecols, "dtype": str, "ndmin": 2, "comments": "#",
     }  # fmt: skip

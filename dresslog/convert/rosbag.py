@@ -218,7 +218,7 @@ def choose_topics(
 
 
 def read_bag(
-    path: Path,
+    path: str | Path,
     *,
     wrench_topic: str | None = None,
     twist_topic: str | None = None,
@@ -230,6 +230,7 @@ def read_bag(
     Times are the messages' header stamps, or with `clock="log"` the bag's receive times:
     for a sensor whose own clock is not the robot's.
     """
+    path = Path(path)
     highlevel, rosbag1, rosbag2, typesys = _rosbags()
     errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError)
     wanted = {"wrench": wrench_topic, "twist": twist_topic, "pose": pose_topic}

@@ -250,9 +250,9 @@ _DAMAGE = {
 }
 
 
-def damage(root: Path, entry: Entry, *, checksum: bool = False) -> str | None:
+def damage(root: str | Path, entry: Entry, *, checksum: bool = False) -> str | None:
     """ "missing", "resized" or (with `checksum`) "changed"; None for a trial as recorded."""
-    path = root / str(entry.file)
+    path = Path(root) / str(entry.file)
     if not path.is_file():
         return "missing"
     if path.stat().st_size != entry.size:

@@ -25,7 +25,11 @@ _NAMES = {
 
 
 def check_output(
-    path: Path, source: Path | None = None, *, suffix: str | None = None, overwrite: bool = True
+    path: str | Path,
+    source: str | Path | None = None,
+    *,
+    suffix: str | None = None,
+    overwrite: bool = True,
 ) -> None:
     """Fail before any work if the output cannot be written or would replace `source`.
 
@@ -34,6 +38,7 @@ def check_output(
     folders above it are fine: the writer makes them (`make_folders`), so the nearest one
     that exists is checked.
     """
+    path, source = Path(path), None if source is None else Path(source)
     folder = nearest_folder(path)
     if not folder.is_dir():  # a file, or a link to nothing, where a folder would go
         raise TrialWriteError(_not_a_folder(folder), path=path)
@@ -60,9 +65,10 @@ def check_output(
         )
 
 
-def nearest_folder(path: Path) -> Path:
+def nearest_folder(path: str | Path) -> Path:
     """`path`'s folder, or the nearest name above it that exists (what a missing folder
     would be made in); it may be a file, which the caller refuses."""
+    path = Path(path)
     return next((f for f in path.parents if os.path.lexists(f)), path.parent)
 
 
@@ -79,7 +85,7 @@ def _not_a_folder(folder: Path) -> str:
     return f"{folder} is not a folder"
 
 
-def make_folders(path: Path) -> list[Path]:
+def make_folders(path: str | Path) -> list[Path]:
     """Make the missing folders above `path` (`-o runs/day1/trial.mcap`), as `train` and
     `generate` do; called just before its temporary is created, so a failed check makes none.
 
@@ -87,6 +93,7 @@ def make_folders(path: Path) -> list[Path]:
     `remove_folders`, so an interrupted run leaves no empty `runs/day1` behind. One
     another process made meanwhile is not counted.
     """
+    path = Path(path)
     missing = list(itertools.takewhile(lambda f: not os.path.lexists(f), path.parents))
     made: list[Path] = []
     try:
@@ -114,11 +121,11 @@ def remove_folders(made: list[Path]) -> None:
             folder.rmdir()
 
 
-def resolved(path: Path) -> Path:
+def resolved(path: str | Path) -> Path:
     """`path.resolve()`, with a symbolic link that loops refused in one line (Python 3.11
     raises RuntimeError for it, later ones OSError)."""
     try:
-        return path.resolve()
+        return Path(path).resolve()
     except (RuntimeError, OSError) as err:
         if isinstance(err, RuntimeError) or err.errno == errno.ELOOP:
             problem = "is a symbolic link that leads round in a loop; remove it"
@@ -136,7 +143,7 @@ def _name_max(folder: Path) -> int:
     return limit if limit > 0 else 2**31  # -1: no limit it will tell
 
 
-def check_name_fits(path: Path, longest: str) -> None:
+def check_name_fits(path: str | Path, longest: str) -> None:
     """Fail before any work if `longest`, a name written beside `path` (its temporary, a
     checkpoint), is too long for the folder's file system: the error names `path`."""
     if len(os.fsencode(longest)) > _name_max(nearest_folder(path)):  # bytes, undecodable too
@@ -153,7 +160,7 @@ def printable(path: str | Path) -> str:
     return os.fsencode(path).decode("utf-8", "backslashreplace")
 
 
-def check_writable(folder: Path) -> None:
+def check_writable(folder: str | Path) -> None:
     """Fail before any work if nothing can be created in `folder` (permissions, read-only).
 
     A file is tried, not the permission bits read: root passes those everywhere, yet
@@ -165,21 +172,22 @@ def check_writable(folder: Path) -> None:
         raise TrialWriteError(f"cannot write here: {err.strerror}", path=folder) from None
 
 
-def discard(path: Path) -> None:
+def discard(path: str | Path) -> None:
     """Remove a temporary file if it is there; cleaning up must never raise over the real error."""
     with contextlib.suppress(OSError):
-        path.unlink(missing_ok=True)
+        Path(path).unlink(missing_ok=True)
 
 
 _serial = itertools.count()
 
 
-def temporary_path(path: Path) -> Path:
+def temporary_path(path: str | Path) -> Path:
     """A fresh hidden name to write `path` under before it is renamed into place.
 
     Each call gives another name (process id and a serial), so two writers of one path
     never share a temporary; the last to finish wins, whole.
     """
+    path = Path(path)
     return path.with_name(f".{path.name}.{os.getpid()}.{next(_serial)}.partial")
 
 
@@ -189,16 +197,18 @@ def is_temporary(name: str) -> bool:
     return re.fullmatch(r"\..+\.partial", name) is not None
 
 
-def discard_temporaries(path: Path) -> None:
+def discard_temporaries(path: str | Path) -> None:
     """Remove every temporary this process has open for `path` (an exit that cannot unwind)."""
+    path = Path(path)
     for tmp in path.parent.glob(f".{glob.escape(path.name)}.{os.getpid()}.*.partial"):
         discard(tmp)
 
 
-def put_in_place(tmp: Path, path: Path, *, overwrite: bool) -> None:
+def put_in_place(tmp: str | Path, path: str | Path, *, overwrite: bool) -> None:
     """Rename the finished `tmp` to `path`. Without `overwrite`, never over a file that
     appeared there meanwhile (another command's, written while this one worked): rename
     would replace it silently, a hard link refuses to."""
+    tmp = Path(tmp)
     if overwrite:
         tmp.replace(path)
         return
@@ -244,7 +254,7 @@ def sha256_file(path: str | Path) -> str:
 
 
 @contextmanager
-def exclusive(lock: Path, command: str, output: Path | None = None) -> Iterator[None]:
+def exclusive(lock: str | Path, command: str, output: str | Path | None = None) -> Iterator[None]:
     """Refuse a second `command` on `output` while one runs: an OS lock on the file `lock`.
 
     The kernel releases the lock when its process ends, however it ends, so a killed
@@ -252,6 +262,7 @@ def exclusive(lock: Path, command: str, output: Path | None = None) -> Iterator[
     """
     import fcntl
 
+    lock = Path(lock)
     while True:
         try:
             fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)

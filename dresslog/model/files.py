@@ -210,13 +210,14 @@ def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard
         raise ModelError(f"unexpected arrays in weights: {', '.join(extra)}", path=path)
 
 
-def check_model_folder(path: Path, overwrite: bool) -> None:
+def check_model_folder(path: str | Path, overwrite: bool) -> None:
     """Fail before any work unless `path` may become a model folder (its missing parent
     folders are made when it is saved).
 
     --overwrite replaces a model, never anything else: a dataset or any other folder
     given as the output by mistake is refused, with or without it.
     """
+    path = Path(path)
     if (suffix := path.suffix.lower()) in RECORDING_SUFFIXES:  # before anything is made
         raise ModelError(
             f"a model is a folder, not a {suffix} recording; name it without {path.suffix} "

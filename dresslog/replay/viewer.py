@@ -145,11 +145,12 @@ MODEL_FOR_RRD = (
 )
 
 
-def is_rrd(path: Path, model: str | Path | None = None) -> bool:
+def is_rrd(path: str | Path, model: str | Path | None = None) -> bool:
     """Whether `path` is a Rerun recording (by name, or by its first bytes under another name).
 
     A recording already holds its estimate, so a `model` for it is refused, not ignored.
     """
+    path = Path(path)
     if path.suffix == ".rrd":
         check_rrd(path)
     elif not _starts_with(path, RRD_MAGIC):
@@ -167,8 +168,9 @@ def _starts_with(path: Path, magic: bytes) -> bool:
         return False  # the reader names what is wrong with it
 
 
-def check_rrd(path: Path) -> None:
+def check_rrd(path: str | Path) -> None:
     """A Rerun recording by its first bytes, or a one-line error (before a viewer chokes on it)."""
+    path = Path(path)
     if not path.is_file():
         raise DresslogError("no such file", path=path)
     if not _starts_with(path, RRD_MAGIC):

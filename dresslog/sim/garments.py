@@ -29,9 +29,9 @@ class Garment:
     #: the leading opening (armhole / waist) the limb must pass through
     entry_rim: np.ndarray
 
-    def write_obj(self, directory: Path) -> Path:
+    def write_obj(self, directory: str | Path) -> Path:
         """Write the mesh as a Wavefront .obj (what pybullet's loadSoftBody reads)."""
-        path = directory / f"{self.name}.obj"
+        path = Path(directory) / f"{self.name}.obj"
         lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in self.vertices]
         lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in self.triangles]
         path.write_text("\n".join(lines) + "\n")
