@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from dresslog.errors import SimulationError
-from dresslog.spec import LimbRotation, Task, Vec3
+from dresslog.spec import LimbRotation, Task, Vec3, task_of
 from dresslog.trial import LimbPoints
 
 #: Force-map sites are pushed this far out from the surface (reference: 2.5 mm).
@@ -132,7 +132,7 @@ def build_limb(
     rotation: LimbRotation | None = None,
 ) -> Limb:
     """The task's limb, its distal part rotated about the pivot joint, then offset."""
-    limb = _arm() if Task(task) is Task.GOWN else _leg()
+    limb = _arm() if task_of(task, SimulationError) is Task.GOWN else _leg()
     rot = rotation or LimbRotation()
     pivot = limb.spheres[limb.pivot].center
     r = _rotation_matrix(rot.axis, rot.degrees)

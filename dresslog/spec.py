@@ -3,6 +3,8 @@
 A `TrialSpec` fully determines a simulated trial (same spec, same bytes); a
 `TrialMetadata` is what a recording carries about itself: the spec (or, for a
 converted log, its source), the outcome and the software that wrote it.
+`task_of(value, error)` turns a task name into a `Task`, or raises the caller's
+`DresslogError` subclass naming the two tasks.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+
+from dresslog.errors import DresslogError
 
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 #: Longest trial a spec accepts, s: an hour at 100 Hz (a typo like 1e9 would need TBs).
@@ -44,6 +48,14 @@ class Task(StrEnum):
 
     GOWN = "gown"
     SHORTS = "shorts"
+
+
+def task_of(value: Task | str, error: type[DresslogError]) -> Task:
+    """`value` as a Task; otherwise `error` (the caller's family) naming it and the tasks."""
+    try:
+        return Task(value)
+    except ValueError:
+        raise error(f"task {value!r} is not one of {', '.join(Task)}") from None
 
 
 class Outcome(StrEnum):

@@ -97,6 +97,12 @@ def test_load_takes_paths_as_text_too(tmp_path: Path) -> None:
         load(str(tmp_path / "missing.csv"))
 
 
+def test_an_unknown_task_is_named_with_the_two_there_are(tmp_path: Path) -> None:
+    with pytest.raises(ConversionError, match="task 'hat' is not one of gown, shorts"):
+        convert(ati_style(tmp_path), tmp_path / "t.mcap", "hat")
+    assert not (tmp_path / "t.mcap").exists()
+
+
 @pytest.mark.parametrize(
     ("seconds", "nanoseconds"),
     [("header.stamp.secs", "header.stamp.nsecs"), ("header.stamp.sec", "header.stamp.nanosec")],

@@ -23,6 +23,7 @@ from click.testing import CliRunner
 
 from dresslog.cli.main import main
 from dresslog.dataset import (
+    DatasetArrays,
     Split,
     cache_path,
     generate,
@@ -35,7 +36,7 @@ from dresslog.dataset.manifest import check_files
 from dresslog.errors import DatasetError, DresslogError, DresslogWarning, SimulationError
 from dresslog.io.files import exclusive
 from dresslog.io.reader import TrialReader
-from dresslog.spec import TrialSpec
+from dresslog.spec import Outcome, Task, TrialSpec
 from tests.conftest import SAMPLES, write_synthetic_trial
 
 FAKE = "tests.test_dataset:fake_record"
@@ -183,6 +184,24 @@ def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
     assert len(generate("gown", 2, fixed, workers=1, overrides=same, recorder=FAKE).trials) == 2
     with pytest.raises(DatasetError, match="more than the 1 asked for"):
         generate("gown", 1, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
+
+
+def test_rows_names_the_splits_or_outcomes_for_a_value_not_among_them() -> None:
+    """A typo was a ValueError for a split and, worse, no rows at all for an outcome."""
+    arrays = DatasetArrays(
+        task=Task.GOWN, manifest_sha256="0" * 64, phi=np.zeros((2, 3, 9), np.float32),
+        forces=np.zeros((2, 3, 4), np.float32), lengths=np.array([3, 3]),
+        outcomes=np.array(["dressed", "missed"]), split=np.array(["train", "test"]),
+        files=np.array(["train/000000.mcap", "test/000000.mcap"]),
+    )  # fmt: skip
+    assert list(arrays.rows("train", outcome="dressed")) == [0]
+    assert list(arrays.rows(outcome=Outcome.MISSED)) == [1]
+    with pytest.raises(DatasetError, match="split 'validation' is not one of train, test, sweep"):
+        arrays.rows("validation")
+    with pytest.raises(
+        DatasetError, match="outcome 'dresed' is not one of dressed, missed, caught, failed"
+    ):
+        arrays.rows("train", outcome="dresed")
 
 
 @pytest.mark.slow
@@ -496,6 +515,7 @@ def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
         ({"splits": {"train": 10**6, "test": 1}}, "1,000,001 trials: at most 1,000,000 are made"),
         ({"workers": -1}, r"--workers must be a whole number \(0: all cores\), not -1"),
         ({"workers": 2.5}, "--workers must be a whole number"),
+        ({"task": "hat"}, "task 'hat' is not one of gown, shorts"),
     ],
 )
 def test_generate_called_from_a_script_says_what_is_wrong_with_its_arguments(
@@ -503,9 +523,9 @@ def test_generate_called_from_a_script_says_what_is_wrong_with_its_arguments(
 ) -> None:
     """Each was a TypeError, a pydantic or a ValueError traceback, some after making the
     folder."""
-    call = {"trials": 2, "workers": 1, "recorder": FAKE, **arguments}
+    call = {"task": "gown", "trials": 2, "workers": 1, "recorder": FAKE, **arguments}
     with pytest.raises(DatasetError, match=message):
-        generate("gown", out=tmp_path / "d", **call)
+        generate(out=tmp_path / "d", **call)
     assert not (tmp_path / "d").exists()
     generate("gown", 1, tmp_path / "numpy", splits={"train": np.int64(1)}, recorder=FAKE)
 

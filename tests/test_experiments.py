@@ -20,7 +20,7 @@ from click.testing import CliRunner
 
 from dresslog.cli.main import main
 from dresslog.dataset import generate, load_manifest
-from dresslog.errors import DatasetError
+from dresslog.errors import DatasetError, ModelError
 from dresslog.experiments import (
     Scores,
     SweepReport,
@@ -696,6 +696,18 @@ def test_a_second_train_on_the_same_output_is_refused_while_the_first_runs(
     code, output = invoke("train", data, "-o", out, "--epochs", "1", "--hidden", "4", "-q")
     assert code == 0, output
     assert not (tmp_path / ".m.train.lock").exists()
+
+
+def test_train_dataset_names_an_unknown_schedule_before_loading_any_trial(tmp_path: Path) -> None:
+    """From a script (the CLI offers only the two) it was pydantic's traceback, after the
+    trials had been decoded."""
+    data = tmp_path / "two"
+    generate("gown", 2, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
+    with pytest.raises(ModelError, match="lr_schedule 'linear' is not one of constant, cosine"):
+        train_dataset(data, tmp_path / "m", lr_schedule="linear", progress=False)  # type: ignore[arg-type]
+    assert not (data / ".cache").exists() and not (tmp_path / "m").exists()
+    with pytest.raises(DatasetError, match="task 'hat' is not one of gown, shorts"):
+        sweep_settings("hat", [], ["y:10"])
 
 
 def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:

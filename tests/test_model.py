@@ -23,6 +23,7 @@ from dresslog.model import (
     contact_targets,
     load_model,
     network_targets,
+    resolve_model,
     rmse,
     save_model,
     zero_baseline_rmse,
@@ -342,6 +343,18 @@ def test_options_the_data_make_meaningless_are_refused_not_recorded():
     assert history.settings.window == longest - 1
 
 
+def test_an_unknown_schedule_or_a_validation_share_outside_0_1_is_refused():
+    """A schedule was pydantic's traceback after the data were prepared; a share of 2 or
+    -0.5 was taken silently."""
+    phis, forces = synthetic(4, seed=2, n_points=4)
+    kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "progress": False}
+    with pytest.raises(ModelError, match="lr_schedule 'linear' is not one of constant, cosine"):
+        train(phis, forces, lr_schedule="linear", **kwargs)
+    for share in (2.0, -0.5, 1.0, float("nan")):
+        with pytest.raises(ModelError, match=rf"val_fraction .* in \[0, 1\), not {share}$"):
+            train(phis, forces, val_fraction=share, **kwargs)
+
+
 def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
     weights, _ = trained
     est = NumpyEstimator(weights)
@@ -469,6 +482,16 @@ def test_a_model_refuses_a_trial_of_the_other_task(saved: Path, make_trial):
     check_task(model, "gown", n_points=8)
     with pytest.raises(ModelError, match="8 limb points"):
         check_task(model, Task.GOWN, n_points=300)
+    with pytest.raises(ModelError, match="task 'hat' is not one of gown, shorts"):
+        check_task(model, "hat")
+
+
+def test_the_bundled_model_of_an_unknown_task_is_a_model_error() -> None:
+    """Was the enum's ValueError; a task given as text is taken as the CLI gives it."""
+    with pytest.raises(ModelError, match="task 'hat' is not one of gown, shorts"):
+        resolve_model(None, "hat", 300)
+    loaded = resolve_model(None, "gown", None)
+    assert loaded is not None and loaded.card.task is Task.GOWN
 
 
 @pytest.mark.parametrize(

@@ -275,6 +275,11 @@ def test_a_random_spec_with_an_override_out_of_range_is_one_line_of_ours() -> No
     """`random_spec` is the library's way to a spec; pydantic's own error was its answer."""
     with pytest.raises(SimulationError, match=r"^invalid speed: Input should be greater than 0$"):
         random_spec(Task.GOWN, 1, speed=-0.1)
+    with pytest.raises(SimulationError, match="task 'hat' is not one of gown, shorts"):
+        random_spec("hat", 1)  # an enum's ValueError
+    for seed in (-1, 1.5):  # numpy's ValueError, or a spec whose seed is not the one drawn by
+        with pytest.raises(SimulationError, match=f"seed must be an integer 0 or more, not {seed}"):
+            random_spec("gown", seed)
 
 
 def test_the_settle_is_checked_in_physics_steps_and_recorded_trials_stay_readable(

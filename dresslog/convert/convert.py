@@ -36,7 +36,7 @@ from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError, DresslogWarning
 from dresslog.io.files import check_output, printable
 from dresslog.io.writer import TrialWriter
-from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata
+from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata, task_of
 
 MAX_GAP_S = 0.1
 CSV_SUFFIXES = (".csv", ".tsv", ".txt")
@@ -217,10 +217,7 @@ def convert(
     """
     started = time.perf_counter()
     path, output = Path(path), Path(output)
-    try:
-        task = Task(task)
-    except ValueError:
-        raise ConversionError(f"unknown task {task!r}; choose gown or shorts") from None
+    task = task_of(task, ConversionError)
     check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
     for given in (path, motion):  # their names go into the trial's notes, JSON
         if given is not None and printable(Path(given).name) != Path(given).name:

@@ -27,6 +27,7 @@ import numpy as np
 from dresslog.dataset.manifest import (
     Manifest,
     Split,
+    as_split,
     check_files,
     damaged_error,
     load_manifest,
@@ -34,7 +35,7 @@ from dresslog.dataset.manifest import (
 )
 from dresslog.errors import DatasetError, TrialFormatError
 from dresslog.io.files import atomic_path, sha256_file
-from dresslog.spec import Task
+from dresslog.spec import Outcome, Task
 from dresslog.stops import deferred_in_children, leave_stops_to_the_parent
 from dresslog.trial import STEP_HZ, padded
 
@@ -63,13 +64,18 @@ class DatasetArrays:
     def n_points(self) -> int:
         return int(self.forces.shape[2])
 
-    def rows(self, split: Split | str | None = None, outcome: str | None = None) -> np.ndarray:
-        """Indices of the trials in `split` (all if None) with `outcome` (any if None)."""
+    def rows(
+        self, split: Split | str | None = None, outcome: Outcome | str | None = None
+    ) -> np.ndarray:
+        """Indices of the trials in `split` (all if None) with `outcome` (any if None);
+        a `DatasetError` names the splits or outcomes for a value not among them."""
         keep = np.ones(len(self), bool)
         if split is not None:
-            keep &= self.split == Split(split).value
+            keep &= self.split == as_split(split).value
         if outcome is not None:
-            keep &= self.outcomes == str(outcome)
+            if outcome not in set(Outcome):  # else a typo silently selects nothing
+                raise DatasetError(f"outcome {outcome!r} is not one of {', '.join(Outcome)}")
+            keep &= self.outcomes == Outcome(outcome).value
         return np.flatnonzero(keep)
 
     def sequences(self, rows: Sequence[int] | np.ndarray) -> list[np.ndarray]:

@@ -48,7 +48,7 @@ from dresslog.dataset.manifest import (
 )
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
 from dresslog.io.files import exclusive, is_temporary, resolved
-from dresslog.spec import Task, TrialSpec
+from dresslog.spec import Task, TrialSpec, task_of
 from dresslog.stops import stop_signals
 from dresslog.trial import STEP_HZ
 
@@ -293,7 +293,7 @@ def generate(
     `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
     written up to then lists every failure.
     """
-    task = Task(task)
+    task = task_of(task, DatasetError)
     root = resolved(Path(out))
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")

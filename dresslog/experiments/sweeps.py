@@ -30,7 +30,7 @@ from dresslog.model.files import (
 )
 from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.plots import plot_sweep
-from dresslog.spec import Task, TrialSpec
+from dresslog.spec import Task, TrialSpec, task_of
 
 #: The kinds of setting, in the order the table lists them.
 _KINDS = ("baseline", "speed", "rotation")
@@ -103,7 +103,7 @@ def parse_speed(text: str | float) -> float:
 
 
 def sweep_settings(
-    task: Task,
+    task: Task | str,
     speeds: Sequence[float | str],
     rotations: Sequence[str],
     duration: float | None = None,
@@ -113,6 +113,7 @@ def sweep_settings(
     Every setting's fields are checked as a spec here, so a bad value stops the sweep
     before its first trial, not after the settings before it.
     """
+    task = task_of(task, DatasetError)
     for name, values in (("speeds", speeds), ("rotations", rotations)):
         if isinstance(values, str | int | float):  # a str would be swept letter by letter
             raise DatasetError(f"{name} must be a list of values, not the one {values!r}")

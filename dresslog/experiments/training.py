@@ -5,7 +5,6 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 
@@ -21,7 +20,7 @@ from dresslog.model.files import (
     Normalisation,
     check_model_folder,
 )
-from dresslog.model.options import VAL_FRACTION, check_options, held_out
+from dresslog.model.options import VAL_FRACTION, LrSchedule, check_options, held_out
 from dresslog.plots import plot_training
 
 
@@ -37,7 +36,7 @@ def train_dataset(
     normalise: bool = False,
     balance_loss: bool = False,
     keep_best: bool = False,
-    lr_schedule: Literal["constant", "cosine"] = "constant",
+    lr_schedule: LrSchedule = "constant",
     input_differences: bool = False,
     window: int | None = None,
     seed: int = 0,
@@ -57,6 +56,7 @@ def train_dataset(
     check_options(  # from the manifest: a bad option fails before minutes of decoding
         steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
+        lr_schedule=lr_schedule,
     )  # fmt: skip
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
     check_name_fits(out, temporary_path(checkpoint).name)  # the longest name beside it

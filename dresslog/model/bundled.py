@@ -19,7 +19,7 @@ from pathlib import Path
 
 from dresslog.errors import ModelError
 from dresslog.model.files import CARD_FILE, LoadedModel, check_task, load_model
-from dresslog.spec import Task
+from dresslog.spec import Task, task_of
 
 #: Set to a folder holding `<task>/` model folders to override the bundled models.
 MODELS_ENV = "DRESSLOG_MODELS"
@@ -27,7 +27,7 @@ MODELS_ENV = "DRESSLOG_MODELS"
 
 def bundled_model_candidates(task: Task | str) -> list[Path]:
     """Where the model for `task` may be: $DRESSLOG_MODELS, the checkout's samples, the package."""
-    task = Task(task).value
+    task = task_of(task, ModelError).value
     package = Path(__file__).resolve().parents[1]
     places = [package.parent / "samples" / "models", package / "samples" / "models"]
     if os.environ.get(MODELS_ENV):
@@ -44,12 +44,13 @@ def bundled_model(task: Task | str) -> Path | None:
 
 
 def resolve_model(
-    model: str | Path | None, task: Task, n_points: int | None, *, required: bool = True
+    model: str | Path | None, task: Task | str, n_points: int | None, *, required: bool = True
 ) -> LoadedModel | None:
     """Load `model` (or the bundled one for `task`) and check it fits the trial.
 
     Without a model given or bundled: an error if `required`, else None.
     """
+    task = task_of(task, ModelError)
     given = model is not None
     if model is None:
         model = bundled_model(task)

@@ -60,7 +60,8 @@ from dresslog.io.files import (
 )
 from dresslog.model.inputs import PHI_DIM, unfamiliar
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
-from dresslog.spec import Task
+from dresslog.model.options import LrSchedule
+from dresslog.spec import Task, task_of
 
 WEIGHTS_FILE = "model.safetensors"
 CARD_FILE = "card.json"
@@ -100,7 +101,7 @@ class Hyperparameters(BaseModel):
     #: the weights are those of the epoch with the lowest validation loss, not the last
     keep_best: bool = False
     #: "cosine": the learning rate of epoch e is lr (1 + cos(pi e / epochs)) / 2
-    lr_schedule: Literal["constant", "cosine"] = "constant"
+    lr_schedule: LrSchedule = "constant"
     #: the network reads phi's change since the last step too (`dresslog.model.inputs`)
     input_differences: bool = False
 
@@ -387,7 +388,7 @@ def check_task(
     `hint` says what to do instead, formatted with the subject's task: the command's own
     way to name a model (``infer``'s --model, ``eval``'s MODEL argument).
     """
-    task = Task(task)
+    task = task_of(task, ModelError)
     if model.card.task != task:
         raise ModelError(
             f"model is for {model.card.task} but the {subject} is {task}; "

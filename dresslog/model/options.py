@@ -4,15 +4,25 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Final, Literal, get_args
 
 from dresslog.errors import ModelError
 
 #: The share of training sequences held out for the per-epoch validation loss.
 VAL_FRACTION = 0.1
+#: How the learning rate changes over the epochs: "cosine" anneals it towards 0.
+LrSchedule = Literal["constant", "cosine"]
+LR_SCHEDULES: Final[tuple[str, ...]] = get_args(LrSchedule)
 
 
 def held_out(n_sequences: int, val_fraction: float) -> int:
-    """How many of `n_sequences` are held out to validate on (at least one is trained on)."""
+    """How many of `n_sequences` are held out to validate on (at least one is trained on);
+    `val_fraction` is a share in [0, 1), anything else a `ModelError`."""
+    if not 0 <= val_fraction < 1:  # NaN too
+        raise ModelError(
+            f"val_fraction must be a share of the training sequences in [0, 1), "
+            f"not {val_fraction!r}"
+        )
     return max(0, min(round(val_fraction * n_sequences), n_sequences - 1))
 
 
@@ -27,6 +37,7 @@ def check_options(
     lr: float,
     window: int | None,
     keep_best: bool,
+    lr_schedule: str = "constant",
 ) -> None:
     """Refuse settings that cannot train, or that the data make meaningless.
 
@@ -37,6 +48,8 @@ def check_options(
         raise ModelError("epochs, batch size, hidden size and layers must all be 1 or more")
     if not (math.isfinite(lr) and lr > 0):
         raise ModelError(f"the learning rate must be a positive number, not {lr}")
+    if lr_schedule not in LR_SCHEDULES:
+        raise ModelError(f"lr_schedule {lr_schedule!r} is not one of {', '.join(LR_SCHEDULES)}")
     if keep_best and not n_val:
         raise ModelError(
             "keeping the epoch of lowest validation loss needs validation sequences, "

@@ -54,7 +54,6 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 import torch
@@ -71,9 +70,9 @@ from dresslog.model.files import (
 from dresslog.model.inputs import PHI_DIM, network_inputs, reads_differences
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
-from dresslog.model.options import VAL_FRACTION, check_options, held_out
+from dresslog.model.options import VAL_FRACTION, LrSchedule, check_options, held_out
 from dresslog.model.postprocess import network_targets
-from dresslog.spec import Task
+from dresslog.spec import Task, task_of
 from dresslog.trial import padded
 
 Batch = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
@@ -181,7 +180,7 @@ def train(
     normalise: bool = False,
     balance_loss: bool = False,
     keep_best: bool = False,
-    lr_schedule: Literal["constant", "cosine"] = "constant",
+    lr_schedule: LrSchedule = "constant",
     input_differences: bool = False,
     threads: int | None = None,
     progress: bool = True,
@@ -208,6 +207,7 @@ def train(
     check_options(
         [len(p) for p in phis], len(val_phis), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
+        lr_schedule=lr_schedule,
     )  # fmt: skip
 
     settings = Hyperparameters(
@@ -370,7 +370,7 @@ def make_card(
     if history.settings.keep_best and kept is not None:
         losses["kept_epoch"] = float(kept.epoch)
     return ModelCard(
-        task=Task(task),
+        task=task_of(task, ModelError),
         n_points=n_points,
         hidden=hidden,
         layers=layers,

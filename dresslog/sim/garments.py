@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dresslog.spec import Task
+from dresslog.errors import SimulationError
+from dresslog.spec import Task, task_of
 
 
 @dataclass(frozen=True)
@@ -184,4 +185,4 @@ def shorts(
 
 def garment_for(task: Task | str) -> Garment:
     """The task's garment with the default sizes."""
-    return gown() if Task(task) is Task.GOWN else shorts()
+    return gown() if task_of(task, SimulationError) is Task.GOWN else shorts()

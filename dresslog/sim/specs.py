@@ -11,7 +11,7 @@ from pydantic import ValidationError
 
 from dresslog.errors import SimulationError, first_problem
 from dresslog.sim.trajectory import random_control_points
-from dresslog.spec import Task, TrialSpec
+from dresslog.spec import Task, TrialSpec, task_of
 
 #: Limb offset ranges (m) of the paper, per axis, and speed ranges (m/s). The paper's
 #: (x, y, z) numbers are applied to our (x, y, z), but its y is up (`PAPER_AXES`), so
@@ -26,9 +26,11 @@ def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
     """A spec with offset, speed and path drawn from the paper's ranges by `seed`.
 
     `overrides` set spec fields (a None value leaves the drawn or default one); one out
-    of range is a `SimulationError` naming it.
+    of range, like an unknown task or a negative seed, is a `SimulationError` naming it.
     """
-    task = Task(task)
+    task = task_of(task, SimulationError)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise SimulationError(f"seed must be an integer 0 or more, not {seed!r}")
     rng = np.random.default_rng(seed)
     offset = tuple(float(v) for v in rng.uniform(-1, 1, 3) * OFFSET_RANGE[task])
     speed = float(rng.uniform(*SPEED_RANGE[task]))
