@@ -3,6 +3,10 @@
 A `TrialSpec` fully determines a simulated trial (same spec, same bytes); a
 `TrialMetadata` is what a recording carries about itself: the spec (or, for a
 converted log, its source), the outcome and the software that wrote it.
+These are pydantic models: built directly with a bad value
+(`TrialSpec(task="gown", speed=5)`) they raise pydantic's `ValidationError`, as pydantic
+models do; `dresslog.sim.random_spec` is the library's way to a spec and raises
+`SimulationError` instead.
 `task_of(value, error)` turns a task name into a `Task`, or raises the caller's
 `DresslogError` subclass naming the two tasks.
 """
