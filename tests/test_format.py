@@ -611,3 +611,20 @@ def test_a_full_disk_is_named_for_the_trial_being_written(
     ):
         _steps(writer)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_reader_and_writer_are_dresslog_ios_own_names_loaded_on_first_use() -> None:
+    """`from dresslog.io import TrialReader` as the README reads; a module that only
+    writes files (`dresslog.io.files`, what the model and dataset code import) loads no mcap."""
+    import subprocess
+    import sys
+
+    import dresslog.io
+
+    assert dresslog.io.TrialReader is TrialReader and dresslog.io.TrialWriter is TrialWriter
+    assert sorted(dresslog.io.__all__) == ["TrialReader", "TrialWriter"]
+    with pytest.raises(AttributeError, match="has no attribute 'TrialReeder'"):
+        dresslog.io.TrialReeder  # noqa: B018
+    code = "import sys, dresslog.io.files, dresslog.model; print('mcap' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

@@ -23,6 +23,7 @@ from dresslog.model import (
     contact_targets,
     load_model,
     network_targets,
+    read_card,
     resolve_model,
     rmse,
     save_model,
@@ -133,6 +134,14 @@ def test_run_applies_eq2_to_the_raw_output():
     np.testing.assert_array_equal(forces, apply_contact(raw[:, :N], raw[:, N:]))
     np.testing.assert_array_equal(contact, raw[:, N:])
     assert (forces >= 0).all() and (forces[contact < 0] == 0).all()
+
+
+def test_the_model_files_api_is_dresslog_models_own():
+    """What `dresslog.model.files` documents is importable from the package."""
+    import dresslog.model
+
+    for name in ("read_card", "check_model_folder", "load_model", "save_model", "check_task"):
+        assert name in dresslog.model.__all__ and hasattr(dresslog.model, name)
 
 
 def test_importing_the_inference_side_does_not_import_torch():
@@ -388,6 +397,7 @@ def saved(tmp_path: Path, trained) -> Path:
 def test_save_load_round_trip_gives_identical_outputs(saved: Path, trained):
     weights, history = trained
     model = load_model(saved)
+    assert read_card(saved) == model.card
     assert model.card.task is Task.GOWN and model.card.n_points == 8
     assert model.card.hidden == 12 and model.card.layers == 2 and "val_loss" in model.card.metrics
     assert model.card.history == history.epochs  # the learning curve travels with the weights

@@ -13,8 +13,10 @@ from dresslog.model.files import (
     LoadedModel,
     ModelCard,
     Normalisation,
+    check_model_folder,
     check_task,
     load_model,
+    read_card,
     save_model,
 )
 from dresslog.model.numpy_lstm import NumpyEstimator
@@ -36,10 +38,12 @@ __all__ = [
     "NumpyEstimator",
     "apply_contact",
     "bundled_model",
+    "check_model_folder",
     "check_task",
     "contact_targets",
     "load_model",
     "network_targets",
+    "read_card",
     "resolve_model",
     "rmse",
     "save_model",
