@@ -7,6 +7,8 @@ from typing import Any
 
 import click
 
+from dresslog.model.options import LR_SCHEDULES
+
 from .common import reports_errors
 
 
@@ -33,7 +35,7 @@ from .common import reports_errors
 )
 @click.option(
     "--lr-schedule",
-    type=click.Choice(["constant", "cosine"]),
+    type=click.Choice(LR_SCHEDULES),
     default="constant",
     show_default=True,
     help="cosine: anneal the learning rate to 0 over the epochs (the paper: constant).",

@@ -29,7 +29,7 @@ from dresslog.io.files import (
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors
 from dresslog.replay.metrics import MetricsSink
-from dresslog.spec import Task
+from dresslog.spec import Task, task_of
 from dresslog.trial import contact_magnitudes, contact_vectors
 
 if TYPE_CHECKING:
@@ -43,7 +43,7 @@ APPLICATION_ID = "dresslog"
 def application_id(task: Task | str) -> str:
     """One per task: a viewer keeps one layout per application, and a gown's (maps side by
     side, the arm's camera) would show a shorts trial opened beside it, and the reverse."""
-    return f"{APPLICATION_ID}-{Task(task).value}"
+    return f"{APPLICATION_ID}-{task_of(task, TrialWriteError).value}"
 
 
 POINT_RADIUS = 0.01
