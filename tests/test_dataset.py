@@ -664,3 +664,14 @@ def test_a_decoding_worker_killed_alone_lets_the_others_end() -> None:
         list(results)
     pool.shutdown(cancel_futures=True)
     assert time.monotonic() - started < 20  # not the survivor's 30 s sleep
+
+
+def test_a_damaged_trial_names_the_command_that_remakes_its_folder(tmp_path: Path) -> None:
+    """A sweep setting's folder is remade by its sweep: `generate` refuses the setting's
+    fixed fields, yet it was the cure named for every damaged trial."""
+    from dresslog.dataset.manifest import damaged_error
+
+    swept = str(damaged_error(tmp_path, "sweep/000003.mcap", "missing"))
+    assert swept.endswith("run `dresslog sweep` that made it again to re-create it"), swept
+    trained = str(damaged_error(tmp_path, "train/000003.mcap", "changed"))
+    assert trained.endswith("run `dresslog generate` on it again to re-create it"), trained

@@ -274,10 +274,12 @@ def warn_if_incomplete(root: Path, manifest: Manifest) -> None:
 
 
 def damaged_error(root: str | Path, file: str, how: str) -> DatasetError:
-    """The one line for a damaged trial, naming the folder, the trial and the cure."""
+    """The one line for a damaged trial, naming the folder, the trial and the cure (a sweep
+    setting's folder is remade by its sweep: `generate` refuses the setting's fixed fields)."""
+    swept = file.startswith(f"{Split.SWEEP.value}/")
+    command = "sweep` that made it" if swept else "generate` on it"
     return DatasetError(
-        f"trial {file} {_DAMAGE[how]}; run `dresslog generate` on the folder again to re-create it",
-        path=root,
+        f"trial {file} {_DAMAGE[how]}; run `dresslog {command} again to re-create it", path=root
     )
 
 
