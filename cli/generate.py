@@ -23,7 +23,8 @@ from .common import reports_errors
 @click.option("--test-fraction", type=click.FloatRange(0, 1, max_open=True), default=1 / 6,
               show_default="1/6", help="Share of the trials in the test split.")  # fmt: skip
 @click.option("--duration", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
-              help=f"Recorded motion per trial, s (at most {MAX_DURATION:g}).",
+              help=f"Recorded motion per trial, s (at most {MAX_DURATION:g}); outcomes are "
+              "judged at its end, and a path takes 4-7 s.",
               show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
 @click.option("--executor", type=click.Choice(["process", "ray"]), default="process",
               show_default=True,

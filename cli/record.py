@@ -28,7 +28,8 @@ from .common import reports_errors
               help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
               "(-90<=DEG<=90).", show_default="none")  # fmt: skip
 @click.option("--duration", type=float, metavar="SECONDS",
-              help=f"Recorded motion, s (0<x<={MAX_DURATION:g}).",
+              help=f"Recorded motion, s (0<x<={MAX_DURATION:g}); the outcome is "
+              "judged at its end, and a path takes 4-7 s.",
               show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
