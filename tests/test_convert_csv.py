@@ -753,3 +753,26 @@ def test_a_csv_with_a_header_and_no_rows_is_one_line(tmp_path: Path) -> None:
     assert result.exit_code == 1
     assert result.stderr == f"Error: {empty}: CSV has a header but no rows\n"
     assert not (tmp_path / "e.mcap").exists()
+
+
+def test_two_columns_read_as_one_role_are_refused_until_one_is_named(tmp_path: Path) -> None:
+    """`Fx (N)` and `Force X (N)` both read as fx: the second was dropped unsaid, so which
+    force the trial got depended on the column order."""
+    t = seconds_of(times(500, 1.0))
+    header = ["Time (s)", "Fx (N)", "Force X (N)", "Fy (N)", "Fz (N)", "Mx (Nm)", "My (Nm)",
+              "Mz (Nm)", "vx (m/s)", "vy (m/s)", "vz (m/s)"]  # fmt: skip
+    w, v = wrench(t), twist(t)
+    columns = [np.round(t, 6), w[:, 0] + 1.0, w[:, 0], *w[:, 1:].T, *v[:, :3].T]
+    csv = write_csv(tmp_path / "two.csv", header, columns)
+    args = ["convert", str(csv), "--task", "gown", "-o", str(tmp_path / "t.mcap")]
+    refused = CliRunner().invoke(main, args)
+    assert refused.exit_code == 1 and not (tmp_path / "t.mcap").exists()
+    assert refused.output == (
+        f"Error: {csv}: columns 'Fx (N)' and 'Force X (N)' both read as fx; name the one to "
+        "use with --column fx=HEADER\n"
+    )
+    named = CliRunner().invoke(main, [*args, "--column", "fx=Force X (N)"])
+    assert named.exit_code == 0, named.output
+    with TrialReader(tmp_path / "t.mcap") as reader:
+        got = reader.wrench.values[:, 0]
+    assert abs(got.mean() - w[:, 0].mean()) < 0.05  # the named column, not the other (+1 N)

@@ -279,6 +279,12 @@ def assign_columns(
         guess = role_of(names[index])
         if index in taken:
             continue
+        if guess is not None and guess in found and guess != "time" and guess not in columns:
+            raise ConversionError(  # which of the two is the sensor's is the user's to say
+                f"columns {names[found[guess]]!r} and {names[index]!r} both read as {guess}; "
+                f"name the one to use with --column {guess}=HEADER",
+                path=path,
+            )
         if guess is None or guess in found:
             ignored.append(names[index])
         else:
