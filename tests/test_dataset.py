@@ -447,15 +447,19 @@ def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, [*args, "-q", "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert result.stderr == (
-        f"Warning: {out}: no test trials: 3 trials at --test-fraction 0.167 leave none; "
+        f"Warning: {out}: 3 trials at --test-fraction 0.167 leave none to test on; "
         "eval needs some (more --trials or a larger --test-fraction)\n"
     )
     with pytest.warns(
         DresslogWarning,
-        match="no training trials: 2 trials at --test-fraction "
-        r"0.9 leave none; train needs some \(more --trials or a smaller",
+        match="2 trials at --test-fraction 0.5 leave 1 to train on; train needs 2 or more "
+        r"\(more --trials or a smaller --test-fraction\)",
+    ):  # `train` refuses one, as it does none
+        generate("gown", 2, tmp_path / "t", workers=1, test_fraction=0.5, recorder=FAKE)
+    with pytest.warns(
+        DresslogWarning, match=r"1 trial at .* leaves 1 to train on; .*\(more --trials\)$"
     ):
-        generate("gown", 2, tmp_path / "t", workers=1, test_fraction=0.9, recorder=FAKE)
+        generate("gown", 1, tmp_path / "u", workers=1, recorder=FAKE)  # no fraction helps
     with warnings.catch_warnings():  # none asked for, or none but the sweep's: no warning
         warnings.simplefilter("error")
         generate("gown", 3, tmp_path / "a", workers=1, test_fraction=0, recorder=FAKE)

@@ -459,8 +459,25 @@ def test_a_log_in_another_robots_axes_is_warned_about_and_rotate_puts_it_right(
         assert result.exit_code == 0, result.output
         said[name] = result.stderr
     assert "Warning" not in said["rotated"], said["rotated"]
-    assert said["turned"].startswith(f"Warning: {tmp_path / 'turned.mcap'}: the gripper moves ")
-    assert "where the model's training trials move along (-1.00, 0.00, 0.01)" in said["turned"]
+    assert said["turned"].startswith(f"Warning: {tmp_path / 'turned.mcap'}: 0% of the gripper's")
+    assert "training trials' way (-1.00, 0.00, 0.01); it moves mostly along (" in said["turned"]
+    mostly = re.search(r"mostly along \((\S+), (\S+), (\S+)\)", said["turned"])
+    assert mostly and float(mostly[2]) < -0.95  # the turned log's -y: the trials' -x, turned
+
+
+def test_a_log_that_returns_the_way_it_came_is_not_taken_for_one_in_other_axes() -> None:
+    """The sample trial with a retract stroke appended (back at 0.8 of the speed, a quarter
+    longer): its median velocity points backwards, which had been read as other axes."""
+    from dresslog.model.inputs import unfamiliar
+
+    stats = load_model(SAMPLES / "models" / "gown").card.normalisation
+    assert stats is not None
+    phi = read_trial(SAMPLES / "gown.mcap").measurements.phi.astype(np.float64)
+    back = np.zeros((len(phi) * 5 // 4, 9))
+    back[:, 6:9] = -0.8 * phi[np.arange(len(back)) % len(phi), 6:9]
+    assert (
+        unfamiliar(np.concatenate([phi, back]), np.array(stats.mean), np.array(stats.std)) is None
+    )
 
 
 def test_a_force_map_that_fits_neither_its_limb_nor_the_tasks_is_one_line(tmp_path: Path) -> None:
@@ -484,3 +501,19 @@ def test_a_force_map_that_fits_neither_its_limb_nor_the_tasks_is_one_line(tmp_pa
         f"no {wk.LIMB_POINTS} and the gown's limb has 300 points; write its limb points with "
         "the maps\n"
     )
+
+
+def test_the_estimated_force_summary_counts_time_and_steps_from_the_trials_start() -> None:
+    """A replay whose estimate begins at its sixth step: the peak's time and the share of
+    steps with force are the trial's, as the Rerun timeline counts them."""
+    from dresslog.replay.engine import Step, StepResult
+
+    sink = MetricsSink()
+    sink.open(None)  # type: ignore[arg-type]  # the context is not read
+    for i in range(10):
+        estimate = None if i < 5 else np.where(i == 7, np.full(3, 2.0), np.zeros(3))
+        sink.write(StepResult(Step(i, 5_000_000_000 + i * 10_000_000, np.zeros(9)), None, estimate))
+    sink.close()
+    m = sink.metrics
+    assert m.steps == 10 and m.peak_total == 6.0 and m.peak_s == pytest.approx(0.07)
+    assert m.touching == pytest.approx(0.1) and m.mean_total == pytest.approx(1.2)

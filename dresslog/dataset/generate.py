@@ -36,6 +36,7 @@ from dresslog.dataset.executors import (
 )
 from dresslog.dataset.manifest import (
     MANIFEST_FILE,
+    MIN_TRAIN,
     TEST_FRACTION,
     Entry,
     Manifest,
@@ -108,22 +109,20 @@ def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
 def _warn_if_a_split_is_empty(
     root: Path, trials: int, test_fraction: float, counts: Mapping[Split, int]
 ) -> None:
-    """Rounding can leave `train` or `eval` nothing to read, found only once they run: say
-    so while the trials are still to be made. A fraction of 0 asks for no test trials."""
-    if not counts[Split.TEST] and test_fraction > 0:
-        split, who, cure = "test", "eval", "a larger"
-    elif not counts[Split.TRAIN]:
-        split, who, cure = "training", "train", "a smaller"
+    """Rounding can leave `train` or `eval` too little to read, found only once they run:
+    say so while the trials are still to be made. A fraction of 0 asks for no test trials."""
+    asked = f"{trials} trial{'s' * (trials != 1)} at --test-fraction {test_fraction:.3g}"
+    n_train = counts[Split.TRAIN]
+    if n_train < MIN_TRAIN:  # what `train` refuses
+        smaller = " or a smaller --test-fraction" if trials >= MIN_TRAIN else ""
+        problem = f"{asked} leave{'s' * (trials == 1)} {n_train or 'none'} to train on"
+        need = f"train needs {MIN_TRAIN} or more (more --trials{smaller})"
+    elif not counts[Split.TEST] and test_fraction > 0:
+        problem = f"{asked} leave none to test on"
+        need = "eval needs some (more --trials or a larger --test-fraction)"
     else:
         return
-    asked = f"{trials} trial{'s' * (trials != 1)} at --test-fraction {test_fraction:.3g}"
-    leave = "leaves" if trials == 1 else "leave"
-    warnings.warn(
-        f"{root}: no {split} trials: {asked} {leave} none; {who} needs some "
-        f"(more --trials or {cure} --test-fraction)",
-        DresslogWarning,
-        stacklevel=3,
-    )
+    warnings.warn(f"{root}: {problem}; {need}", DresslogWarning, stacklevel=3)
 
 
 def _given_counts(splits: Mapping[Split | str, int]) -> dict[Split, int]:

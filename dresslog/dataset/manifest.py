@@ -36,6 +36,8 @@ FORMAT: Final = "dresslog-dataset"
 FORMAT_VERSION = 1
 #: The paper's proportion: 1,000 test sequences to 5,000 training ones.
 TEST_FRACTION = 1 / 6
+#: The fewest training trials `train` takes; `generate` warns of a folder with fewer.
+MIN_TRAIN = 2
 
 
 class Split(StrEnum):

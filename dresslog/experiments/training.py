@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.dataset import Split, load_dataset, load_manifest
+from dresslog.dataset.manifest import MIN_TRAIN
 from dresslog.errors import DatasetError, DresslogWarning
 from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
 from dresslog.model.evaluate import evaluate
@@ -51,8 +52,10 @@ def train_dataset(
         out = out.resolve()
     check_model_folder(out, overwrite)  # say so now, not after hours of training
     steps = [t.steps for t in load_manifest(data).trials if t.split is Split.TRAIN]
-    if len(steps) < 2:
-        raise DatasetError(f"needs at least 2 training trials, has {len(steps)}", path=data)
+    if len(steps) < MIN_TRAIN:
+        raise DatasetError(
+            f"needs at least {MIN_TRAIN} training trials, has {len(steps)}", path=data
+        )
     check_options(  # from the manifest: a bad option fails before minutes of decoding
         steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,

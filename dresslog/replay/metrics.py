@@ -35,7 +35,7 @@ class TrialMetrics:
     mean_total: float | None = None  # N, over the steps
     peak_total: float | None = None  # N
     peak_s: float | None = None  # when the peak came, s from the first step
-    touching: float | None = None  # share of steps whose estimate puts force on the limb
+    touching: float | None = None  # share of all steps whose estimate puts force on the limb
 
     @property
     def ratio(self) -> float | None:
@@ -58,12 +58,15 @@ class MetricsSink:
         self._count = 0
         self._totals: list[float] = []
         self._t_ns: list[int] = []
+        self._first_ns: int | None = None  # the trial's first step, with an estimate or not
 
     def open(self, context: TrialContext) -> None:
         self._reset()
 
     def write(self, result: StepResult) -> None:
         self.metrics.steps += 1
+        if self._first_ns is None:
+            self._first_ns = result.step.t_ns
         truth, estimate = result.step.truth, result.estimate
         if estimate is not None:
             self._totals.append(float(estimate.sum(dtype=np.float64)))
@@ -82,8 +85,8 @@ class MetricsSink:
             totals, m = np.asarray(self._totals), self.metrics
             peak = int(totals.argmax())
             m.mean_total, m.peak_total = float(totals.mean()), float(totals[peak])
-            m.peak_s = (self._t_ns[peak] - self._t_ns[0]) / 1e9
-            m.touching = float((totals > 0).mean())
+            m.peak_s = (self._t_ns[peak] - (self._first_ns or 0)) / 1e9
+            m.touching = float((totals > 0).sum()) / m.steps
         if self._count:
             self.metrics.rmse = math.sqrt(self._sq / self._count)
             self.metrics.zero_rmse = math.sqrt(self._truth_sq / self._count)

@@ -56,7 +56,9 @@ class InferenceReport:
         if m.rmse is not None:
             line += f"; RMSE {m.rmse:.4g} N (all-zero estimate {m.zero_rmse:.4g} N"
             line += f", ratio {m.ratio:.3f})" if m.ratio is not None else ")"
-        if m.peak_total is not None:
+        if m.peak_total == 0:
+            line += "; no force estimated on the limb"
+        elif m.peak_total is not None:
             line += (
                 f"; estimated force on the limb {m.mean_total:.3g} N on average, at most "
                 f"{m.peak_total:.3g} N ({m.peak_s:.2f} s), on {m.touching:.0%} of steps"
