@@ -459,6 +459,7 @@ def test_tampered_weights_are_refused(saved: Path):
     [
         ({"format": "keras"}, "not a dresslog model card"),
         ({"format_version": 99}, "newer"),
+        ({"format_version": 3, "a_later_field": 1}, "format version 3 is newer"),
         ({"n_points": 9}, "has shape"),
         ({"task": "socks"}, "task"),
     ],

@@ -44,7 +44,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Final, Literal
+from typing import Any, Final, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -72,7 +72,9 @@ MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
 #: folder is a slip for the trial or recording meant elsewhere, not a folder wanted so.
 RECORDING_SUFFIXES = (".mcap", ".rrd", ".bag", ".db3")
 FORMAT: Final = "dresslog-model"
-FORMAT_VERSION = 1
+#: 2 added `data.signal`; a card of a newer version than this is refused as such, before
+#: the fields this dresslog does not know would be.
+FORMAT_VERSION = 2
 
 
 class Normalisation(BaseModel):
@@ -152,13 +154,20 @@ class ModelCard(BaseModel):
     dresslog_version: str = __version__
     created: str = Field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"))
 
+    @model_validator(mode="before")
+    @classmethod
+    def _not_newer(cls, data: Any) -> Any:
+        """A newer dresslog's card may hold fields this one lacks: name the version first."""
+        version = data.get("format_version") if isinstance(data, dict) else None
+        if isinstance(version, int) and version > FORMAT_VERSION:
+            raise ValueError(
+                f"format version {version} is newer than this dresslog reads "
+                f"({FORMAT_VERSION}); upgrade dresslog"
+            )
+        return data
+
     @model_validator(mode="after")
     def _supported(self) -> ModelCard:
-        if self.format_version > FORMAT_VERSION:
-            raise ValueError(
-                f"format version {self.format_version} is newer than this dresslog "
-                f"reads ({FORMAT_VERSION}); upgrade dresslog"
-            )
         width = 2 * PHI_DIM if self.hyperparameters.input_differences else PHI_DIM
         if self.input_dim != width:
             raise ValueError(f"input_dim {self.input_dim} for a network that reads {width}")
