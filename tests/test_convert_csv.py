@@ -776,3 +776,15 @@ def test_two_columns_read_as_one_role_are_refused_until_one_is_named(tmp_path: P
     with TrialReader(tmp_path / "t.mcap") as reader:
         got = reader.wrench.values[:, 0]
     assert abs(got.mean() - w[:, 0].mean()) < 0.05  # the named column, not the other (+1 N)
+
+
+def test_a_header_with_a_trailing_delimiter_over_one_row_is_not_a_cut_off_line(
+    tmp_path: Path,
+) -> None:
+    """The header's 11 cells (a trailing comma) above the only data row's 10 read as a row
+    cut short; it is a log too short to convert, and says so."""
+    csv = tmp_path / "one.csv"
+    csv.write_text("time,Fx,Fy,Fz,Tx,Ty,Tz,vx,vy,vz,\n0.0,1,0,0,0,0,0,-0.1,0,0\n")
+    args = ["convert", str(csv), "--task", "gown", "-o", str(tmp_path / "o.mcap")]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and "only 1 wrench sample" in result.output, result.output

@@ -58,6 +58,8 @@ def _cut_off(rows: list[list[str]]) -> str | None:
     if len(rows) < 2:
         return None
     above, last = rows
+    if not any(is_number(c.strip().strip('"')) for c in above):  # the header: nothing to go by
+        return None
     if len(last) < len(above):
         return f"{len(last)} of {len(above)} fields"
     cell, over = (row[-1].strip().strip('"') for row in (last, above))
