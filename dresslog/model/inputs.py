@@ -6,6 +6,10 @@ tanh units, fed standardised inputs, pick up a step's change poorly: on the gown
 change as 9 more inputs took the test ratio from 0.680 to 0.663, and the bundled models
 from 0.650 to 0.623 (gown) and 0.456 to 0.411 (shorts; docs/experiments.md).
 The weights alone say which a model reads: their input width is 9 or 18.
+
+`unfamiliar` says when a trial's signal lies where the model never read one (a channel
+far outside its training data, or a gripper heading another way): a robot's log in
+other axes or units, or from a sensor not tared, would otherwise be estimated silently.
 """
 
 from __future__ import annotations
@@ -71,7 +75,7 @@ def unfamiliar(phi: np.ndarray, mean: np.ndarray, std: np.ndarray) -> str | None
     far[:, std < STILL_STD] = False
     counts = far.sum(axis=0)
     k = int(counts.argmax())
-    if counts[k] < max(FAR_STEPS, FAR_SHARE * len(phi)) or counts[k] == 0:
+    if counts[k] < max(FAR_STEPS, FAR_SHARE * len(phi)):
         return _heading(phi[:, 6:9], mean[6:9])
     unit = PHI_UNITS[k]
     return (
