@@ -788,3 +788,21 @@ def test_a_header_with_a_trailing_delimiter_over_one_row_is_not_a_cut_off_line(
     args = ["convert", str(csv), "--task", "gown", "-o", str(tmp_path / "o.mcap")]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1 and "only 1 wrench sample" in result.output, result.output
+
+
+@pytest.mark.parametrize(("suffix", "sep", "blank"), [(".csv", ",", "   "), (".tsv", "\t", "\t\t")])
+def test_a_last_line_of_spaces_or_tabs_is_blank(
+    tmp_path: Path, suffix: str, sep: str, blank: str
+) -> None:
+    """numpy read it as a row of one empty cell: `cannot parse CSV: ... at row 1001`,
+    counting data rows, or `'' is not a number`; an editor shows an empty line."""
+    t = np.round(np.arange(0, 2, 0.002), 6)
+    header = sep.join(["time", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "vx", "vy", "vz"])
+    rows = [sep.join(f"{v:g}" for v in (x, 1, 0, 0, 0, 0, 0, -0.1, 0, 0)) for x in t]
+    log = tmp_path / f"log{suffix}"
+    log.write_text("\n".join([header, *rows, blank]) + "\n")
+    args = ["convert", str(log), "--task", "gown", "-o", str(tmp_path / "t.mcap")]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    with TrialReader(tmp_path / "t.mcap") as reader:
+        assert len(reader.wrench.t_ns) == 199 and reader.wrench.values[:, 0].mean() == 1.0

@@ -116,10 +116,15 @@ def data_rows(
             "cut off mid-write is dropped, so mend or remove this one",
             path=path,
         )
-    if cut is None or count == 1:  # a lone line cut short leaves no log to keep
-        raise ConversionError(
-            problem or f"line {last}, the only row, is incomplete ({cut})", path=path
-        )
+    if cut is None:  # numpy reads a line of spaces or tabs as a row of one empty cell
+        with path.open(encoding="utf-8-sig", errors="replace") as stream:
+            lines = (t for t in itertools.islice(stream, header_line + 1, None) if t.strip())
+            try:
+                return np.loadtxt(lines, **options), []
+            except (ValueError, IndexError):
+                raise ConversionError(problem, path=path) from None
+    if count == 1:  # a lone line cut short leaves no log to keep
+        raise ConversionError(f"line {last}, the only row, is incomplete ({cut})", path=path)
     with path.open(encoding="utf-8-sig", errors="replace") as stream:
         try:  # the lines between the header and the last one
             rows = np.loadtxt(itertools.islice(stream, header_line + 1, last - 1), **options)
