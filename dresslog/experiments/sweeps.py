@@ -53,6 +53,11 @@ class Setting:
     def folder(self) -> str:
         return self.name.replace(":", "_")
 
+    @property
+    def order(self) -> tuple[int, str, float]:
+        """Where the table lists it: by kind, axis and value, as the plot reads."""
+        return _KINDS.index(self.kind), self.axis, self.value
+
 
 @dataclass(frozen=True)
 class SweepReport:
@@ -222,7 +227,7 @@ def sweep(
         )
         done.append(_scored(loaded, out, setting, workers))
     done += _earlier(loaded, out, settings, n, seed, workers)
-    done.sort(key=lambda s: (_KINDS.index(s.kind), s.axis, s.value))  # as the plot reads
+    done.sort(key=lambda s: s.order)
     baseline = done[0].scores
     assert baseline is not None
     report = SweepReport(task.value, str(model), n, baseline.rmse, done)
@@ -261,8 +266,8 @@ def _earlier(
             check_files(out / setting.folder, manifest)  # missing or resized
             fits.append(_scored(loaded, out, setting, workers))  # checksums, as it decodes
         except DatasetError:  # its own cure, `generate`, refuses a sweep's folder
-            option, _, value = setting.name.partition(":")
-            again = f"--{'speeds' if option == 'speed' else 'rotations'} {value}"
+            option = "--speeds" if setting.kind == "speed" else "--rotations"
+            again = f"{option} {setting.name.partition(':')[2]}"
             damaged.append(
                 f"{setting.name} (a trial is damaged or missing; sweep it again with {again})"
             )
@@ -298,7 +303,7 @@ def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, M
             continue
         if setting.folder == folder.name:  # not `speed_0.20`: a name the sweep never gives
             found.append((setting, manifest))
-    found.sort(key=lambda f: (_KINDS.index(f[0].kind), f[0].axis, f[0].value))
+    found.sort(key=lambda f: f[0].order)  # the warning names them in the table's order
     return found
 
 
