@@ -116,20 +116,25 @@ def data_rows(
             "cut off mid-write is dropped, so mend or remove this one",
             path=path,
         )
-    if cut is None:  # numpy reads a line of spaces or tabs as a row of one empty cell
-        with path.open(encoding="utf-8-sig", errors="replace") as stream:
-            lines = (t for t in itertools.islice(stream, header_line + 1, None) if t.strip())
-            try:
-                return np.loadtxt(lines, **options), []
-            except (ValueError, IndexError):
-                raise ConversionError(problem, path=path) from None
+    if cut is None:
+        return _reparsed(path, header_line, None, options, problem), []
     if count == 1:  # a lone line cut short leaves no log to keep
         raise ConversionError(f"line {last}, the only row, is incomplete ({cut})", path=path)
-    with path.open(encoding="utf-8-sig", errors="replace") as stream:
-        try:  # the lines between the header and the last one
-            rows = np.loadtxt(itertools.islice(stream, header_line + 1, last - 1), **options)
-        except (ValueError, IndexError) as err:
-            raise ConversionError(f"cannot parse CSV: {err}", path=path) from None
+    rows = _reparsed(path, header_line, last - 1, options)  # all but the last line
     return rows, [
         f"{path.name}: line {last} is incomplete ({cut}), as a log cut off mid-write; dropped"
     ]
+
+
+def _reparsed(
+    path: Path, header_line: int, stop: int | None, options: dict[str, Any], problem: str = ""
+) -> np.ndarray:
+    """The data lines up to line `stop` (all: None) parsed again, lines of only spaces or
+    tabs skipped as blank (numpy reads one as a row of one empty cell); `problem` is the
+    error to give if they still fail, else numpy's own words."""
+    with path.open(encoding="utf-8-sig", errors="replace") as stream:
+        lines = (t for t in itertools.islice(stream, header_line + 1, stop) if t.strip())
+        try:
+            return np.loadtxt(lines, **options)
+        except (ValueError, IndexError) as err:
+            raise ConversionError(problem or f"cannot parse CSV: {err}", path=path) from None
