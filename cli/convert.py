@@ -4,17 +4,15 @@ from __future__ import annotations
 
 import click
 
-from dresslog.spec import Task
-
 from .common import reports_errors
+from .options import task_option
 
 
 @click.command("convert")
 @click.argument("source", type=click.Path(path_type=str))
 @click.option("-o", "--output", "--out", "output", required=True, type=click.Path(path_type=str),
               help="Trial file to write (.mcap).")  # fmt: skip
-@click.option("--task", required=True, type=click.Choice([t.value for t in Task]),
-              help="Dressing task: gown (arm) or shorts (leg).")  # fmt: skip
+@task_option
 @click.option("--wrench-topic", help="A bag's WrenchStamped topic.",
               show_default="the only one")  # fmt: skip
 @click.option("--twist-topic", help="A bag's TwistStamped topic, for the velocity.",

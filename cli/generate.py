@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import click
 
-from dresslog.spec import MAX_DURATION, Task, TrialSpec
-
 from .common import reports_errors
+from .options import duration_option, executor_option, task_option
 
 
 @click.command("generate")
-@click.option("--task", type=click.Choice([t.value for t in Task]), required=True,
-              help="Dressing task: gown (arm) or shorts (leg).")  # fmt: skip
+@task_option
 @click.option("--trials", type=click.IntRange(min=1), required=True,
               help="Trials in all, train + test (at most 1,000,000).")  # fmt: skip
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
@@ -22,13 +20,8 @@ from .common import reports_errors
               help="Draws every trial's spec.")  # fmt: skip
 @click.option("--test-fraction", type=click.FloatRange(0, 1, max_open=True), default=1 / 6,
               show_default="1/6", help="Share of the trials in the test split.")  # fmt: skip
-@click.option("--duration", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
-              help=f"Recorded motion per trial, s (at most {MAX_DURATION:g}); outcomes are "
-              "judged at its end, and a path takes 4-7 s.",
-              show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
-@click.option("--executor", type=click.Choice(["process", "ray"]), default="process",
-              show_default=True,
-              help="Local processes, or Ray ($RAY_ADDRESS's cluster, else local).")  # fmt: skip
+@duration_option(" per trial", click.FloatRange(min=0, min_open=True))
+@executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
 def generate(

@@ -6,14 +6,14 @@ from pathlib import Path
 
 import click
 
-from dresslog.spec import MAX_DURATION, MAX_OFFSET, Task, TrialSpec
+from dresslog.spec import MAX_OFFSET
 
 from .common import reports_errors
+from .options import duration_option, task_option
 
 
 @click.command("record")
-@click.option("--task", type=click.Choice([t.value for t in Task]), required=True,
-              help="Dressing task: gown (arm) or shorts (leg).")  # fmt: skip
+@task_option
 @click.option("-o", "--output", "--out", "output", type=click.Path(dir_okay=False, path_type=Path),
               required=True, help="Trial file to write (.mcap).")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
@@ -27,10 +27,7 @@ from .common import reports_errors
 @click.option("--rotation", type=(click.Choice(["x", "y", "z"]), float), metavar="AXIS DEG",
               help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
               "(-90<=DEG<=90).", show_default="none")  # fmt: skip
-@click.option("--duration", type=float, metavar="SECONDS",
-              help=f"Recorded motion, s (0<x<={MAX_DURATION:g}); the outcome is "
-              "judged at its end, and a path takes 4-7 s.",
-              show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
+@duration_option("")
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
 @click.option("--model", "-m", type=click.Path(path_type=Path),

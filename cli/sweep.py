@@ -6,9 +6,8 @@ from typing import Any
 
 import click
 
-from dresslog.spec import MAX_DURATION, TrialSpec
-
 from .common import reports_errors
+from .options import duration_option, executor_option
 
 
 def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> list[str]:
@@ -41,14 +40,10 @@ def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
               help="Fresh sequences per setting (at most 1,000,000).")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws the sequences' specs.")  # fmt: skip
-@click.option("--duration", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
-              help=f"Recorded motion per sequence, s (at most {MAX_DURATION:g}).",
-              show_default=f"{TrialSpec.model_fields['duration'].default:g} s")  # fmt: skip
+@duration_option(" per sequence", click.FloatRange(min=0, min_open=True))
 @click.option("--workers", type=click.IntRange(min=1), help="Sequences simulated at once.",
               show_default="all cores")  # fmt: skip
-@click.option("--executor", type=click.Choice(["process", "ray"]), default="process",
-              show_default=True,
-              help="Local processes, or Ray ($RAY_ADDRESS's cluster, else local).")  # fmt: skip
+@executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors
 def sweep(
