@@ -269,7 +269,7 @@ class RerunSink:
             lines.append(f"Estimate by model {ctx.model or '(given in code)'}.")
         m = self._metrics.metrics
         if m.rmse is not None and m.zero_rmse is not None:
-            ratio = f" (ratio {m.rmse / m.zero_rmse:.3f})" if m.zero_rmse > 0 else ""
+            ratio = f" (ratio {m.ratio:.3f})" if m.ratio is not None else ""
             lines.append(
                 f"Trial RMSE {m.rmse:.4g} N against {m.zero_rmse:.4g} N for an all-zero "
                 f"estimate{ratio}."
