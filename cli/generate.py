@@ -18,8 +18,9 @@ from .options import duration_option, executor_option, task_option
               show_default="all cores")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws every trial's spec.")  # fmt: skip
-@click.option("--test-fraction", type=click.FloatRange(0, 1, max_open=True), default=1 / 6,
-              show_default="1/6", help="Share of the trials in the test split.")  # fmt: skip
+@click.option("--test-fraction", type=click.FloatRange(0, 1), default=1 / 6, show_default="1/6",
+              help="Share of the trials in the test split (1: a test set of fresh seeds "
+              "only, to score models on).")  # fmt: skip
 @duration_option(" per trial", click.FloatRange(min=0, min_open=True))
 @executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")

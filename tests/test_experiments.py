@@ -10,6 +10,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -270,6 +271,21 @@ def test_train_into_the_current_folder(
     long = "m" * 220  # fits, but its checkpoint's temporary name beside it would not
     code, output = invoke("train", data, "-o", long, "--epochs", "1", "--hidden", "4")
     assert code == 1 and output.startswith(f"Error: {long}: file name is too long"), output
+
+
+def test_a_test_set_of_fresh_seeds_alone_scores_a_model(model: Path, data: Path) -> None:
+    """`--test-fraction 1` makes a folder to score models on, the README's fresh trials:
+    its test slots are drawn as any folder's of that seed, so the same trial scores alike."""
+    fresh = data.parent / "fresh"
+    near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05)}  # the `data` fixture's
+    with warnings.catch_warnings():  # no training trials asked for: nothing to warn of
+        warnings.simplefilter("error")
+        manifest = generate("gown", 1, fresh, workers=1, test_fraction=1, overrides=near)
+    assert (manifest.n_train, manifest.n_test) == (0, 1)
+    own, other = (json.loads(invoke("eval", model, d, "--json")[1]) for d in (data, fresh))
+    assert other["overall"]["n"] == 1 and other["overall"] == own["overall"]
+    code, output = invoke("train", fresh, "-o", data.parent / "none", "--epochs", "1")
+    assert code == 1 and "needs at least 2 training trials, has 0" in output
 
 
 def test_eval_bounds_say_so_when_the_split_has_no_force_to_place(tmp_path: Path) -> None:

@@ -100,9 +100,9 @@ def _split_counts(trials: int, test_fraction: float) -> dict[Split, int]:
         raise DatasetError(
             f"--trials must be a whole number from 1 to {MAX_TRIALS:,}, not {trials!r}"
         )
-    if not 0 <= test_fraction < 1:
-        raise DatasetError(f"test fraction must be in [0, 1), not {test_fraction}")
-    n_test = round(trials * test_fraction) if trials > 1 else 0
+    if not 0 <= test_fraction <= 1:
+        raise DatasetError(f"test fraction must be in [0, 1], not {test_fraction}")
+    n_test = round(trials * test_fraction) if trials > 1 or test_fraction == 1 else 0
     return {Split.TRAIN: trials - n_test, Split.TEST: n_test}
 
 
@@ -110,10 +110,11 @@ def _warn_if_a_split_is_empty(
     root: Path, trials: int, test_fraction: float, counts: Mapping[Split, int]
 ) -> None:
     """Rounding can leave `train` or `eval` too little to read, found only once they run:
-    say so while the trials are still to be made. A fraction of 0 asks for no test trials."""
+    say so while the trials are still to be made. A fraction of 0 asks for no test trials,
+    one of 1 for no training trials (a test set to score models on)."""
     asked = f"{trials} trial{'s' * (trials != 1)} at --test-fraction {test_fraction:.3g}"
     n_train = counts[Split.TRAIN]
-    if n_train < MIN_TRAIN:  # what `train` refuses
+    if n_train < MIN_TRAIN and test_fraction < 1:  # what `train` refuses
         smaller = " or a smaller --test-fraction" if trials >= MIN_TRAIN else ""
         problem = f"{asked} leave{'s' * (trials == 1)} {n_train or 'none'} to train on"
         need = f"train needs {MIN_TRAIN} or more (more --trials{smaller})"
