@@ -102,12 +102,12 @@ class TrialWriter:
     def close(self) -> None:
         """Write the metadata and summary, then move the file into place."""
         if self._writer is not None:
-            put_in_place(self.finish(), self.path, overwrite=self.overwrite)
-            self._made = []  # they hold the trial now
+            self.finish()
+            self.place()
 
-    def finish(self) -> Path:
-        """Write the metadata and summary; the file stays under the temporary name returned
-        (for a caller that puts several outputs in place together)."""
+    def finish(self) -> None:
+        """Write the metadata and summary; the file stays under its temporary name until
+        `place` (for a caller that puts several outputs in place together)."""
         writer, stream, tmp = self._writer, self._stream, self._tmp
         if writer is None or stream is None or tmp is None:
             raise TrialWriteError("writer is not open", path=self.path)
@@ -127,7 +127,13 @@ class TrialWriter:
         writer.finish()
         stream.close()
         self._writer = self._stream = None
-        return tmp
+
+    def place(self) -> None:
+        """Move the file `finish` wrote to its final name."""
+        if self._writer is not None or self._tmp is None:
+            raise TrialWriteError("writer is not finished", path=self.path)
+        put_in_place(self._tmp, self.path, overwrite=self.overwrite)
+        self._made = []  # they hold the trial now
 
     def abort(self) -> None:
         """Drop everything written so far; nothing appears under the final name."""

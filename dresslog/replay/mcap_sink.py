@@ -33,8 +33,7 @@ class McapSink:
         self._t_ns: list[int] = []
         self._forces: list[np.ndarray] = []
         self._contact: list[np.ndarray] = []
-        self._staged: Path | None = None  # the finished copy, until `commit` names it
-        self._finished: TrialWriter | None = None  # its writer, to undo it (and its folders)
+        self._finished: TrialWriter | None = None  # the finished copy's, until `commit`
 
     def open(self, context: TrialContext) -> None:
         if context.trial is None:
@@ -71,23 +70,23 @@ class McapSink:
                     np.stack(self._contact),
                     estimate=True,
                 )
-            self._staged = writer.finish()  # named by `commit`, beside the other outputs
+            writer.finish()  # named by `commit`, beside the other outputs
             self._finished = writer
         except BaseException:  # an interrupt while finishing included
             writer.abort()
             raise
 
     def commit(self) -> None:
-        if self._staged is not None:
-            self._staged.replace(self.path)
-            self._staged = self._finished = None
+        if self._finished is not None:
+            self._finished.place()
+            self._finished = None
 
     def abort(self) -> None:
         """Drop the finished copy not yet named, and the folders made for it; `close`
         removes a half-written one itself."""
         if self._finished is not None:
             self._finished.abort()
-        self._staged = self._finished = None
+        self._finished = None
 
 
 def _holds_an_estimate(path: Path) -> bool:
