@@ -219,40 +219,16 @@ def convert(
     path, output = Path(path), Path(output)
     task = task_of(task, ConversionError)
     check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
-    for given in (path, motion):  # their names go into the trial's notes, JSON
-        if given is not None and printable(Path(given).name) != Path(given).name:
-            raise ConversionError(
-                "its name is not UTF-8, which the trial's metadata must be; rename it",
-                path=printable(given),
-            )
-    for quat in (rotate, sensor_rotation):
-        if quat is not None and not (_finite(quat, 4) and np.linalg.norm(quat) > 0):
-            raise ConversionError("a rotation quaternion is 4 finite numbers, x y z w, not all 0")
-    mount = [
-        n for n, v in (("rotation", sensor_rotation), ("offset", sensor_offset)) if v is not None
-    ]
-    if mount and wrench_frame != "pose":
-        raise ConversionError(
-            f"--sensor-{mount[0]} places a sensor on the gripper, with --wrench-frame pose; a "
-            "sensor fixed in the world is turned with --rotate"
-        )
-    if sensor_offset is not None and not _finite(sensor_offset, 3):
-        raise ConversionError("sensor offset must be 3 finite numbers, x y z (metres)")
-    if not (_finite(tare_s, None) and tare_s >= 0):
-        raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
-    if not (_finite(max_gap_s, None) and max_gap_s > 0):
-        raise ConversionError(f"max_gap_s {max_gap_s}: give a duration above 0 s")
-    if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
-        raise ConversionError(
-            f"clock {clock!r} / wrench frame {wrench_frame!r}: use header or log / world or pose"
-        )
-
+    _check_arguments(
+        path, motion, clock=clock, wrench_frame=wrench_frame, sensor_rotation=sensor_rotation,
+        sensor_offset=sensor_offset, rotate=rotate, tare_s=tare_s, max_gap_s=max_gap_s,
+    )  # fmt: skip
     source = load(
         path,
         wrench_topic=wrench_topic,
         twist_topic=twist_topic,
         pose_topic=pose_topic,
-        motion=Path(motion) if motion is not None else None,
+        motion=motion,
         columns=columns,
         time_unit=time_unit,
         clock=clock,
@@ -300,6 +276,48 @@ def convert(
         source=info,
         warnings=found,
     )
+
+
+def _check_arguments(
+    path: Path,
+    motion: str | Path | None,
+    *,
+    clock: str,
+    wrench_frame: str,
+    sensor_rotation: Quaternion | None,
+    sensor_offset: tuple[float, float, float] | None,
+    rotate: Quaternion | None,
+    tare_s: float,
+    max_gap_s: float,
+) -> None:
+    """Refuse `convert`'s arguments that could not make a trial, before the log is read."""
+    for given in (path, motion):  # their names go into the trial's notes, JSON
+        if given is not None and printable(Path(given).name) != Path(given).name:
+            raise ConversionError(
+                "its name is not UTF-8, which the trial's metadata must be; rename it",
+                path=printable(given),
+            )
+    for quat in (rotate, sensor_rotation):
+        if quat is not None and not (_finite(quat, 4) and np.linalg.norm(quat) > 0):
+            raise ConversionError("a rotation quaternion is 4 finite numbers, x y z w, not all 0")
+    mount = [
+        n for n, v in (("rotation", sensor_rotation), ("offset", sensor_offset)) if v is not None
+    ]
+    if mount and wrench_frame != "pose":
+        raise ConversionError(
+            f"--sensor-{mount[0]} places a sensor on the gripper, with --wrench-frame pose; a "
+            "sensor fixed in the world is turned with --rotate"
+        )
+    if sensor_offset is not None and not _finite(sensor_offset, 3):
+        raise ConversionError("sensor offset must be 3 finite numbers, x y z (metres)")
+    if not (_finite(tare_s, None) and tare_s >= 0):
+        raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
+    if not (_finite(max_gap_s, None) and max_gap_s > 0):
+        raise ConversionError(f"max_gap_s {max_gap_s}: give a duration above 0 s")
+    if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
+        raise ConversionError(
+            f"clock {clock!r} / wrench frame {wrench_frame!r}: use header or log / world or pose"
+        )
 
 
 def _finite(value: object, count: int | None) -> bool:
