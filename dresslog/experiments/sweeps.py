@@ -150,6 +150,22 @@ def sweep_settings(
     return settings
 
 
+def _check_sweep_folder(out: Path) -> None:
+    """Refuse an output that is a file, a link to nothing, or a dataset or model folder
+    (or inside one), where the sweep's setting folders would mix with what is there."""
+    if out.exists() and not out.is_dir():
+        raise DatasetError("is a file; give the sweep a folder of its own", path=out)
+    if out.is_symlink() and not out.exists():  # mkdir's "File exists" would mislead
+        raise DatasetError("is a symbolic link to nothing; create its folder", path=out)
+    where = resolved(out)
+    for folder in (where, *where.parents):  # nor anywhere inside one
+        what = _dresslog_folder(folder)
+        if what is not None:
+            place = "is" if folder == where else f"is inside {folder},"
+            message = f"{place} {what} folder; give the sweep a folder of its own"
+            raise DatasetError(message, path=out)
+
+
 def _dresslog_folder(folder: Path) -> str | None:
     """ "a dataset" or "a model" if `folder` is one of ours (another tool's manifest.json
     does not count), else None."""
@@ -199,17 +215,7 @@ def sweep(
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     check_executor(executor)
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise DatasetError("is a file; give the sweep a folder of its own", path=out)
-    if out.is_symlink() and not out.exists():  # mkdir's "File exists" would mislead
-        raise DatasetError("is a symbolic link to nothing; create its folder", path=out)
-    where = resolved(out)
-    for folder in (where, *where.parents):  # nor anywhere inside one
-        what = _dresslog_folder(folder)
-        if what is not None:
-            place = "is" if folder == where else f"is inside {folder},"
-            message = f"{place} {what} folder; give the sweep a folder of its own"
-            raise DatasetError(message, path=out)
+    _check_sweep_folder(out)
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []
     for setting in settings:
