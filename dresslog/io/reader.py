@@ -382,18 +382,13 @@ class TrialReader:
         bad = np.flatnonzero(~np.isfinite(maps.forces).all(axis=1))
         if len(bad) or not np.isfinite(maps.contact).all():
             at = f" in message {bad[0]} of {len(msgs)}" if len(bad) else " in a contact map"
-            raise TrialFormatError(
-                f"NaN or infinite value{at}; the recording is corrupt, re-record it",
-                path=self.path,
-                channel=topic,
-            )
+            self._corrupt(f"NaN or infinite value{at}", topic)
         limb = self.limb_points
         if limb is not None and maps.forces.shape[1] != len(limb.points):
-            raise TrialFormatError(
+            self._corrupt(
                 f"force maps have {maps.forces.shape[1]} values but {wk.LIMB_POINTS} has "
-                f"{len(limb.points)} points; the recording is corrupt, re-record it",
-                path=self.path,
-                channel=topic,
+                f"{len(limb.points)} points",
+                topic,
             )
         return maps
 
