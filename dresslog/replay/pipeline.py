@@ -15,7 +15,7 @@ from pathlib import Path
 from dresslog.errors import DresslogWarning, TrialFormatError
 from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
-from dresslog.io.reader import TrialReader
+from dresslog.io.reader import read_trial
 from dresslog.model.bundled import resolve_model
 from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
 from dresslog.replay.mcap_sink import McapSink
@@ -102,8 +102,7 @@ def replay_file(
     clock = time.perf_counter
     timings: dict[str, float] = {}
     t0 = clock()
-    with TrialReader(trial_path) as reader:  # what is wrong with the input is said first
-        trial = reader.read()
+    trial = read_trial(trial_path)  # what is wrong with the input is said first
     context = trial_context(trial, trial_path)
     timings["read"] = clock() - t0
     named = {".rrd": rrd, ".mcap": mcap}
