@@ -74,6 +74,8 @@ class EvalReport:
 
 
 def finite(value: Any) -> Any:
+    """`value` with every nan or infinite float, however deeply nested, as None: JSON has
+    no nan, and `json.dumps` would write one that strict readers refuse."""
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
@@ -90,6 +92,7 @@ def check_data_task(model: LoadedModel, task: Task, n_points: int | None = None)
 
 
 def score_rows(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
+    """The model's scores on these rows of the dataset (eval's groups, a sweep's setting)."""
     return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
 
 
