@@ -53,6 +53,7 @@ def _dataset(path: Path, as_json: bool) -> Description:
         damaged_error,
         damaged_files,
         load_manifest,
+        remaking,
         warn_if_incomplete,
     )
 
@@ -73,7 +74,7 @@ def _dataset(path: Path, as_json: bool) -> Description:
     if damaged:
         names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
         more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""
-        lines.append(f"  damaged: {names}{more}; run `dresslog generate` on it again")
+        lines.append(f"  damaged: {names}{more}; {remaking(damaged[0][0])}")
     return Description("\n".join(lines), problem)
 
 

@@ -679,3 +679,17 @@ def test_a_damaged_trial_names_the_command_that_remakes_its_folder(tmp_path: Pat
     assert swept.endswith("run `dresslog sweep` that made it again to re-create it"), swept
     trained = str(damaged_error(tmp_path, "train/000003.mcap", "changed"))
     assert trained.endswith("run `dresslog generate` on it again to re-create it"), trained
+
+
+def test_info_names_the_sweep_as_the_cure_of_a_damaged_sweep_setting(tmp_path: Path) -> None:
+    """`info` on a sweep setting's folder with a trial missing named `generate` (which
+    refuses the folder) in its damaged line, above the error naming `sweep`."""
+    setting = tmp_path / "speed_0.2"
+    generate("gown", 0, setting, workers=1, splits={"sweep": 2}, recorder=FAKE, progress=False)
+    (setting / "sweep/000001.mcap").unlink()
+    shown = CliRunner().invoke(main, ["info", str(setting)])
+    assert shown.exit_code == 1
+    assert "damaged: sweep/000001.mcap (missing); run `dresslog sweep` that made it again" in (
+        shown.stdout
+    ), shown.stdout
+    assert "generate" not in shown.output, shown.output

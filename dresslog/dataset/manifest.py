@@ -275,14 +275,17 @@ def warn_if_incomplete(root: Path, manifest: Manifest) -> None:
         )
 
 
-def damaged_error(root: str | Path, file: str, how: str) -> DatasetError:
-    """The one line for a damaged trial, naming the folder, the trial and the cure (a sweep
+def remaking(file: str) -> str:
+    """The cure for a damaged trial `file`: its folder's command run again (a sweep
     setting's folder is remade by its sweep: `generate` refuses the setting's fixed fields)."""
     swept = file.startswith(f"{Split.SWEEP.value}/")
     command = "sweep` that made it" if swept else "generate` on it"
-    return DatasetError(
-        f"trial {file} {_DAMAGE[how]}; run `dresslog {command} again to re-create it", path=root
-    )
+    return f"run `dresslog {command} again"
+
+
+def damaged_error(root: str | Path, file: str, how: str) -> DatasetError:
+    """The one line for a damaged trial, naming the folder, the trial and the cure."""
+    return DatasetError(f"trial {file} {_DAMAGE[how]}; {remaking(file)} to re-create it", path=root)
 
 
 def damaged_files(
