@@ -681,6 +681,18 @@ def test_a_damaged_trial_names_the_command_that_remakes_its_folder(tmp_path: Pat
     assert trained.endswith("run `dresslog generate` on it again to re-create it"), trained
 
 
+def test_generate_on_a_sweep_setting_folder_names_the_sweep_not_its_fields(tmp_path: Path) -> None:
+    """generate told to "use another folder or the same options" of a setting's folder for
+    its speed, an option generate does not have; the folder is the sweep's, and so said."""
+    setting = tmp_path / "speed_0.2"
+    fixed = {"speed": 0.2, "duration": 0.5}
+    generate(
+        "gown", 0, setting, splits={"sweep": 1}, overrides=fixed, recorder=FAKE, progress=False
+    )
+    with pytest.raises(DatasetError, match=r"holds 1 sweep trials, made by `dresslog sweep`; use"):
+        generate("gown", 2, setting, overrides={"duration": 0.5}, recorder=FAKE, progress=False)
+
+
 def test_info_names_the_sweep_as_the_cure_of_a_damaged_sweep_setting(tmp_path: Path) -> None:
     """`info` on a sweep setting's folder with a trial missing named `generate` (which
     refuses the folder) in its damaged line, above the error naming `sweep`."""

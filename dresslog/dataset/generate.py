@@ -169,6 +169,16 @@ def _open_manifest(
             overrides=overrides,
         )
     manifest = load_manifest(root)
+    # the other command's folder before its fields, which no option of this one sets (a
+    # sweep setting's speed); a split not asked for must be empty, else its trials are lost
+    for split in Split:
+        made = len(manifest.split(split))
+        if made and split not in counts:
+            maker = "dresslog sweep" if split == Split.SWEEP else "dresslog generate"
+            raise DatasetError(
+                f"folder holds {made} {split} trials, made by `{maker}`; use another folder",
+                path=root,
+            )
     for what, have, want in (
         ("task", manifest.task, task),
         ("seed", manifest.seed, seed),
@@ -180,14 +190,8 @@ def _open_manifest(
                 "use another folder or the same options",
                 path=root,
             )
-    for split in Split:  # a split not asked for must be empty: else its trials would be lost
+    for split in Split:
         wanted, made = counts.get(split, 0), len(manifest.split(split))
-        if made and split not in counts:  # the other command's folder
-            maker = "dresslog sweep" if split == Split.SWEEP else "dresslog generate"
-            raise DatasetError(
-                f"folder holds {made} {split} trials, made by `{maker}`; use another folder",
-                path=root,
-            )
         if wanted < made:
             options = "-n sets it" if split == Split.SWEEP else "--trials, --test-fraction set both"
             raise DatasetError(
