@@ -693,6 +693,19 @@ def test_generate_on_a_sweep_setting_folder_names_the_sweep_not_its_fields(tmp_p
         generate("gown", 2, setting, overrides={"duration": 0.5}, recorder=FAKE, progress=False)
 
 
+def test_an_unfinished_sweep_setting_is_finished_by_its_sweep(tmp_path: Path) -> None:
+    """An interrupted sweep's setting folder was to be finished by its `generate` command,
+    which refuses the folder (and had never made it)."""
+    setting = tmp_path / "in-range"
+    generate("gown", 0, setting, splits={"sweep": 1}, recorder=FAKE, progress=False)
+    manifest = load_manifest(setting)
+    manifest.n_sweep = 2  # as a sweep stopped after its first sequence leaves it
+    manifest.save(setting)
+    shown = CliRunner().invoke(main, ["info", str(setting)])
+    assert shown.exit_code == 0
+    assert "(1/2 sweep); run its `dresslog sweep` command again to finish it" in shown.stderr
+
+
 def test_info_names_the_sweep_as_the_cure_of_a_damaged_sweep_setting(tmp_path: Path) -> None:
     """`info` on a sweep setting's folder with a trial missing named `generate` (which
     refuses the folder) in its damaged line, above the error naming `sweep`."""

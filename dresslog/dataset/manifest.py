@@ -265,11 +265,13 @@ def damage(root: str | Path, entry: Entry, *, checksum: bool = False) -> str | N
 
 
 def warn_if_incomplete(root: Path, manifest: Manifest) -> None:
-    """An interrupted generation's folder is usable, but say so, and how to finish it."""
+    """An interrupted generation's folder is usable, but say so, and how to finish it (a
+    sweep setting's by its sweep: `generate` refuses the setting's fixed fields)."""
     if not manifest.complete:
+        command = "sweep" if manifest.wanted(Split.SWEEP) else "generate"
         warnings.warn(
             f"{root}: the dataset is incomplete ({manifest.counts()}); run its "
-            "`dresslog generate` command again to finish it",
+            f"`dresslog {command}` command again to finish it",
             DresslogWarning,
             stacklevel=3,
         )
