@@ -205,8 +205,13 @@ def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: P
     assert [e.epoch for e in history.epochs] == [1, 2, 3]
     for name, value in reference.items():
         np.testing.assert_array_equal(resumed[name], value, err_msg=name)
-    with pytest.raises(ModelError, match="other settings"):
+    # named, so the interrupted run's options can be repeated: a checkpoint is not readable
+    with pytest.raises(
+        ModelError, match=r"other settings \(it had --epochs 3, this run --epochs 4\)"
+    ):
         train(phis, forces, checkpoint=ckpt, **{**kwargs, "epochs": 4})
+    with pytest.raises(ModelError, match=r"\(it had --hidden 6, this run --hidden 7\)"):
+        train(phis, forces, checkpoint=ckpt, **{**kwargs, "hidden": 7})
 
 
 def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Path):
@@ -220,7 +225,7 @@ def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Pa
     with pytest.raises(KeyboardInterrupt):
         train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
     # the checkpoint's weights carry its input statistics: resuming would silently keep them
-    with pytest.raises(ModelError, match="other settings"):
+    with pytest.raises(ModelError, match=r"\(it had no --normalise, this run --normalise\)"):
         train(phis, forces, checkpoint=ckpt, normalise=True, **kwargs)
     more, more_forces = synthetic(9, seed=2, n_points=4)  # the dataset grew since
     with pytest.raises(ModelError, match="other data"):

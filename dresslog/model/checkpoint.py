@@ -116,8 +116,8 @@ def resume(path: Path, run: RunState) -> None:
         )
     if saved != key:
         raise ModelError(
-            "checkpoint is from a run with other settings: repeat that run's options to "
-            "resume it, or pass --overwrite to start afresh",
+            f"checkpoint is from a run with other settings{_difference(saved, key)}: repeat "
+            "that run's options to resume it, or pass --overwrite to start afresh",
             path=path,
         )
     slots: dict[int, dict[str, torch.Tensor]] = {}
@@ -132,6 +132,31 @@ def resume(path: Path, run: RunState) -> None:
         run.history.epochs = [EpochRecord.model_validate(e) for e in metadata["epochs"]]
     except (KeyError, TypeError, ValueError, RuntimeError):  # a layout not our own
         raise ModelError(unreadable, path=path) from None
+
+
+def _options(key: dict[str, Any]) -> dict[str, Any]:
+    """A run key's settings by the `train` options that set them."""
+    settings = dict(key.get("settings") or {})
+    balance_loss = settings.pop("force_scale", 1.0) != 1.0
+    arch = dict(zip(("n_points", "hidden", "layers"), key.get("arch") or (), strict=False))
+    return {**settings, "balance_loss": balance_loss, **arch, "normalise": key.get("normalise")}
+
+
+def _difference(saved: dict[str, Any], key: dict[str, Any]) -> str:
+    """` (it had --epochs 40, this run --epochs 30)`: the first option two run keys differ
+    in, so the interrupted run's can be repeated ("" if none is found)."""
+    old, new = _options(saved), _options(key)
+
+    def shown(name: str, value: Any) -> str:
+        option = f"--{name.replace('_', '-')}"
+        if value is None or value is False:
+            return f"no {option}"
+        return option if value is True else f"{option} {value}"
+
+    for name in new:
+        if old.get(name) != new[name]:
+            return f" (it had {shown(name, old.get(name))}, this run {shown(name, new[name])})"
+    return ""
 
 
 def _under(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
