@@ -38,13 +38,30 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
         return _model(path, as_json)
     if path.is_dir():
         raise DresslogError(
-            f"neither a model folder (no {CARD_FILE}) nor a dataset folder (no {MANIFEST_FILE})",
+            f"neither a model folder (no {CARD_FILE}) nor a dataset folder (no {MANIFEST_FILE})"
+            + _inside(path),
             path=path,
         )
     from dresslog.io.summary import format_summary, summarize
 
     summary = summarize(path)
     return Description(summary.model_dump_json(indent=2) if as_json else format_summary(summary))
+
+
+def _inside(path: Path) -> str:
+    """What `info` takes in a folder of ours that is neither a model nor a dataset: a
+    sweep's (a setting's folder) or a dataset's split folder (the dataset); else ""."""
+    from dresslog.dataset.manifest import MANIFEST_FILE
+
+    if (path / "sweep.json").is_file():
+        return (
+            "; a sweep's folder: its table is sweep.csv, and `dresslog info` takes one "
+            f"setting's folder, e.g. {path / 'in-range'}"
+        )
+    named = path.resolve() if path.name in ("", "..") else path  # `.` names no parent
+    if (named.parent / MANIFEST_FILE).is_file():
+        return f"; a dataset's {named.name} folder: give the dataset, {named.parent}"
+    return ""
 
 
 def _dataset(path: Path, as_json: bool) -> Description:

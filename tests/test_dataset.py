@@ -706,6 +706,24 @@ def test_an_unfinished_sweep_setting_is_finished_by_its_sweep(tmp_path: Path) ->
     assert "(1/2 sweep); run its `dresslog sweep` command again to finish it" in shown.stderr
 
 
+def test_info_on_a_sweep_folder_or_a_split_folder_names_the_folder_it_takes(
+    tmp_path: Path,
+) -> None:
+    """Both said only what they were not (neither a model nor a dataset folder)."""
+    sweep = tmp_path / "sweep"
+    generate("gown", 0, sweep / "in-range", splits={"sweep": 1}, recorder=FAKE, progress=False)
+    (sweep / "sweep.json").write_text("{}")  # beside sweep.csv and sweep.png
+    shown = CliRunner().invoke(main, ["info", str(sweep)])
+    assert shown.exit_code == 1 and shown.output.count("\n") == 1
+    said = "a sweep's folder: its table is sweep.csv, and `dresslog info` takes one setting's"
+    assert f"{said} folder, e.g. {sweep / 'in-range'}" in shown.output, shown.output
+    data = tmp_path / "data"
+    generate("gown", 3, data, test_fraction=1 / 3, recorder=FAKE, progress=False)
+    shown = CliRunner().invoke(main, ["info", str(data / "test")])
+    assert shown.exit_code == 1 and shown.output.count("\n") == 1
+    assert f"; a dataset's test folder: give the dataset, {data}" in shown.output, shown.output
+
+
 def test_info_names_the_sweep_as_the_cure_of_a_damaged_sweep_setting(tmp_path: Path) -> None:
     """`info` on a sweep setting's folder with a trial missing named `generate` (which
     refuses the folder) in its damaged line, above the error naming `sweep`."""
