@@ -27,10 +27,10 @@ class Description(NamedTuple):
 def describe(path: str | Path, *, as_json: bool = False) -> Description:
     """Summarise `path` by what it is: a dataset (manifest), a model (card) or a trial file."""
     from dresslog.dataset.manifest import MANIFEST_FILE
-    from dresslog.model.files import CARD_FILE
+    from dresslog.model.files import CARD_FILE, MODEL_FILES
 
     path = Path(path)
-    if path.name in (MANIFEST_FILE, CARD_FILE) and path.is_file():
+    if path.name in {MANIFEST_FILE, *MODEL_FILES} and path.is_file():
         path = path.parent  # `info data/manifest.json` means the folder it describes
     if (path / MANIFEST_FILE).is_file():
         return _dataset(path, as_json)

@@ -550,6 +550,16 @@ def test_info_describes_a_tampered_model_and_fails_and_refuses_a_folder_that_is_
     assert "neither a model folder (no card.json) nor a dataset folder" in output
 
 
+@pytest.mark.parametrize("name", ["model.safetensors", "training.png"])
+def test_info_on_a_model_folders_file_describes_the_model(tmp_path: Path, name: str) -> None:
+    """As on its card.json; the weights were read as a trial, "not an MCAP file; for a ROS
+    bag or a force/torque CSV, run `dresslog convert` first"."""
+    path = _fake_model(tmp_path / "gown", "gown")
+    (path / "training.png").write_bytes(b"\x89PNG")
+    code, output = invoke("info", path / name)
+    assert code == 0 and "dresslog model" in output and "gown, 300 limb points" in output, output
+
+
 def test_train_refuses_to_overwrite_before_training(data: Path, tmp_path: Path) -> None:
     code, output = invoke("train", data, "-o", _fake_model(tmp_path / "m", "gown"))
     assert code == 1 and "model folder exists; pass --overwrite" in output
