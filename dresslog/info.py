@@ -51,16 +51,15 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
 def _inside(path: Path) -> str:
     """What `info` takes in a folder of ours that is neither a model nor a dataset: a
     sweep's (a setting's folder) or a dataset's split folder (the dataset); else ""."""
-    from dresslog.dataset.manifest import MANIFEST_FILE
+    from dresslog.dataset.manifest import dataset_holding
 
     if (path / "sweep.json").is_file():
         return (
             "; a sweep's folder: its table is sweep.csv, and `dresslog info` takes one "
             f"setting's folder, e.g. {path / 'in-range'}"
         )
-    named = path.resolve() if path.name in ("", "..") else path  # `.` names no parent
-    if (named.parent / MANIFEST_FILE).is_file():
-        return f"; a dataset's {named.name} folder: give the dataset, {named.parent}"
+    if (dataset := dataset_holding(path)) is not None:
+        return f"; a dataset's {path.resolve().name} folder: give the dataset, {dataset}"
     return ""
 
 

@@ -724,6 +724,17 @@ def test_info_on_a_sweep_folder_or_a_split_folder_names_the_folder_it_takes(
     assert f"; a dataset's test folder: give the dataset, {data}" in shown.output, shown.output
 
 
+def test_a_split_folder_or_a_trial_given_as_the_dataset_names_the_dataset(tmp_path: Path) -> None:
+    """`train data/gown/train` was told to make a dataset with `dresslog generate`."""
+    data = tmp_path / "data"
+    generate("gown", 3, data, test_fraction=1 / 3, recorder=FAKE, progress=False)
+    result = CliRunner().invoke(main, ["train", str(data / "train"), "-o", str(tmp_path / "m")])
+    said = f"no manifest.json; a dataset's train folder: give the dataset, {data}"
+    assert result.exit_code == 1 and said in result.output, result.output
+    with pytest.raises(DatasetError, match=f"a dataset is a folder: give its dataset, {data}$"):
+        load_dataset(data / "test" / "000000.mcap")
+
+
 def test_info_names_the_sweep_as_the_cure_of_a_damaged_sweep_setting(tmp_path: Path) -> None:
     """`info` on a sweep setting's folder with a trial missing named `generate` (which
     refuses the folder) in its damaged line, above the error naming `sweep`."""

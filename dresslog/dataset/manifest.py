@@ -210,20 +210,30 @@ class Manifest(BaseModel):
         return path
 
 
+def dataset_holding(folder: Path) -> Path | None:
+    """The dataset folder that `folder` lies directly in (a split's), if it is one."""
+    named = folder.resolve() if folder.name in ("", "..") else folder  # `.` names no parent
+    return named.parent if (named.parent / MANIFEST_FILE).is_file() else None
+
+
 def load_manifest(root: str | Path) -> Manifest:
     """Read `root/manifest.json`; a missing or foreign one is one `DatasetError` line."""
     root = Path(root)
     path = root / MANIFEST_FILE
     if root.is_file():
-        hint = f"give its folder, {root.parent}" if root.name == MANIFEST_FILE else "give a folder"
+        hint = "give a folder"
+        if root.name == MANIFEST_FILE:
+            hint = f"give its folder, {root.parent}"
+        elif (dataset := dataset_holding(root.parent)) is not None:  # one of its trials
+            hint = f"give its dataset, {dataset}"
         raise DatasetError(f"is a file; a dataset is a folder: {hint}", path=root)
     if not root.is_dir():
         raise DatasetError("no such dataset folder", path=root)
     if not path.is_file():
-        raise DatasetError(
-            f"no {MANIFEST_FILE}; not a dataset folder (make one with `dresslog generate`)",
-            path=root,
-        )
+        hint = "not a dataset folder (make one with `dresslog generate`)"
+        if (dataset := dataset_holding(root)) is not None:  # `data/gown/test`
+            hint = f"a dataset's {root.resolve().name} folder: give the dataset, {dataset}"
+        raise DatasetError(f"no {MANIFEST_FILE}; {hint}", path=root)
     try:
         raw = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
