@@ -227,6 +227,15 @@ def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Pa
     # the checkpoint's weights carry its input statistics: resuming would silently keep them
     with pytest.raises(ModelError, match=r"\(it had no --normalise, this run --normalise\)"):
         train(phis, forces, checkpoint=ckpt, normalise=True, **kwargs)
+    # options that change what the network reads (the seed: which sequences validate)
+    # on the same data, which were said to be "other data"
+    for option, value, had, has in (
+        ("input_differences", True, "no --input-differences", "--input-differences"),
+        ("balance_loss", True, "no --balance-loss", "--balance-loss"),
+        ("seed", 1, "--seed 0", "--seed 1"),
+    ):
+        with pytest.raises(ModelError, match=rf"other settings \(it had {had}, this run {has}\)"):
+            train(phis, forces, checkpoint=ckpt, **{option: value}, **kwargs)
     more, more_forces = synthetic(9, seed=2, n_points=4)  # the dataset grew since
     with pytest.raises(ModelError, match="other data"):
         train(more, more_forces, checkpoint=ckpt, **kwargs)

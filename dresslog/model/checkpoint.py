@@ -108,7 +108,11 @@ def resume(path: Path, run: RunState) -> None:
     saved, key = metadata["key"], json.loads(json.dumps(run.key))  # compared as stored
     if not isinstance(saved, dict):
         raise ModelError(unreadable, path=path)
-    if saved.get("data") not in (None, key["data"]):
+    # an option first: the data's fingerprint is of what the network reads, which some
+    # options change on the same dataset (--input-differences, --balance-loss; --seed
+    # draws the sequences that validate)
+    difference = _difference(saved, key)
+    if not difference and saved.get("data") not in (None, key["data"]):
         raise ModelError(
             "checkpoint is from a run on other data (the dataset changed since): pass "
             "--overwrite to start afresh",
@@ -116,7 +120,7 @@ def resume(path: Path, run: RunState) -> None:
         )
     if saved != key:
         raise ModelError(
-            f"checkpoint is from a run with other settings{_difference(saved, key)}: repeat "
+            f"checkpoint is from a run with other settings{difference}: repeat "
             "that run's options to resume it, or pass --overwrite to start afresh",
             path=path,
         )
@@ -135,10 +139,11 @@ def resume(path: Path, run: RunState) -> None:
 
 
 def _options(key: dict[str, Any]) -> dict[str, Any]:
-    """A run key's settings by the `train` options that set them."""
+    """A run key's settings by the `train` options that set them (its limb points are
+    the data's)."""
     settings = dict(key.get("settings") or {})
     balance_loss = settings.pop("force_scale", 1.0) != 1.0
-    arch = dict(zip(("n_points", "hidden", "layers"), key.get("arch") or (), strict=False))
+    arch = dict(zip(("hidden", "layers"), (key.get("arch") or [])[1:], strict=False))
     return {**settings, "balance_loss": balance_loss, **arch, "normalise": key.get("normalise")}
 
 
