@@ -103,6 +103,30 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     assert entry.application_id == "dresslog-gown"
 
 
+def _bearings(camera, points: np.ndarray) -> np.ndarray:
+    """Degrees left (-) or right (+) of the camera's axis at which it sees each point."""
+    position, target = (np.array(c.as_arrow_array().to_pylist()[0]) for c in
+                        (camera.position, camera.look_target))  # fmt: skip
+    ahead = (target - position) / np.linalg.norm(target - position)
+    right = np.cross(ahead, [0, 0, 1])
+    rays = points - position
+    return np.degrees(np.arctan2(rays @ right / np.linalg.norm(right), rays @ ahead))
+
+
+def test_the_legs_stacked_maps_show_the_leg_across_most_of_their_width() -> None:
+    """A stacked map is over three times as wide as tall: about 120 degrees across at the
+    viewer's 55 degrees tall. The leg had 80 of them (half the view, the rest empty
+    floor); it has 90 and more, and the gripper's start beyond the foot stays in view."""
+    from dresslog.limb import build_limb, limb_points
+
+    leg = limb_points(build_limb(Task.SHORTS)).points
+    camera = bp.eye(leg)
+    bearings = _bearings(camera, leg)
+    assert bearings.max() - bearings.min() > 90
+    (gripper,) = _bearings(camera, np.array([[1.12, 0.0, 0.19]]))  # README: where it starts
+    assert abs(gripper) < 57
+
+
 def test_logged_estimate_equals_the_engines_output(inferred) -> None:
     trial_path, model_path, rrd = inferred
     trial = read_trial(trial_path)
