@@ -160,6 +160,8 @@ def test_view_save_without_a_model_shows_ground_truth_alone(make_trial, tmp_path
     assert "ground truth only" in result.output
     entities = temporal(rrd)
     assert bp.TRUTH_LIMB in entities and bp.ESTIMATE_LIMB not in entities
+    # the one map says why no estimate is beside it, as a log's estimate says it has no truth
+    assert "Force map: ground truth (no estimate: no model for this trial)" in view_names(rrd)
 
 
 def test_view_of_a_converted_log_without_any_model_asks_for_one(tmp_path, monkeypatch):

@@ -80,7 +80,8 @@ def _maps(has_truth: bool, has_estimate: bool) -> list[tuple[str, str]]:
     """
     views = []
     if has_truth:
-        views.append((TRUTH, "Force map: ground truth"))
+        alone = "" if has_estimate else " (no estimate: no model for this trial)"
+        views.append((TRUTH, f"Force map: ground truth{alone}"))
     if has_estimate:
         alone = "" if has_truth else " (the trial has no ground truth)"
         views.append((ESTIMATE, f"Force map: estimate{alone}"))
