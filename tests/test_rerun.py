@@ -359,6 +359,29 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     assert "the task's nominal limb" in text and "0 to 0.5 N." in text
 
 
+def test_a_trial_with_no_force_on_the_limb_gets_the_fixed_colour_scale(tmp_path: Path) -> None:
+    """A trial cut short before the garment reaches the limb has no force to fit a scale
+    to: it gets a converted log's 0.5 N, not color_scale's 1 N placeholder, which the
+    note gave as though it were the trial's."""
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+    from dresslog.replay.pipeline import replay_file
+    from dresslog.spec import TrialMetadata
+
+    limb = limb_points(build_limb(Task.GOWN))
+    t_ns = np.arange(15, dtype=np.int64) * 10_000_000
+    trial = tmp_path / "untouched.mcap"
+    with TrialWriter(trial, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_limb_points(0, limb)
+        for t in t_ns:
+            writer.write_wrench(t, np.zeros(6))
+            writer.write_twist(t, np.zeros(6))
+            writer.write_force_map(t, np.zeros(len(limb), np.float32))
+    rrd = tmp_path / "untouched.rrd"
+    replay_file(trial, model=save_random_model(tmp_path), rrd=rrd)
+    assert "dark to bright = 0 to 0.5 N (one scale" in spec_text(rrd)
+
+
 def test_a_trial_stamped_on_the_wall_clock_opens_at_zero_seconds_with_its_timestamps(
     tmp_path: Path,
 ) -> None:

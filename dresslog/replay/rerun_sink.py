@@ -58,8 +58,9 @@ GARMENT_COLOR = [80, 120, 180, 110]
 #: x, y, z in red, green, blue, as Rerun and RViz draw axes.
 XYZ_COLORS = [[220, 50, 50], [40, 160, 60], [50, 100, 230]]
 #: Colour scale where no ground truth fixes one (N): a live view, whose range is not
-#: known in advance, and a converted log, whose estimate alone would stretch any weak
-#: force to the top of the scale.
+#: known in advance, a converted log, whose estimate alone would stretch any weak
+#: force to the top of the scale, and a trial whose truth puts no force on the limb
+#: (one cut short before the garment reaches it), which has no scale to fit.
 FIXED_VMAX = 0.5
 #: Stamps from here on (ns; September 2001) are wall-clock times, not times since a
 #: start: a converted log that has them gets a `timestamp` timeline too.
@@ -162,7 +163,8 @@ class RerunSink:
             rec.save(self._tmp, default_blueprint=self.blueprint())
             if self.vmax is None:  # calibrated on the truth, so a poor estimate cannot rescale it
                 truth = _present(self._buf.truth)[1]
-                self.vmax = color_scale(truth) if truth is not None else FIXED_VMAX
+                forced = truth is not None and bool((truth > 0).any())
+                self.vmax = color_scale(truth) if forced else FIXED_VMAX
             self._send_static()
             self.flush()
             rec.flush()
