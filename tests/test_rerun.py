@@ -95,6 +95,8 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     # which model made the estimate, and how it did on this trial
     assert f"Estimate by model {inferred[1]} (3x50 LSTM)." in text
     assert re.search(r"Trial RMSE [0-9.e-]+ N against [0-9.e-]+ N for an all-zero", text)
+    # the scale tops out at the truth's 99.5th percentile: brighter points are not "at most"
+    assert re.search(r"dark to bright = 0 to [0-9.e-]+ N and over \(one scale", text)
     names = view_names(rrd)
     assert {"Force map: ground truth", "Force map: estimate", "RMSE per step (N)"} <= names
     # one application per task: a viewer keeps one layout per application, and a shorts
@@ -356,7 +358,7 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     assert stamps.astype(np.int64).tolist() == [LOG_START_NS + 10_000_000 * i for i in range(15)]
     # a fixed colour scale, not one stretched to a weak estimate; the limb said to be nominal
     text = spec_text(rrd)
-    assert "the task's nominal limb" in text and "0 to 0.5 N." in text
+    assert "the task's nominal limb" in text and "0 to 0.5 N and over." in text
 
 
 def test_a_trial_with_no_force_on_the_limb_gets_the_fixed_colour_scale(tmp_path: Path) -> None:
@@ -379,7 +381,7 @@ def test_a_trial_with_no_force_on_the_limb_gets_the_fixed_colour_scale(tmp_path:
             writer.write_force_map(t, np.zeros(len(limb), np.float32))
     rrd = tmp_path / "untouched.rrd"
     replay_file(trial, model=save_random_model(tmp_path), rrd=rrd)
-    assert "dark to bright = 0 to 0.5 N (one scale" in spec_text(rrd)
+    assert "dark to bright = 0 to 0.5 N and over (one scale" in spec_text(rrd)
 
 
 def test_a_trial_stamped_on_the_wall_clock_opens_at_zero_seconds_with_its_timestamps(

@@ -278,7 +278,8 @@ class RerunSink:
             )
         vmax = f"{self.vmax:.3g} N" if self.vmax is not None else "auto"
         shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
-        lines.append(f"Colour: grey = no force, dark to bright = 0 to {vmax}{shared}.")
+        # the top colour holds every force over vmax, the busiest steps' peaks among them
+        lines.append(f"Colour: grey = no force, dark to bright = 0 to {vmax} and over{shared}.")
         # a live simulation's outcome is not known here: left out, not shown as unknown
         hidden = {"software"} if ctx.source_path else {"software", "outcome"}
         return (
