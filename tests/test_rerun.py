@@ -115,18 +115,24 @@ def _bearings(camera, points: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(rays @ right / np.linalg.norm(right), rays @ ahead))
 
 
-def test_the_legs_stacked_maps_show_the_leg_across_most_of_their_width() -> None:
+@pytest.mark.parametrize(
+    ("alone", "across", "edge"), [(False, 90, 57), (True, 55, 37)], ids=["stacked", "alone"]
+)
+def test_the_legs_view_shows_the_leg_across_most_of_its_width(
+    alone: bool, across: int, edge: int
+) -> None:
     """A stacked map is over three times as wide as tall: about 120 degrees across at the
-    viewer's 55 degrees tall. The leg had 80 of them (half the view, the rest empty
-    floor); it has 90 and more, and the gripper's start beyond the foot stays in view."""
+    viewer's 55 degrees tall; a map alone (no truth, or no model) about 80. The leg had 80
+    and 42 of them (half the view, the rest empty floor); it has over `across`, and the
+    gripper's start beyond the foot stays within `edge` degrees of the view's middle."""
     from dresslog.limb import build_limb, limb_points
 
     leg = limb_points(build_limb(Task.SHORTS)).points
-    camera = bp.eye(leg)
+    camera = bp.eye(leg, alone=alone)
     bearings = _bearings(camera, leg)
-    assert bearings.max() - bearings.min() > 90
+    assert bearings.max() - bearings.min() > across
     (gripper,) = _bearings(camera, np.array([[1.12, 0.0, 0.19]]))  # README: where it starts
-    assert abs(gripper) < 57
+    assert abs(gripper) < edge
 
 
 def test_logged_estimate_equals_the_engines_output(inferred) -> None:

@@ -66,7 +66,7 @@ def eye(points: np.ndarray, alone: bool = False) -> rrb.EyeControls3D:
     center = (low + high) / 2
     size = float(np.max(high - low))
     # from the limb, in limb sizes: (leg, arm), with one view or with two
-    distance = (1.3, 1.2) if alone else (0.5, 1.7)
+    distance = (0.9, 1.2) if alone else (0.5, 1.7)
     position = center + np.array([0.07, -1.0, 0.24]) * distance[not is_long(points)] * size
     return rrb.EyeControls3D(position=position, look_target=center, eye_up=[0, 0, 1])
 
