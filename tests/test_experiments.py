@@ -342,6 +342,9 @@ def test_sweep_writes_a_table_and_a_plot(
     )
     assert code == 1 and "holds 2 sweep trials, made by `dresslog sweep`" in output
     assert (out / "in-range" / "manifest.json").read_bytes() == before
+    for command in (("eval", model, out), ("train", out, "-o", tmp_path / "m")):
+        code, output = invoke(*command)  # the sweep's own folder, not one of its settings'
+        assert code == 1 and "a sweep's folder: `dresslog sweep` scores its settings" in output
 
 
 @pytest.mark.slow

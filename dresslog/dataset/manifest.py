@@ -231,7 +231,9 @@ def load_manifest(root: str | Path) -> Manifest:
         raise DatasetError("no such dataset folder", path=root)
     if not path.is_file():
         hint = "not a dataset folder (make one with `dresslog generate`)"
-        if (dataset := dataset_holding(root)) is not None:  # `data/gown/test`
+        if (root / "sweep.json").is_file():  # a sweep's settings each hold a dataset
+            hint = "a sweep's folder: `dresslog sweep` scores its settings (table: sweep.csv)"
+        elif (dataset := dataset_holding(root)) is not None:  # `data/gown/test`
             hint = f"a dataset's {root.resolve().name} folder: give the dataset, {dataset}"
         raise DatasetError(f"no {MANIFEST_FILE}; {hint}", path=root)
     try:
