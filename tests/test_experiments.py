@@ -584,6 +584,29 @@ def test_train_refuses_a_model_folder_named_as_a_recording(tmp_path: Path, name:
     assert sorted(tmp_path.rglob("*")) == before  # no folder, lock or checkpoint
 
 
+@pytest.mark.parametrize("name", ["x.mcap", "x.rrd", "X.MCAP", "x.bag"])
+@pytest.mark.parametrize("command", ["generate", "sweep"])
+def test_generate_and_sweep_refuse_a_folder_named_as_a_recording(
+    tmp_path: Path, command: str, name: str
+) -> None:
+    """As `train` does: `generate -o data/x.mcap` and `sweep -o runs/x.rrd` made folders
+    that every tool opening a file by its name then took for a trial or a recording."""
+    model = _fake_model(tmp_path / "gown", "gown")
+    before = sorted(tmp_path.rglob("*"))
+    out = tmp_path / "runs" / name
+    what, args = {
+        "generate": ("a dataset", ["generate", "--task", "gown", "--trials", "2"]),
+        "sweep": ("a sweep", ["sweep", model, "--speeds", "0.2", "-n", "1"]),
+    }[command]
+    code, output = invoke(*args, "-o", out, "-q")
+    stem, suffix = Path(name).stem, Path(name).suffix
+    assert code == 1 and output == (
+        f"Error: {out}: {what} is a folder, not a {suffix.lower()} recording; name it "
+        f"without {suffix} (e.g. {tmp_path / 'runs' / stem})\n"
+    ), output
+    assert sorted(tmp_path.rglob("*")) == before  # no folder made
+
+
 @pytest.mark.parametrize(
     ("option", "problem"),
     [

@@ -48,7 +48,7 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
-from dresslog.io.files import exclusive, is_temporary, resolved
+from dresslog.io.files import exclusive, is_temporary, named_as_recording, resolved
 from dresslog.spec import Task, TrialSpec, task_of
 from dresslog.stops import stop_signals
 from dresslog.trial import STEP_HZ
@@ -298,6 +298,8 @@ def generate(
     written up to then lists every failure.
     """
     task = task_of(task, DatasetError)
+    if (misnamed := named_as_recording(out, "a dataset")) is not None:
+        raise DatasetError(misnamed, path=out)
     root = resolved(Path(out))
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")

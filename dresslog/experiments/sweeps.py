@@ -20,7 +20,7 @@ from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE, Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
 from dresslog.experiments.evaluation import check_data_task, finite, score_rows
-from dresslog.io.files import atomic_path, resolved
+from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
@@ -151,8 +151,11 @@ def sweep_settings(
 
 
 def _check_sweep_folder(out: Path) -> None:
-    """Refuse an output that is a file, a link to nothing, or a dataset or model folder
-    (or inside one), where the sweep's setting folders would mix with what is there."""
+    """Refuse an output named as a recording, a file, a link to nothing, or a dataset or
+    model folder (or inside one), where the sweep's setting folders would mix with what is
+    there."""
+    if (misnamed := named_as_recording(out, "a sweep")) is not None:
+        raise DatasetError(misnamed, path=out)
     if out.exists() and not out.is_dir():
         raise DatasetError("is a file; give the sweep a folder of its own", path=out)
     if out.is_symlink() and not out.exists():  # mkdir's "File exists" would mislead

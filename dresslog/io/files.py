@@ -22,6 +22,21 @@ _NAMES = {
     ".mcap": "a trial is an MCAP file; name it .mcap (.rrd is a Rerun recording)",
     ".rrd": "a Rerun recording is named .rrd (.mcap is a trial)",
 }
+#: Names of recordings (a trial, a Rerun recording, ROS bags): `-o x.mcap` for a folder
+#: (a model, a dataset, a sweep) is a slip for the trial or recording meant elsewhere.
+RECORDING_SUFFIXES = (".mcap", ".rrd", ".bag", ".db3")
+
+
+def named_as_recording(folder: str | Path, what: str) -> str | None:
+    """Why `folder`, an output folder for `what` ("a model"), may not have its name: it
+    is named as a recording (`x.mcap`); None if it is not."""
+    folder = Path(folder)
+    if (suffix := folder.suffix.lower()) not in RECORDING_SUFFIXES:
+        return None
+    return (
+        f"{what} is a folder, not a {suffix} recording; name it without {folder.suffix} "
+        f"(e.g. {folder.with_suffix('')})"
+    )
 
 
 def check_output(

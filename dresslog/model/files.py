@@ -54,6 +54,7 @@ from dresslog.errors import ModelError, first_problem
 from dresslog.io.files import (
     check_writable,
     is_temporary,
+    named_as_recording,
     printable,
     sha256_file,
     temporary_path,
@@ -68,9 +69,6 @@ CARD_FILE = "card.json"
 TRAINING_PLOT = "training.png"
 #: What a model folder holds; --overwrite replaces these and nothing else.
 MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
-#: Names of recordings (a trial, a Rerun recording, ROS bags): `-o x.mcap` for a model
-#: folder is a slip for the trial or recording meant elsewhere, not a folder wanted so.
-RECORDING_SUFFIXES = (".mcap", ".rrd", ".bag", ".db3")
 FORMAT: Final = "dresslog-model"
 #: 2 added `data.signal`; a card of a newer version than this is refused as such, before
 #: the fields this dresslog does not know would be.
@@ -228,12 +226,8 @@ def check_model_folder(path: str | Path, overwrite: bool) -> None:
     given as the output by mistake is refused, with or without it.
     """
     path = Path(path)
-    if (suffix := path.suffix.lower()) in RECORDING_SUFFIXES:  # before anything is made
-        raise ModelError(
-            f"a model is a folder, not a {suffix} recording; name it without {path.suffix} "
-            f"(e.g. {path.with_suffix('')})",
-            path=path,
-        )
+    if (misnamed := named_as_recording(path, "a model")) is not None:  # before anything is made
+        raise ModelError(misnamed, path=path)
     made = next(p for p in (path.parent, *path.parent.parents) if p.exists())  # the rest is made
     if not made.is_dir():
         raise ModelError(f"{made} is a file, not a folder", path=path)
