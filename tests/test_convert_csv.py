@@ -296,6 +296,25 @@ def test_a_wrench_csv_without_motion_is_refused(tmp_path: Path) -> None:
         convert(path, tmp_path / "t.mcap", "gown")
 
 
+@pytest.mark.parametrize(("folder", "problem"), [(False, "no such file"), (True, "is a folder")])
+def test_a_motion_file_not_there_is_named_as_the_log_is(
+    tmp_path: Path, folder: bool, problem: str
+) -> None:
+    """`--motion` naming no file was told `cannot read CSV: [Errno 2] No such file or
+    directory: 'pose.csv'`, its name twice and Python's errno between."""
+    forces = ati_style(tmp_path)
+    motion = tmp_path / "pose.csv"
+    if folder:
+        motion.mkdir()
+    result = CliRunner().invoke(
+        main, ["convert", str(forces), "--motion", str(motion), "-o", str(tmp_path / "t.mcap"),
+               "--task", "gown"],
+    )  # fmt: skip
+    assert result.exit_code == 1
+    assert result.output == f"Error: {motion}: {problem}; --motion takes a CSV file\n"
+    assert not (tmp_path / "t.mcap").exists()
+
+
 @pytest.mark.parametrize(
     ("fault", "message"),
     [

@@ -86,6 +86,9 @@ def load(
     if is_csv:
         from dresslog.convert.csv import read_csv
 
+        if motion is not None and not motion.is_file():  # as the log itself is told
+            problem = "is a folder" if motion.is_dir() else "no such file"
+            raise ConversionError(f"{problem}; --motion takes a CSV file", path=motion)
         return read_csv(path, motion=motion, columns=columns, time_unit=time_unit)
     if path.is_dir() and not (path / "metadata.yaml").is_file():
         raise ConversionError("folder has no metadata.yaml, so it is not a ROS 2 bag", path=path)
