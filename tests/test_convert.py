@@ -463,6 +463,21 @@ def test_a_truncated_bag_is_refused_with_the_tool_that_may_repair_it(
         convert(bare, tmp_path / "out.mcap", "gown")
 
 
+@pytest.mark.parametrize("name", ["noise.bag", "bag/metadata.yaml"])
+def test_a_bag_of_bytes_that_are_not_text_is_one_line(tmp_path: Path, name: str) -> None:
+    """A .bag file (or a bag folder's metadata.yaml) of binary bytes where rosbags reads
+    text had ended `convert` in a traceback of UnicodeDecodeError."""
+    path = tmp_path / name
+    path.parent.mkdir(exist_ok=True)
+    path.write_bytes(bytes(range(128, 256)) * 20)
+    bag = path if path.suffix == ".bag" else path.parent
+    args = ["convert", str(bag), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and len(result.output.splitlines()) == 1, result.output
+    assert result.output.startswith(f"Error: {bag}: cannot read bag: 'utf-8' codec can't decode")
+    assert not (tmp_path / "out.mcap").exists()
+
+
 def test_a_ros2_bag_with_broken_metadata_is_one_line(tmp_path: Path) -> None:
     bag = make_bag(tmp_path, standard_topics(1.0), "ros2")
     (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 9")

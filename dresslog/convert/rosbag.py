@@ -232,7 +232,9 @@ def read_bag(
     """
     path = Path(path)
     highlevel, rosbag1, rosbag2, typesys = _rosbags()
-    errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError)
+    # UnicodeDecodeError: bytes where rosbags reads text (a ROS 1 bag's first line, the YAML)
+    errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError,
+              UnicodeDecodeError)  # fmt: skip
     wanted = {"wrench": wrench_topic, "twist": twist_topic, "pose": pose_topic}
     try:
         default = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
