@@ -628,7 +628,12 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
 @pytest.mark.parametrize(
     ("options", "code", "message"),
     [
-        (["--rotate", "0", "0", "0", "0"], 1, "a rotation quaternion is 4 finite numbers"),
+        (["--rotate", "0", "0", "0", "0"], 1, "--rotate: a rotation quaternion is 4 finite"),
+        (
+            ["--rotate", *"0001", "--wrench-frame", "pose", "--sensor-rotation", *"0000"],
+            1,
+            "--sensor-rotation: a rotation quaternion is 4 finite",
+        ),
         (["--tare", "10"], 1, "tare of 10.0 s is longer than the log"),
         (["--tare", "1e-10"], 1, "tare of 1e-10 s is shorter than one 0.01 s step"),
         (["--column", "fq=Fx (N)"], 1, "unknown column role 'fq'"),
@@ -637,6 +642,7 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
     ],
     ids=[
         "rotate",
+        "sensor-rotation",
         "long-tare",
         "tiny-tare",
         "unknown-role",

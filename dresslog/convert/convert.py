@@ -300,9 +300,11 @@ def _check_arguments(
                 "its name is not UTF-8, which the trial's metadata must be; rename it",
                 path=printable(given),
             )
-    for quat in (rotate, sensor_rotation):
+    for option, quat in (("--rotate", rotate), ("--sensor-rotation", sensor_rotation)):
         if quat is not None and not (_finite(quat, 4) and np.linalg.norm(quat) > 0):
-            raise ConversionError("a rotation quaternion is 4 finite numbers, x y z w, not all 0")
+            raise ConversionError(
+                f"{option}: a rotation quaternion is 4 finite numbers, x y z w, not all 0"
+            )
     mount = [
         n for n, v in (("rotation", sensor_rotation), ("offset", sensor_offset)) if v is not None
     ]
