@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dresslog.convert.resample import rotate_vectors, rotation_matrix
+from dresslog.convert.resample import rotate_pose, rotate_vectors
 from dresslog.io import TrialReader
 
 #: The README's `convert --rotate`: -90 degrees about z turns the robot's base axes
@@ -47,15 +47,8 @@ NOISE = (0.02, 0.001)  # N, N m: one standard deviation per sample
 HOLD_S = 1.0
 
 
-def _quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return np.array([
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ])  # fmt: skip
+def _inverse(quat: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    return (-quat[0], -quat[1], -quat[2], quat[3])
 
 
 def robot_log(trial: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -67,8 +60,7 @@ def robot_log(trial: Path) -> tuple[np.ndarray, np.ndarray]:
     seconds = START_S + np.arange(hold + len(wrench.t_ns)) / 100  # the trial's 100 Hz steps
     hanging = np.zeros((hold, 6))  # what the simulator tared away
     world = np.concatenate([hanging, wrench.values]) + np.array([0, 0, -weight, 0, 0, 0])
-    tool = rotation_matrix(TOOL_IN_WORLD)  # rows @ tool: each vector in the tool's axes
-    sensor = np.concatenate([world[:, :3] @ tool, world[:, 3:] @ tool], axis=1)
+    sensor = rotate_vectors(world, _inverse(TOOL_IN_WORLD))  # in the tool's axes
     # the sensor's own clock, from a sample before the first step to one after the last:
     # each sample reads the step whose 10 ms it falls in (centred on the step's time)
     reach = (len(seconds) - 1) * SENSOR_HZ // 100 + 6
@@ -77,11 +69,11 @@ def robot_log(trial: Path) -> tuple[np.ndarray, np.ndarray]:
     noise = np.random.default_rng(0).normal(size=(len(ft_t), 6)) * np.repeat(NOISE, 3)
     ft = np.column_stack([ft_t, sensor[step] + noise])
 
-    to_base = (-ROTATE[0], -ROTATE[1], -ROTATE[2], ROTATE[3])  # the inverse turn
     held = np.concatenate([np.repeat(pose.values[:1, :3], hold, axis=0), pose.values[:, :3]])
-    position = rotate_vectors(held, to_base) + ELBOW_IN_BASE
-    held_tool = _quat_multiply(np.array(to_base), np.array(TOOL_IN_WORLD))
-    pose_rows = np.column_stack([seconds, position, np.tile(held_tool, (len(seconds), 1))])
+    tool = np.tile(TOOL_IN_WORLD, (len(held), 1))
+    in_base = rotate_pose(np.column_stack([held, tool]), _inverse(ROTATE))
+    in_base[:, :3] += ELBOW_IN_BASE
+    pose_rows = np.column_stack([seconds, in_base])
     return ft, pose_rows
 
 
