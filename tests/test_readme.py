@@ -84,3 +84,52 @@ def test_robot_sample_is_what_its_script_makes(tmp_path: Path) -> None:
     )  # fmt: skip
     for name in ("ft.csv", "pose.csv"):
         assert (tmp_path / name).read_bytes() == (ROOT / "samples/robot" / name).read_bytes()
+
+
+def _anchors(markdown: str) -> set[str]:
+    """GitHub's anchors for the headings of `markdown`: lower case, inline code and
+    punctuation dropped, spaces as hyphens, a repeated heading numbered from -1."""
+    anchors: set[str] = set()
+    for heading in re.findall(r"^#+ (.+)$", _prose(markdown), re.M):
+        text = re.sub(r"\[([^]]*)\]\([^)]*\)", r"\1", heading).replace("`", "").lower()
+        slug = re.sub(r"[^\w\- ]", "", text.strip()).replace(" ", "-")
+        unique, n = slug, 0
+        while unique in anchors:
+            n += 1
+            unique = f"{slug}-{n}"
+        anchors.add(unique)
+    return anchors
+
+
+def _prose(markdown: str) -> str:
+    """`markdown` without its fenced code blocks, whose `#` lines are comments."""
+    return re.sub(r"^```.*?^```", "", markdown, flags=re.S | re.M)
+
+
+def _documents() -> list[Path]:
+    return [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+
+@pytest.mark.parametrize("document", _documents(), ids=lambda p: p.name)
+def test_relative_links_point_at_a_file_and_heading_that_exist(document: Path) -> None:
+    """A reader following a link from the README or docs/ lands where it says: the file
+    (or folder) exists and, for `file.md#anchor`, so does the heading."""
+    broken = []
+    for target in re.findall(r"\]\(([^)\s]+)\)", _prose(document.read_text())):
+        if re.match(r"[a-z]+:", target):  # https:, mailto:
+            continue
+        path, _, anchor = target.partition("#")
+        resolved = (document.parent / path).resolve() if path else document
+        missing = not resolved.exists()
+        if missing or (anchor and anchor not in _anchors(resolved.read_text())):
+            broken.append(target)
+    assert not broken, f"{document.name}: links that lead nowhere: {broken}"
+
+
+def test_readme_test_command_is_what_ci_runs() -> None:
+    """The README's command that sets up and runs the tests is .ci/run's, verbatim."""
+    readme = (ROOT / "README.md").read_text()
+    command = 'pip install torch==2.13.0 && pip install -e ".[test]" && python -m pytest'
+    assert f"```sh\n{command}\n```" in readme
+    ci_lines = (ROOT / ".ci/run").read_text().splitlines()
+    assert command in ci_lines
