@@ -133,3 +133,27 @@ def test_readme_test_command_is_what_ci_runs() -> None:
     assert f"```sh\n{command}\n```" in readme
     ci_lines = (ROOT / ".ci/run").read_text().splitlines()
     assert command in ci_lines
+
+
+def test_every_command_and_option_is_in_the_reference() -> None:
+    """Each command has a row in the README's table linking to its section of
+    docs/commands.md, and that section names every one of the command's options."""
+    import click
+
+    from dresslog.cli.main import main
+
+    readme = (ROOT / "README.md").read_text()
+    reference = (ROOT / "docs/commands.md").read_text()
+    sections = dict(re.findall(r"^## dresslog (\w+)\n(.*?)(?=^## )", reference, re.S | re.M))
+    ctx = click.Context(main)
+    for name in main.list_commands(ctx):
+        assert f"](docs/commands.md#dresslog-{name})" in readme, name
+        assert name in sections, f"docs/commands.md has no section for {name}"
+        command = main.get_command(ctx, name)
+        assert command is not None
+        for param in command.params:
+            if isinstance(param, click.Option) and "--help" not in param.opts:
+                named = (
+                    re.search(rf"`{re.escape(opt)}(?![\w-])", sections[name]) for opt in param.opts
+                )
+                assert any(named), f"docs/commands.md: {name} does not explain {param.opts}"
