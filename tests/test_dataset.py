@@ -13,6 +13,7 @@ import sys
 import threading
 import time
 import warnings
+from contextlib import nullcontext
 from ctypes import c_bool
 from multiprocessing.synchronize import Event
 from pathlib import Path
@@ -565,6 +566,32 @@ def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
     lock = exclusive(tmp_path / "s" / ".generate.lock", "dresslog sweep")
     with lock, pytest.raises(DresslogError, match=r"another `dresslog sweep` .* is writing it"):
         generate("gown", 0, tmp_path / "s", workers=1, splits={"sweep": 1}, recorder=FAKE)
+
+
+def test_generate_names_its_folder_as_given_not_as_its_absolute_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """As every other command does: generate had named /the/whole/resolved/path."""
+    monkeypatch.chdir(tmp_path)
+    generate("gown", 2, tmp_path / "data" / "gown", workers=1, test_fraction=0, recorder=FAKE)
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "notes.txt").write_text("mine")
+    lock = tmp_path / "data" / "gown" / ".generate.lock"
+    runs = [
+        (
+            ["-o", "data/gown", "--seed", "3"],
+            "data/gown: folder holds a dataset with seed 0, not 3",
+        ),
+        (["-o", "./full"], "full: folder is not empty and holds no dataset"),
+        (["-o", "data/gown"], "data/gown: another `dresslog generate` ("),
+    ]
+    for options, message in runs:
+        held = "another" in message
+        with exclusive(lock, "dresslog generate") if held else nullcontext():
+            args = ["generate", "--task", "gown", "--trials", "1", *options]
+            result = CliRunner().invoke(main, args)
+        assert result.exit_code == 1 and f"Error: {message}" in result.output, result.output
+        assert str(tmp_path) not in result.output
 
 
 @pytest.mark.slow

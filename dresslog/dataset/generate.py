@@ -47,7 +47,7 @@ from dresslog.dataset.manifest import (
     load_manifest,
     trial_seed,
 )
-from dresslog.errors import DatasetError, DresslogWarning, first_problem
+from dresslog.errors import DatasetError, DresslogError, DresslogWarning, first_problem
 from dresslog.io.files import exclusive, is_temporary, named_as_recording, resolved
 from dresslog.spec import Task, TrialSpec, task_of
 from dresslog.stops import stop_signals
@@ -300,7 +300,8 @@ def generate(
     task = task_of(task, DatasetError)
     if (misnamed := named_as_recording(out, "a dataset")) is not None:
         raise DatasetError(misnamed, path=out)
-    root = resolved(Path(out))
+    given = Path(out)
+    root = resolved(given)  # absolute: a Ray worker's working folder is not ours
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")
     if workers is not None and ((whole := _whole(workers)) is None or whole < 0):
@@ -322,24 +323,42 @@ def generate(
             f"sim.record_hz {fixed.sim.record_hz}: a dataset is recorded at {STEP_HZ} Hz, "
             "the rate every model reads"
         )
-    _check_folder(root)
-    check_executor(executor)
-    root.mkdir(parents=True, exist_ok=True)
-    command = "dresslog sweep" if Split.SWEEP in counts else "dresslog generate"  # its folders
-    with exclusive(root / LOCK_FILE, command):
-        manifest = _open_manifest(root, task, seed, counts, overrides)
-        for split in Split:
-            if manifest.wanted(split):
-                (root / split.value).mkdir(exist_ok=True)
-        jobs = _plan(root, manifest, recorder, workers)
-        _tidy(root, manifest)
-        manifest.save(root)
-        if splits is None:  # a sweep asks for its one split by count
-            _warn_if_a_split_is_empty(Path(out), trials, test_fraction, counts)
-        if jobs:
-            label = (label or manifest.task.value) if progress else None
-            _run(root, manifest, jobs, executor, workers, max_attempts, label)
+    with _named_as_given(root, given):  # the folder's errors, every one of them
+        _check_folder(root)
+        check_executor(executor)
+        root.mkdir(parents=True, exist_ok=True)
+        command = "dresslog sweep" if Split.SWEEP in counts else "dresslog generate"  # its folders
+        with exclusive(root / LOCK_FILE, command):
+            manifest = _open_manifest(root, task, seed, counts, overrides)
+            for split in Split:
+                if manifest.wanted(split):
+                    (root / split.value).mkdir(exist_ok=True)
+            jobs = _plan(root, manifest, recorder, workers)
+            _tidy(root, manifest)
+            manifest.save(root)
+            if splits is None:  # a sweep asks for its one split by count
+                _warn_if_a_split_is_empty(given, trials, test_fraction, counts)
+            if jobs:
+                label = (label or manifest.task.value) if progress else None
+                _run(root, manifest, jobs, executor, workers, max_attempts, label)
     return manifest
+
+
+@contextmanager
+def _named_as_given(root: Path, given: Path) -> Iterator[None]:
+    """Errors about the folder name it as the user wrote it (`given`), as every other
+    command does, not as its absolute path (`root`), which generate works on."""
+    try:
+        yield
+    except DresslogError as err:
+        if err.path == root:
+            err.path = given
+            err.args = (f"{given}: {err.message}",)
+        raise
+    except OSError as err:  # a full disk, a read-only folder: the file inside it
+        if isinstance(err.filename, str) and Path(err.filename).is_relative_to(root):
+            err.filename = str(given / Path(err.filename).relative_to(root))
+        raise
 
 
 @contextmanager
