@@ -6,6 +6,7 @@ commands that take none of them (`infer`, `view`, `info`) do not load at start-u
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -40,3 +41,14 @@ def duration_option(each: str, kind: Any = float) -> Callable[[Any], Any]:
         "end, and a path takes 4-7 s.",
         show_default=f"{TrialSpec.model_fields['duration'].default:g} s",
     )
+
+
+class FiniteRange(click.FloatRange):
+    """`click.FloatRange` that refuses nan too, which compares false with either bound and
+    so slipped through to the library's error (exit 1, not the usage error's 2)."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if math.isnan(number):
+            self.fail(f"{number} is not in the range {self._describe_range()}.", param, ctx)
+        return number

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import click
 
-from dresslog.spec import MAX_OFFSET
+from dresslog.spec import MAX_OFFSET, MAX_ROTATION, MAX_SPEED
 
 from .common import reports_errors
-from .options import duration_option, task_option
+from .options import FiniteRange, duration_option, task_option
 
 
 @click.command("record")
@@ -18,15 +18,16 @@ from .options import duration_option, task_option
               required=True, help="Trial file to write (.mcap).")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws speed, limb offset and path.")  # fmt: skip
-@click.option("--speed", type=float, metavar="M/S",
-              help="End-effector speed, m/s (0<x<=1).",
+@click.option("--speed", type=FiniteRange(0, MAX_SPEED, min_open=True), metavar="M/S",
+              help="End-effector speed, m/s.",
               show_default="from --seed: gown 0.10-0.15, shorts 0.15-0.20")  # fmt: skip
-@click.option("--offset", type=float, nargs=3, metavar="X Y Z",
-              help=f"Limb offset from its nominal pose, m (each within +-{MAX_OFFSET:g}).",
+@click.option("--offset", type=FiniteRange(-MAX_OFFSET, MAX_OFFSET), nargs=3, metavar="X Y Z",
+              help="Limb offset from its nominal pose, m (the range is each component's).",
               show_default="from --seed, within the paper's ranges")  # fmt: skip
-@click.option("--rotation", type=(click.Choice(["x", "y", "z"]), float), metavar="AXIS DEG",
+@click.option("--rotation", type=(click.Choice(["x", "y", "z"]),
+              FiniteRange(-MAX_ROTATION, MAX_ROTATION)), metavar="AXIS DEG",
               help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
-              "(-90<=DEG<=90).", show_default="none")  # fmt: skip
+              f"(-{MAX_ROTATION:g}<=DEG<={MAX_ROTATION:g}).", show_default="none")  # fmt: skip
 @duration_option("")
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")

@@ -35,6 +35,10 @@ MAX_DURATION = 3600.0
 #: How far (m) the limb may move from its nominal pose along each axis: the paper's
 #: range is +-0.2 m; a few metres away (a limb the garment never reaches) still simulates.
 MAX_OFFSET = 10.0
+#: Fastest end-effector speed a spec accepts, m/s (the paper's: 0.10-0.20).
+MAX_SPEED = 1
+#: Largest turn of the distal limb part either way, degrees: a joint's range, not a full turn.
+MAX_ROTATION = 90
 #: The sensor is tared over the last this many seconds of the settling, after the wind.
 TARE_S = 0.1
 #: Validation context for specs read back from a recording or a manifest: the checks that
@@ -89,7 +93,7 @@ class LimbRotation(BaseModel):
 
     axis: Literal["x", "y", "z"] = "z"
     # a joint's range, not a full turn: 999 degrees is a typo, not a pose
-    degrees: Annotated[float, Field(ge=-90, le=90)] = 0.0
+    degrees: Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)] = 0.0
 
 
 class SimParams(BaseModel):
@@ -160,7 +164,7 @@ class TrialSpec(BaseModel):
     task: Task
     seed: int = Field(0, ge=0)
     speed: Annotated[
-        float, Field(gt=0, le=1, description="end-effector speed, m/s (dressing: cm/s)")
+        float, Field(gt=0, le=MAX_SPEED, description="end-effector speed, m/s (dressing: cm/s)")
     ] = 0.125
     limb_offset: Vec3 = Field((0.0, 0.0, 0.0), description="limb offset from nominal, m")
     limb_rotation: LimbRotation = LimbRotation()
