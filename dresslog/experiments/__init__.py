@@ -20,15 +20,17 @@ on_epoch=None) -> ModelCard``
 -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome
     (each a ``Scores``), with contact-map precision and recall; with ``bounds``, the
-    oracle ratios too (none when the split carries no force). ``.table()`` is what
-    ``eval`` prints, ``.to_json()`` what ``eval --json`` prints.
+    oracle ratios too (none when the split carries no force, which a ``DresslogWarning``
+    naming `data` explains: the all-zero RMSE is 0, so the ratios are nan). ``.table()``
+    is what ``eval`` prints, ``.to_json()`` what ``eval --json`` prints.
 ``dataset_bounds(data, *, split="test", workers=None) -> dict[str, float]``
     Those oracle ratios alone (`dresslog.model.bounds`), each an estimate handed part of
     the truth; empty when the split carries no force.
 ``sweep(model, out, *, speeds=(), rotations=(), n=128, seed=0, ...) -> SweepReport``
     Figs. 12 and 13: the same `n` fresh sequences (sweep seeds, disjoint from every
     training and test seed) re-simulated per setting; RMSE per setting and its ratio to
-    the in-range setting; `out/sweep.csv`, `out/sweep.json` and `out/sweep.png`.
+    the in-range setting; `out/sweep.csv`, `out/sweep.json` and `out/sweep.png`; a
+    ``DresslogWarning`` names the settings whose sequences carry no force (ratios nan).
     ``SweepReport.table()`` is what ``sweep`` prints. The pieces it is made of:
     ``sweep_settings(task, speeds, rotations, duration)`` (the ``Setting``s, the
     in-range one first; a rotation is swept at the task's mid-range ``ROTATION_SPEED``),

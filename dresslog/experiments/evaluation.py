@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -12,7 +13,8 @@ import numpy as np
 
 from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
 from dresslog.dataset.manifest import as_split
-from dresslog.errors import DatasetError
+from dresslog.errors import DatasetError, DresslogWarning
+from dresslog.io.files import printable
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.evaluate import Scores, evaluate
 from dresslog.model.files import (
@@ -91,6 +93,20 @@ def check_data_task(model: LoadedModel, task: Task, n_points: int | None = None)
     check_task(model, task, n_points, subject="data", hint=hint)
 
 
+def warn_no_force(
+    where: str | Path, sequences: str, consequence: str, cure: str, *, stacklevel: int = 2
+) -> None:
+    """Say that no `sequences` (of the data at `where`) carries force on the limb, so
+    `consequence`: trials that end before the garment reaches the limb are the natural
+    first try, and a model trained or scored on them gives numbers (none, nan) that do not
+    say why. `stacklevel` counts from the caller, as `warnings.warn`'s does."""
+    warnings.warn(
+        f"{printable(where)}: no {sequences} carries force on the limb, so {consequence}; {cure}",
+        DresslogWarning,
+        stacklevel=stacklevel + 1,
+    )
+
+
 def score_rows(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
     """The model's scores on these rows of the dataset (eval's groups, a sweep's setting)."""
     return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
@@ -124,13 +140,21 @@ def evaluate_dataset(
     for outcome in [*OUTCOMES, *sorted(present - set(OUTCOMES))]:
         chosen = arrays.rows(split, outcome)
         per_outcome[outcome] = score_rows(loaded, arrays, chosen) if len(chosen) else Scores.none()
+    overall = score_rows(loaded, arrays, rows)
+    if overall.zero_rmse == 0:  # every ratio divides by it: nan, which the table cannot explain
+        warn_no_force(
+            data,
+            f"{split} sequence (outcomes: {', '.join(sorted(present))})",
+            "the all-zero RMSE is 0 and the ratios to it, as contact recall, are not numbers (nan)",
+            "score the model on longer trials (generate --duration)",
+        )
     return EvalReport(
         task=arrays.task.value,
         model=str(model),
         data=str(data),
         split=split.value,
         manifest_sha256=arrays.manifest_sha256,
-        overall=score_rows(loaded, arrays, rows),
+        overall=overall,
         per_outcome=per_outcome,
         bounds=_bounds(arrays, rows) if bounds else None,
     )

@@ -19,7 +19,12 @@ from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE, Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
-from dresslog.experiments.evaluation import check_data_task, finite, score_rows
+from dresslog.experiments.evaluation import (
+    check_data_task,
+    finite,
+    score_rows,
+    warn_no_force,
+)
 from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.evaluate import Scores
@@ -240,6 +245,14 @@ def sweep(
     baseline = done[0].scores
     assert baseline is not None
     report = SweepReport(task.value, str(model), n, baseline.rmse, done)
+    if empty := [s.name for s in done if s.scores is not None and s.scores.zero_rmse == 0]:
+        in_range = ", as is x in-range, the in-range RMSE being 0 too" if baseline.rmse == 0 else ""
+        warn_no_force(
+            out,
+            f"sweep sequence of {', '.join(empty)}",
+            f"the all-zero RMSE is 0 and the ratio to it is not a number (nan){in_range}",
+            "sweep longer sequences (--duration)",
+        )
     _write_sweep(out, report)
     return report
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -10,7 +9,8 @@ import numpy as np
 
 from dresslog.dataset import Split, load_dataset, load_manifest
 from dresslog.dataset.manifest import MIN_TRAIN
-from dresslog.errors import DatasetError, DresslogWarning
+from dresslog.errors import DatasetError
+from dresslog.experiments.evaluation import warn_no_force
 from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
 from dresslog.model.evaluate import evaluate
 from dresslog.model.files import (
@@ -69,12 +69,12 @@ def train_dataset(
         arrays = load_dataset(data, workers=workers, progress=progress)
         rows = arrays.rows(Split.TRAIN)
         if not any(arrays.forces[row].any() for row in rows):  # trials too short to touch
-            warnings.warn(
-                f"no training sequence carries force on the limb (outcomes: "
-                f"{', '.join(sorted(set(arrays.outcomes[rows].tolist())))}), so the model can "
-                "only learn to estimate none; generate longer trials (--duration)",
-                DresslogWarning,
-                stacklevel=2,
+            warn_no_force(
+                data,
+                f"training sequence (outcomes: "
+                f"{', '.join(sorted(set(arrays.outcomes[rows].tolist())))})",
+                "the model can only learn to estimate none",
+                "generate longer trials (--duration)",
             )
         from dresslog.model.files import save_model
         from dresslog.model.train import make_card, train  # torch once the data checks out
