@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from mcap.writer import Writer
 
 from dresslog.cli.main import main
 from dresslog.convert import ConversionWarning, convert
@@ -461,6 +462,62 @@ def test_a_truncated_bag_is_refused_with_the_tool_that_may_repair_it(
     bare.write_bytes((SAMPLES / "gown.mcap").read_bytes()[:300_000])
     with pytest.raises(ConversionError, match=r"`mcap recover` may repair it"):
         convert(bare, tmp_path / "out.mcap", "gown")
+
+
+def _foreign_mcap(path: Path, profile: str, schema: str, encoding: str) -> Path:
+    """An MCAP file of another tool's, by mcap's own writer: a wrench topic of `profile`,
+    its schema and messages in `schema` and `encoding`."""
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile=profile, library="another tool")
+        sid = writer.register_schema("geometry_msgs/msg/WrenchStamped", schema, b"{}")
+        cid = writer.register_channel("/ft", encoding, sid)
+        for i in range(20):
+            writer.add_message(cid, i * 10_000_000, b'{"force": [0, 0, 1]}', i * 10_000_000, i)
+        writer.finish()
+    return path
+
+
+READS = "convert reads ROS 1 bags, ROS 2 bags (a folder, or an MCAP file of profile 'ros2' "
+
+
+@pytest.mark.parametrize(
+    ("kind", "message"),
+    [
+        ("ros1", f"an MCAP file of profile 'ros1', not ROS 2's 'ros2'; {READS}"),
+        ("no-profile", f"an MCAP file with no profile, not ROS 2's 'ros2'; {READS}"),
+        ("json", f"MCAP channels not in ROS 2's CDR: /ft (json); {READS}"),
+        ("json-schema", f"MCAP channels not in ROS 2's CDR: /ft (schema jsonschema); {READS}"),
+        ("not-mcap", f"not an MCAP file (it does not begin as one); {READS}"),
+        ("truncated", "MCAP file is truncated (no end record), as when its recording was cut "
+                      "short; `mcap recover` may repair it"),
+    ],
+)  # fmt: skip
+def test_an_mcap_file_convert_cannot_read_is_named_for_what_it_is(
+    tmp_path: Path, kind: str, message: str
+) -> None:
+    """A foreign MCAP file was told "Profile is not ros2." with a truncated file's cure,
+    `mcap recover`, and one of JSON schemas ended in rosbags' KeyError."""
+    path = tmp_path / f"{kind}.mcap"
+    if kind == "ros1":
+        _foreign_mcap(path, "ros1", "ros1msg", "ros1")
+    elif kind == "no-profile":
+        _foreign_mcap(path, "", "jsonschema", "json")
+    elif kind == "json":
+        _foreign_mcap(path, "ros2", "jsonschema", "json")
+    elif kind == "json-schema":
+        _foreign_mcap(path, "ros2", "jsonschema", "cdr")
+    elif kind == "not-mcap":
+        path.write_text("time,fx,fy,fz\n0,1,2,3\n")
+    else:
+        whole = write_bag(tmp_path / "log", standard_topics(1.0), "mcap")
+        path.write_bytes(next(whole.glob("*.mcap")).read_bytes()[:2000])
+    args = ["convert", str(path), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1, result.output
+    assert result.output.startswith(f"Error: {path}: {message}"), result.output
+    assert len(result.output.splitlines()) == 1 and not (tmp_path / "out.mcap").exists()
+    assert ("recover" in result.output) is (kind == "truncated")
 
 
 @pytest.mark.parametrize("name", ["noise.bag", "bag/metadata.yaml"])

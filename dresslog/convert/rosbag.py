@@ -24,6 +24,13 @@ from dresslog.io import cdr
 from dresslog.io import well_known as wk
 
 INSTALL_HINT = "reading ROS bags needs rosbags: pip install 'dresslog[ros]'"
+#: What to do with a log in another format: no repair makes it ROS 2, an export does.
+READS = (
+    "convert reads ROS 1 bags, ROS 2 bags (a folder, or an MCAP file of profile 'ros2' "
+    "with CDR messages) and CSV: export the wrench and the twist or pose as one of those"
+)
+#: Schema encodings rosbags reads in a ROS 2 MCAP file (another is a KeyError in it).
+ROS2_SCHEMA_ENCODINGS = frozenset({"ros2msg", "ros2idl", "omgidl", ""})
 OPTIONS = {"wrench": "--wrench-topic", "twist": "--twist-topic", "pose": "--pose-topic"}
 #: CDR field names of each kind's two value blocks: those of our own topic of that kind.
 FIELDS = {
@@ -217,6 +224,71 @@ def choose_topics(
     return chosen, notes
 
 
+def check_mcap(path: Path) -> None:
+    """Refuse an MCAP file that rosbags cannot read as ROS 2, saying which kind it is: not
+    MCAP, of another profile (ROS 1, none), with channels not in CDR (JSON, say), or cut
+    short. rosbags said "Profile is not ros2." beside the cure of a cut-short file, and a
+    JSON schema ended in its KeyError."""
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+    from mcap.records import Channel, Schema
+    from mcap.stream_reader import StreamReader
+
+    from dresslog.io.reader import MAGIC
+
+    with path.open("rb") as stream:
+        head = stream.read(len(MAGIC))
+        if head != MAGIC:
+            problem = "file is empty" if not head else "not an MCAP file (it does not begin as one)"
+            raise ConversionError(f"{problem}; {READS}", path=path)
+        stream.seek(-len(MAGIC), 2)
+        ended = stream.read() == MAGIC  # the footer's magic: the file was closed
+        stream.seek(0)
+        try:
+            reader = make_reader(stream)
+            profile = reader.get_header().profile
+            if profile != wk.PROFILE:
+                shown = f"of profile {profile!r}" if profile else "with no profile"
+                raise ConversionError(
+                    f"an MCAP file {shown}, not ROS 2's {wk.PROFILE!r}; {READS}", path=path
+                )
+            if not ended:
+                raise ConversionError(
+                    "MCAP file is truncated (no end record), as when its recording was cut "
+                    "short; `mcap recover` may repair it",
+                    path=path,
+                )
+            summary = reader.get_summary()
+            if summary is not None:
+                schemas, channels = summary.schemas, list(summary.channels.values())
+            else:  # no summary section: the records themselves, each let go once seen
+                stream.seek(0)
+                schemas, channels = {}, []
+                for record in StreamReader(stream).records:
+                    if isinstance(record, Schema):
+                        schemas[record.id] = record
+                    elif isinstance(record, Channel):
+                        channels.append(record)
+        except (McapError, ValueError, EOFError) as err:
+            raise ConversionError(
+                f"MCAP file is damaged ({err}); `mcap recover` may salvage its messages",
+                path=path,
+            ) from None
+    foreign = []
+    for channel in channels:
+        schema = schemas.get(channel.schema_id)
+        encoding = schema.encoding if schema is not None else ""
+        if channel.message_encoding != wk.MESSAGE_ENCODING:
+            foreign.append(f"{channel.topic} ({channel.message_encoding})")
+        elif encoding not in ROS2_SCHEMA_ENCODINGS:
+            foreign.append(f"{channel.topic} (schema {encoding})")
+    if foreign:
+        raise ConversionError(
+            f"MCAP channels not in ROS 2's CDR: {', '.join(sorted(set(foreign)))}; {READS}",
+            path=path,
+        )
+
+
 def read_bag(
     path: str | Path,
     *,
@@ -231,6 +303,8 @@ def read_bag(
     for a sensor whose own clock is not the robot's.
     """
     path = Path(path)
+    if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
+        check_mcap(path)
     highlevel, rosbag1, rosbag2, typesys = _rosbags()
     # UnicodeDecodeError: bytes where rosbags reads text (a ROS 1 bag's first line, the YAML)
     errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError,
