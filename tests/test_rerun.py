@@ -66,6 +66,19 @@ def view_names(rrd: Path) -> set[str]:
     return names
 
 
+def time_panel(rrd: Path) -> dict[str, object]:
+    """The time panel's settings in the recording's default blueprint, by field name."""
+    reader = rc.RrdReader(rrd)
+    fields: dict[str, object] = {}
+    for chunk in reader.store(store=reader.blueprints()[0]).stream():
+        if chunk.entity_path.lstrip("/") == "time_panel":
+            batch = chunk.to_record_batch()
+            for name in batch.schema.names:
+                if name.startswith("TimePanelBlueprint:"):
+                    fields[name.split(":")[1]] = batch.column(name).to_pylist()[-1][0]
+    return fields
+
+
 @pytest.fixture
 def inferred(make_trial, tmp_path: Path) -> tuple[Path, Path, Path]:
     trial, _ = make_trial(Task.GOWN, STEPS)
@@ -103,6 +116,18 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     # trial opened beside a gown one took the arm's layout
     (entry,) = rc.RrdReader(rrd).recordings()
     assert entry.application_id == "dresslog-gown"
+
+
+def test_a_recording_opens_playing_from_its_first_step_in_real_time(inferred) -> None:
+    """Read from a stream (a browser's `view --web`), the viewer left to itself opens at the
+    last step; told to play, it starts at the first, as it does a file it reads itself."""
+    import rerun.blueprint as rrb
+
+    panel = time_panel(inferred[2])
+    assert panel["timeline"] == bp.TIME  # seconds: playback speed 1 is the trial's own
+    assert panel["play_state"] == rrb.components.PlayState.Playing.value
+    assert panel["playback_speed"] == 1.0
+    assert "loop_mode" not in panel  # off: once through, then it stops at the last step
 
 
 def _bearings(camera, points: np.ndarray) -> np.ndarray:
@@ -323,6 +348,8 @@ def test_record_live_streams_the_simulation_through_the_engine(tmp_path: Path) -
     # which the simulation decides after the last step (`record` prints it)
     text = spec_text(rrd)
     assert f"Trial RMSE {metrics.rmse:.4g} N" in text and '"outcome"' not in text
+    # a live view follows the newest step, as the viewer does unless told otherwise
+    assert "play_state" not in time_panel(rrd)
 
 
 #: 2024-12-03, in ns: a converted log's first stamp on the wall clock.

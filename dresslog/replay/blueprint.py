@@ -121,13 +121,24 @@ def _total_title(has_truth: bool, has_estimate: bool) -> str:
     return "Total limb force (N)"
 
 
+def _playback(live: bool) -> dict[str, Any]:
+    """The time panel's play state: a file from its start, in real time; a live view, unset."""
+    return {} if live else {"play_state": "playing", "playback_speed": 1.0}
+
+
 def default_blueprint(
-    has_estimate: bool = True, limb_points: np.ndarray | None = None, has_truth: bool = True
+    has_estimate: bool = True,
+    limb_points: np.ndarray | None = None,
+    has_truth: bool = True,
+    *,
+    live: bool = False,
 ) -> rrb.Blueprint:
     """Force maps over the total force, RMSE and spec; the 9-D signal beside them.
 
     The signal's three plots share a column: five stacked there left each too short for
-    the viewer to label its axis.
+    the viewer to label its axis. A recording plays once from its first step at the trial's
+    own speed (left to itself, a viewer reading it from a stream, as `view --web`'s browser
+    does, opens it at its last step); a `live` view keeps following the newest step.
     """
     import rerun.blueprint as rrb
 
@@ -156,7 +167,7 @@ def default_blueprint(
             ),
             column_shares=[3, 2],
         ),
-        rrb.TimePanel(timeline=TIME, state="collapsed"),
+        rrb.TimePanel(timeline=TIME, state="collapsed", **_playback(live)),
         rrb.BlueprintPanel(expanded=False),
         rrb.SelectionPanel(expanded=False),
     )

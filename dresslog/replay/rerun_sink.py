@@ -202,7 +202,7 @@ class RerunSink:
         ctx = self.context
         assert ctx is not None
         points = None if ctx.limb_points is None else ctx.limb_points.points
-        return bp.default_blueprint(ctx.has_estimate, points, ctx.has_truth)
+        return bp.default_blueprint(ctx.has_estimate, points, ctx.has_truth, live=self.path is None)
 
     # -- logging -----------------------------------------------------------------
     def _recording_id(self) -> str:

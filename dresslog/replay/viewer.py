@@ -63,9 +63,9 @@ def live_viewer(task: Task | str, *, connect: str | None = None) -> rr.Recording
 
     rec = rr.RecordingStream(application_id(task))
     if connect is not None:
-        rec.connect_grpc(connect, default_blueprint=default_blueprint())
+        rec.connect_grpc(connect, default_blueprint=default_blueprint(live=True))
         return rec
-    rec.spawn(default_blueprint=default_blueprint())
+    rec.spawn(default_blueprint=default_blueprint(live=True))
     # A viewer that cannot open its window listens for a moment, then exits, and the
     # stream to it fails: it must still listen SPAWN_SETTLE_S after it first did.
     deadline, since = time.monotonic() + SPAWN_GRACE_S, None
