@@ -324,6 +324,45 @@ def test_default_layout_renders_headless(inferred, tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(not _software_vulkan(), reason="needs Mesa's software Vulkan (lavapipe)")
+def test_every_plot_has_room_for_the_viewer_to_label_its_axes(inferred, tmp_path: Path) -> None:
+    """In the 1920x1080 window, each plot is wide enough for the viewer to label a 7 s
+    trial's time axis each second, and the force tall enough to label the sample's 14 N of
+    range each newton (at 380 by 220 and 760 by 300 pixels it had shown "+0s" and "0"
+    only); the force maps keep their size."""
+    import socket
+    import time
+
+    import matplotlib.image
+    from rerun.experimental import ViewerClient
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    viewer = ViewerClient.spawn(headless=True, port=port)
+    sizes: dict[str, tuple[int, int]] = {}
+    plots = []
+    try:
+        viewer.open(str(inferred[2]))
+        time.sleep(1.0)
+        for view in viewer.get_state().views:
+            png = tmp_path / "view.png"
+            viewer.save_screenshot(str(png), view_id=view.view_id)
+            h, w = matplotlib.image.imread(png).shape[:2]
+            sizes[view.name] = (w, h)
+            if view.view_class == "TimeSeries":
+                plots.append(view.name)
+    finally:
+        viewer.quit()
+    assert len(plots) == 5, sizes
+    for name in plots:
+        assert sizes[name][0] >= 600, (name, sizes[name])
+    assert sizes["End-effector force (N)"][1] >= 340, sizes
+    for name in ("Force map: ground truth", "Force map: estimate"):
+        assert sizes[name][0] >= 560 and sizes[name][1] >= 700, (name, sizes[name])
+
+
+@pytest.mark.slow
 def test_record_live_streams_the_simulation_through_the_engine(tmp_path: Path) -> None:
     import rerun as rr
 

@@ -133,12 +133,15 @@ def default_blueprint(
     *,
     live: bool = False,
 ) -> rrb.Blueprint:
-    """Force maps over the total force, RMSE and spec; the 9-D signal beside them.
+    """Force maps with the 9-D signal beside them; total force, RMSE and spec along the bottom.
 
-    The signal's three plots share a column: five stacked there left each too short for
-    the viewer to label its axis. A recording plays once from its first step at the trial's
-    own speed (left to itself, a viewer reading it from a stream, as `view --web`'s browser
-    does, opens it at its last step); a `live` view keeps following the newest step.
+    The viewer labels an axis only where its ticks (powers of ten) fall far enough apart:
+    the bottom row spans the window so that its plots label each second (a third of the
+    maps' width had shown "+0s" only), and the force takes half the signal's column (a
+    third had labelled the sample's 14 N range "0" only). A recording plays once from its
+    first step at the trial's own speed (left to itself, a viewer reading it from a
+    stream, as `view --web`'s browser does, opens it at its last step); a `live` view
+    keeps following the newest step.
     """
     import rerun.blueprint as rrb
 
@@ -153,19 +156,21 @@ def default_blueprint(
     ]
     if has_truth and has_estimate:
         comparison.append(rrb.TimeSeriesView(name="RMSE per step (N)", origin=RMSE))
+    signal = rrb.Vertical(
+        rrb.TimeSeriesView(name="End-effector force (N)", origin=EE_FORCE),
+        rrb.TimeSeriesView(name="End-effector torque (N m)", origin=EE_TORQUE),
+        rrb.TimeSeriesView(name="End-effector velocity (m/s)", origin=EE_VELOCITY),
+        row_shares=[2, 1, 1],
+    )
     return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Vertical(
+        rrb.Vertical(
+            rrb.Horizontal(
                 rrb.Vertical(*views) if stacked else rrb.Horizontal(*views),
-                rrb.Horizontal(*comparison, rrb.TextDocumentView(name="Trial spec", origin=SPEC)),
-                row_shares=[3, 1],
+                signal,
+                column_shares=[3, 2],
             ),
-            rrb.Vertical(
-                rrb.TimeSeriesView(name="End-effector force (N)", origin=EE_FORCE),
-                rrb.TimeSeriesView(name="End-effector torque (N m)", origin=EE_TORQUE),
-                rrb.TimeSeriesView(name="End-effector velocity (m/s)", origin=EE_VELOCITY),
-            ),
-            column_shares=[3, 2],
+            rrb.Horizontal(*comparison, rrb.TextDocumentView(name="Trial spec", origin=SPEC)),
+            row_shares=[3, 1],
         ),
         rrb.TimePanel(timeline=TIME, state="collapsed", **_playback(live)),
         rrb.BlueprintPanel(expanded=False),
