@@ -1,4 +1,5 @@
-"""`dresslog convert INPUT -o trial.mcap --task gown|shorts [topics, CSV columns, tare, rotate]`."""
+"""`dresslog convert INPUT -o trial.mcap --task gown|shorts [topics, CSV columns, tare, rotate,
+translate]`."""
 
 from __future__ import annotations
 
@@ -39,6 +40,10 @@ from .options import task_option
               show_default="0 0 0")  # fmt: skip
 @click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame (quaternion).",
+              show_default="none")  # fmt: skip
+@click.option("--translate", nargs=3, type=float, metavar="X Y Z",
+              help="Then move every pose by X Y Z, m, to place the gripper's path in the "
+              "scene's frame (the drawing only: the estimate does not use position).",
               show_default="none")  # fmt: skip
 @click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",
               show_default=True,

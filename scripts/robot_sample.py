@@ -34,7 +34,8 @@ from dresslog.io import TrialReader
 #: The README's `convert --rotate`: -90 degrees about z turns the robot's base axes
 #: (+y along the limb, shoulder to hand) into the world's (+x); the log is made by its inverse.
 ROTATE = (0.0, 0.0, -np.sqrt(0.5), np.sqrt(0.5))
-#: Where the world's origin (the elbow) lies in the base frame, m.
+#: Where the world's origin (the elbow) lies in the base frame, m; the README's `convert
+#: --translate` (0.1 0.6 -0.25) is this turned by ROTATE, negated.
 ELBOW_IN_BASE = np.array([0.6, -0.1, 0.25])
 #: The tool's orientation in the world: turned 180 degrees about x (z down).
 TOOL_IN_WORLD = (1.0, 0.0, 0.0, 0.0)

@@ -752,6 +752,8 @@ def test_a_log_far_beyond_dressing_is_converted_with_a_warning_about_its_units(
         ({"tare_s": None}, "tare of None s"),
         ({"max_gap_s": float("nan")}, "max_gap_s nan: give a duration above 0 s"),
         ({"max_gap_s": 0}, "max_gap_s 0: give a duration above 0 s"),
+        ({"translate": (0.1, 0.2)}, "--translate: a translation is 3 finite numbers"),
+        ({"translate": (0.1, 0.2, 0.3)}, "--translate moves the gripper's pose, which the log"),
     ],
 )
 def test_convert_called_from_a_script_says_what_is_wrong_with_its_options(
@@ -831,3 +833,33 @@ def test_a_last_line_of_spaces_or_tabs_is_blank(
     assert result.exit_code == 0, result.output
     with TrialReader(tmp_path / "t.mcap") as reader:
         assert len(reader.wrench.t_ns) == 199 and reader.wrench.values[:, 0].mean() == 1.0
+
+
+ROBOT = Path(__file__).resolve().parents[1] / "samples" / "robot"
+#: The README's --rotate for samples/robot/ (-90 degrees about z), then the --translate that
+#: takes the elbow, at (0.6, -0.1, 0.25) m in the robot's base frame, to the world's origin.
+TO_SCENE = ["--rotate", "0", "0", "-0.7071068", "0.7071068", "--translate", "0.1", "0.6", "-0.25"]
+
+
+def test_rotate_then_translate_puts_a_robots_gripper_path_on_the_scenes_limb(
+    tmp_path: Path,
+) -> None:
+    """The bundled robot log's poses, in a base frame turned and moved from the world, come
+    back onto the sample trial's gripper path (with --rotate alone they lay 0.6 m away, and
+    the viewer drew the gripper off the limb); the estimate's signal is the same either way."""
+    out = {name: tmp_path / f"{name}.mcap" for name in ("moved", "turned")}
+    args = ["convert", str(ROBOT / "ft.csv"), "--motion", str(ROBOT / "pose.csv"), "--task",
+            "gown", "--wrench-frame", "pose", "--tare", "0.5"]  # fmt: skip
+    moved = CliRunner().invoke(main, [*args, "-o", str(out["moved"]), *TO_SCENE])
+    assert moved.exit_code == 0 and not moved.stderr, moved.output
+    turned = CliRunner().invoke(main, [*args, "-o", str(out["turned"]), *TO_SCENE[:5]])
+    assert turned.exit_code == 0, turned.output
+    sample = read_trial(Path(__file__).resolve().parents[1] / "samples" / "gown.mcap")
+    with TrialReader(out["moved"]) as log:
+        pose, phi = log.pose.values, log.measurements.phi
+        processing = log.metadata.source["processing"]
+    hold = len(pose) - len(sample.pose.values)  # the gown hanging still first
+    assert hold == 100
+    np.testing.assert_allclose(pose[hold:, :3], sample.pose.values[:, :3], atol=1e-5)
+    assert processing["translation_m"] == [0.1, 0.6, -0.25]
+    np.testing.assert_array_equal(phi, read_trial(out["turned"]).measurements.phi)

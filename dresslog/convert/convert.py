@@ -202,6 +202,7 @@ def convert(
     sensor_rotation: Quaternion | None = None,
     sensor_offset: tuple[float, float, float] | None = None,
     rotate: Quaternion | None = None,
+    translate: tuple[float, float, float] | None = None,
     tare_s: float = 0.0,
     max_gap_s: float = MAX_GAP_S,
     overwrite: bool = False,
@@ -214,7 +215,9 @@ def convert(
     sensor's axes in the gripper's, as mounted) if given, its torque moved from the
     sensor's origin to the gripper centre by `sensor_offset` (m, where the sensor's
     origin sits in the gripper's axes: tau + r x F). `rotate` then turns every vector
-    (force, torque, velocities, pose) into the model's frame; `tare_s` subtracts the mean
+    (force, torque, velocities, pose) into the model's frame, and `translate` (m) moves
+    every pose in it, so that the gripper's path lies where the viewer draws the limb
+    (the signal holds no position: the estimate is the same); `tare_s` subtracts the mean
     wrench of the first seconds. Gaps longer than `max_gap_s` are bridged by
     interpolation and reported as `ConversionWarning`s (and in the report).
     """
@@ -224,7 +227,8 @@ def convert(
     check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
     _check_arguments(
         path, motion, clock=clock, wrench_frame=wrench_frame, sensor_rotation=sensor_rotation,
-        sensor_offset=sensor_offset, rotate=rotate, tare_s=tare_s, max_gap_s=max_gap_s,
+        sensor_offset=sensor_offset, rotate=rotate, translate=translate, tare_s=tare_s,
+        max_gap_s=max_gap_s,
     )  # fmt: skip
     source = load(
         path,
@@ -239,6 +243,10 @@ def convert(
     messages_in = source.message_count
     if wrench_frame == "pose":
         check_turnable(source)
+    if translate is not None and source.pose is None:
+        raise ConversionError(
+            "--translate moves the gripper's pose, which the log does not hold", path=path
+        )
     left_out = unneeded_pose_without_orientation(source, wrench_frame)
     # one CSV's streams share its time column: one message for it
     reordered = list(
@@ -256,7 +264,7 @@ def convert(
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
     wrench, twist, pose, processing = _resample_all(
-        source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset
+        source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset, translate
     )
     if message := beyond_dressing(wrench, twist):
         warnings.warn(message, ConversionWarning, stacklevel=2)
@@ -290,6 +298,7 @@ def _check_arguments(
     sensor_rotation: Quaternion | None,
     sensor_offset: tuple[float, float, float] | None,
     rotate: Quaternion | None,
+    translate: tuple[float, float, float] | None,
     tare_s: float,
     max_gap_s: float,
 ) -> None:
@@ -315,6 +324,8 @@ def _check_arguments(
         )
     if sensor_offset is not None and not _finite(sensor_offset, 3):
         raise ConversionError("sensor offset must be 3 finite numbers, x y z (metres)")
+    if translate is not None and not _finite(translate, 3):
+        raise ConversionError("--translate: a translation is 3 finite numbers, x y z (metres)")
     if not (_finite(tare_s, None) and tare_s >= 0):
         raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
     if not (_finite(max_gap_s, None) and max_gap_s > 0):
@@ -343,8 +354,9 @@ def _resample_all(
     wrench_frame: Literal["world", "pose"] = "world",
     sensor_rotation: Quaternion | None = None,
     sensor_offset: tuple[float, float, float] | None = None,
+    translate: tuple[float, float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
-    """Wrench, twist and pose on the grid, tared and rotated, and how each was made."""
+    """Wrench, twist and pose on the grid, tared, rotated and moved, and how each was made."""
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
     processing: dict[str, object] = {"wrench": _resampling(source.wrench.t_ns)}
     if source.twist is not None:
@@ -390,6 +402,10 @@ def _resample_all(
         wrench, twist = rs.rotate_vectors(wrench, rotate), rs.rotate_vectors(twist, rotate)
         pose = rs.rotate_pose(pose, rotate) if pose is not None else None
         processing["rotation_xyzw"] = [float(v) for v in rotate]
+    if translate is not None:
+        assert pose is not None  # checked once the log was read
+        pose = rs.translate_pose(pose, translate)
+        processing["translation_m"] = [float(v) for v in translate]
     return wrench, twist, pose, processing
 
 

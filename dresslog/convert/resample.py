@@ -200,6 +200,13 @@ def rotate_pose(pose: np.ndarray, quat: tuple[float, float, float, float]) -> np
     return np.concatenate([position, orientation], axis=1)
 
 
+def translate_pose(pose: np.ndarray, offset: tuple[float, float, float]) -> np.ndarray:
+    """Poses (T, 7) moved by `offset` (m): positions shifted, orientations as they were."""
+    moved = np.array(pose, dtype=np.float64)
+    moved[:, :3] += np.asarray(offset, dtype=np.float64)
+    return moved
+
+
 def gaps(t_ns: np.ndarray, limit_ns: int) -> list[tuple[int, int]]:
     """(start time, length) of each interval between samples longer than `limit_ns`."""
     steps = np.diff(t_ns)

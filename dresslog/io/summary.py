@@ -121,6 +121,8 @@ def _source_lines(source: dict[str, object]) -> list[str]:
         lines.append(f"    turned  the wrench {processing['wrench_frame']}")
     if "rotation_xyzw" in processing:
         lines.append(f"    rotated by the quaternion (x y z w) {processing['rotation_xyzw']}")
+    if "translation_m" in processing:
+        lines.append(f"    moved   the pose by {processing['translation_m']} m")
     lines += [f"    note    {text}" for text in part("notes", list)]
     lines += [f"    warning {text}" for text in part("warnings", list)]
     return lines
