@@ -517,3 +517,48 @@ def test_the_estimated_force_summary_counts_time_and_steps_from_the_trials_start
     m = sink.metrics
     assert m.steps == 10 and m.peak_total == 6.0 and m.peak_s == pytest.approx(0.07)
     assert m.touching == pytest.approx(0.1) and m.mean_total == pytest.approx(1.2)
+
+
+def test_a_batch_loads_each_model_once(gown, tmp_path: Path, monkeypatch) -> None:
+    """The bundled model is read and verified before the first trial only: replaced on disk
+    after it, the rest of the batch still runs on the model it began with."""
+    from dresslog.replay.batch import replay_files
+
+    trial, model = gown
+    (tmp_path / "bundled").mkdir()
+    model.rename(tmp_path / "bundled" / "gown")
+    monkeypatch.setenv(MODELS_ENV, str(tmp_path / "bundled"))
+    trials = [tmp_path / f"t{i}.mcap" for i in range(3)]
+    for path in trials:
+        path.write_bytes(trial.read_bytes())
+
+    def tamper(outcome: object) -> None:
+        (tmp_path / "bundled" / "gown" / "model.safetensors").write_bytes(b"replaced")
+
+    batch = replay_files(trials, on_trial=tamper)
+    assert not batch.failures, batch.failures
+    assert len({r.rmse for r in batch.reports}) == 1 and batch.reports[0].rmse is not None
+
+
+def test_the_batch_mean_leaves_out_trials_without_ground_truth_and_says_so() -> None:
+    from dresslog.replay.batch import BatchReport
+    from dresslog.replay.metrics import TrialMetrics
+    from dresslog.replay.pipeline import InferenceReport
+
+    def report(name: str, metrics: TrialMetrics) -> InferenceReport:
+        return InferenceReport(Path(name), Task.GOWN, 700, metrics=metrics)
+
+    log = report("log.mcap", TrialMetrics(mean_total=0.5, peak_total=2.0))  # a robot's log
+    trials = [
+        report("a.mcap", TrialMetrics(rmse=0.01, zero_rmse=0.02)),
+        log,
+        report("b.mcap", TrialMetrics(rmse=0.03, zero_rmse=0.04)),
+        report("still.mcap", TrialMetrics(rmse=0.0, zero_rmse=0.0)),  # no force on the limb
+    ]
+    assert BatchReport(trials).summary() == (
+        "mean over 3 trials (1 without ground truth left out): RMSE 0.01333 N, "
+        "ratio 0.625 (over the 2 with force on the limb)"
+    )
+    assert BatchReport([log, log]).summary() == (
+        "2 trials replayed, none with ground truth: no RMSE to average"
+    )

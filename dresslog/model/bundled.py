@@ -7,9 +7,10 @@ Public API
 ----------
 ``bundled_model(task) -> Path | None``: the model folder for `task` ($DRESSLOG_MODELS, the
     checkout's samples, then the installed package's), None if there is none.
-``resolve_model(model, task, n_points, *, required=True) -> LoadedModel | None``: `model`,
-    or the bundled one, loaded and checked against the trial's task and limb points;
-    ``ModelError`` if it does not fit, or if none is found and `required`.
+``resolve_model(model, task, n_points, *, required=True, loaded=None) -> LoadedModel | None``:
+    `model`, or the bundled one, loaded (or taken from `loaded`, a folder -> model dict it
+    adds to) and checked against the trial's task and limb points; ``ModelError`` if it does
+    not fit, or if none is found and `required`.
 """
 
 from __future__ import annotations
@@ -44,11 +45,18 @@ def bundled_model(task: Task | str) -> Path | None:
 
 
 def resolve_model(
-    model: str | Path | None, task: Task | str, n_points: int | None, *, required: bool = True
+    model: str | Path | None,
+    task: Task | str,
+    n_points: int | None,
+    *,
+    required: bool = True,
+    loaded: dict[Path, LoadedModel] | None = None,
 ) -> LoadedModel | None:
     """Load `model` (or the bundled one for `task`) and check it fits the trial.
 
-    Without a model given or bundled: an error if `required`, else None.
+    Without a model given or bundled: an error if `required`, else None. `loaded` holds
+    the models already loaded, by folder, and gets this one: a batch of trials reads and
+    verifies each model once, however many trials it runs on.
     """
     task = task_of(task, ModelError)
     given = model is not None
@@ -62,10 +70,12 @@ def resolve_model(
                 f"no bundled {task.value} model (looked in {looked}); "
                 f"pass --model with a {task.value} model folder"
             )
-    loaded = load_model(model)
+    cache = {} if loaded is None else loaded
+    if (found := cache.get(Path(model))) is None:
+        found = cache[Path(model)] = load_model(model)
     bundled = bundled_model(task)
     hint = "pass --model with a {task} model folder"
     if given and bundled is not None:
         hint = f"leave out --model to use the bundled one ({bundled})"
-    check_task(loaded, task, n_points, hint=hint)
-    return loaded
+    check_task(found, task, n_points, hint=hint)
+    return found

@@ -4,6 +4,7 @@ One code path for `dresslog infer`, `view` and the live view of a running
 simulation. Rerun is imported only when a Rerun sink writes.
 """
 
+from dresslog.replay.batch import BatchReport, TrialFailure, replay_files
 from dresslog.replay.engine import (
     Estimator,
     Replay,
@@ -23,6 +24,7 @@ from dresslog.replay.rerun_sink import RerunSink
 from dresslog.replay.viewer import live_viewer
 
 __all__ = [
+    "BatchReport",
     "Estimator",
     "InferenceReport",
     "McapSink",
@@ -34,10 +36,12 @@ __all__ = [
     "Step",
     "StepResult",
     "TrialContext",
+    "TrialFailure",
     "TrialMetrics",
     "live_source",
     "live_viewer",
     "replay_file",
+    "replay_files",
     "run",
     "trial_context",
     "trial_steps",

@@ -17,6 +17,7 @@ from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
 from dresslog.io.reader import read_trial
 from dresslog.model.bundled import resolve_model
+from dresslog.model.files import LoadedModel
 from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
@@ -92,12 +93,14 @@ def replay_file(
     rrd: str | Path | None = None,
     mcap: str | Path | None = None,
     sinks: tuple[Sink, ...] = (),
+    models: dict[Path, LoadedModel] | None = None,
 ) -> InferenceReport:
     """Stream a trial file step by step through a model into .rrd / MCAP / extra sinks.
 
     With `require_model=False` and no model given or bundled, a trial with ground
     truth is replayed with it alone (what `dresslog view` shows without a model), as
-    is one at another rate than the models' (with a warning).
+    is one at another rate than the models' (with a warning). `models` (folder -> loaded
+    model) is where a batch keeps the models it has loaded, so each is loaded once.
     """
     clock = time.perf_counter
     timings: dict[str, float] = {}
@@ -122,7 +125,7 @@ def replay_file(
     # a trial without ground truth (a converted log) has nothing to show but an estimate,
     # and an estimate copy (`mcap`) nothing to copy but one
     need_model = require_model or trial.force_map is None or mcap is not None
-    loaded = resolve_model(model, task, n_points, required=need_model)
+    loaded = resolve_model(model, task, n_points, required=need_model, loaded=models)
     if loaded is not None and (problem := step_rate_problem(trial, Path(trial_path))):
         if need_model:
             raise problem

@@ -1,0 +1,103 @@
+"""`replay_files`: a day's trials through `replay_file` at once (`dresslog infer T1 T2 ...`).
+
+A bad trial is one failure, not the end of the batch; each model is loaded once, not once
+per trial; and the scores are averaged over the trials with ground truth, so a folder of
+trials is scored without a dataset's manifest.
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from dresslog.errors import DresslogError
+from dresslog.model.files import LoadedModel, load_model
+from dresslog.replay.pipeline import InferenceReport, replay_file
+
+
+@dataclass(frozen=True)
+class TrialFailure:
+    """A trial that could not be replayed, and why (nothing was written for it)."""
+
+    trial: Path
+    error: DresslogError | OSError
+
+
+@dataclass
+class BatchReport:
+    """Every trial's report or failure, in the order given, and their mean scores."""
+
+    reports: list[InferenceReport] = field(default_factory=list)
+    failures: list[TrialFailure] = field(default_factory=list)
+
+    @property
+    def mean_rmse(self) -> float | None:
+        """Mean trial RMSE (N) over the trials with ground truth; None if none has it."""
+        scores = [r.rmse for r in self.reports if r.rmse is not None]
+        return statistics.fmean(scores) if scores else None
+
+    @property
+    def mean_ratio(self) -> float | None:
+        """Mean ratio to the all-zero estimate over the trials that have one (truth, force)."""
+        ratios = [r.metrics.ratio for r in self.reports if r.metrics.ratio is not None]
+        return statistics.fmean(ratios) if ratios else None
+
+    def summary(self) -> str:
+        """The mean scores in a line, saying which trials they are over."""
+        done = len(self.reports)
+        scored = sum(r.rmse is not None for r in self.reports)
+        ratios = sum(r.metrics.ratio is not None for r in self.reports)
+        if self.mean_rmse is None:
+            return f"{_trials(done)} replayed, none with ground truth: no RMSE to average"
+        left_out = f" ({done - scored} without ground truth left out)" if scored < done else ""
+        line = f"mean over {_trials(scored)}{left_out}: RMSE {self.mean_rmse:.4g} N"
+        if self.mean_ratio is None:
+            return line + "; no ratio (no force on the limb in any)"
+        line += f", ratio {self.mean_ratio:.3f}"
+        return line + (f" (over the {ratios} with force on the limb)" if ratios < scored else "")
+
+
+def _trials(n: int) -> str:
+    return f"{n} trial" if n == 1 else f"{n} trials"
+
+
+def default_rrd(trial: Path) -> Path:
+    """Where a trial's recording goes unless named: TRIAL.rrd beside it."""
+    return trial.with_suffix(".rrd") if trial.name else trial  # `.` is refused as input first
+
+
+def replay_files(
+    trials: Sequence[str | Path],
+    *,
+    model: str | Path | None = None,
+    rrd: str | Path | None = None,
+    mcap: str | Path | None = None,
+    on_trial: Callable[[InferenceReport | TrialFailure], None] | None = None,
+) -> BatchReport:
+    """Replay each trial into its `.rrd` (`rrd`, one trial only, else TRIAL.rrd beside it).
+
+    A trial's `DresslogError` or `OSError` is its failure and the next trial runs; `on_trial`
+    hears each outcome as it comes. A given `model` that does not load fails the batch
+    before any trial when there are several (it would fail each alike); with one trial, what
+    is wrong with the trial is still said first.
+    """
+    if len(trials) > 1 and (rrd is not None or mcap is not None):
+        raise ValueError("rrd and mcap name one file each: give one trial")
+    models: dict[Path, LoadedModel] = {}
+    if model is not None and len(trials) > 1:
+        models[Path(model)] = load_model(model)
+    batch = BatchReport()
+    for trial in map(Path, trials):
+        outcome: InferenceReport | TrialFailure
+        try:
+            out = rrd if rrd is not None else default_rrd(trial)
+            outcome = replay_file(trial, model=model, rrd=out, mcap=mcap, models=models)
+            batch.reports.append(outcome)
+        except (DresslogError, OSError) as err:
+            outcome = TrialFailure(trial, err)
+            batch.failures.append(outcome)
+        if on_trial is not None:
+            on_trial(outcome)
+    return batch
