@@ -25,15 +25,20 @@ def reports_errors(command: Callable[P, R]) -> Callable[P, R]:
             with warnings.catch_warnings():  # restores Python's own printer afterwards
                 warnings.showwarning = _show_warning(warnings.showwarning)
                 return command(*args, **kwargs)
-        except DresslogError as err:
-            raise click.ClickException(str(err)) from None
-        except ValidationError as err:  # a spec built from options: name the bad value
-            raise click.ClickException(f"invalid {first_problem(err)}") from None
-        except OSError as err:  # the machine's side: disk full, read-only, permissions
-            where = f"{err.filename}: " if err.filename else ""
-            raise click.ClickException(f"{where}{err.strerror or err}") from None
+        except (DresslogError, ValidationError, OSError) as err:
+            raise click.ClickException(error_line(err)) from None
 
     return wrapper
+
+
+def error_line(err: DresslogError | ValidationError | OSError) -> str:
+    """The one line that says what went wrong (what `Error: ` is followed by)."""
+    if isinstance(err, ValidationError):  # a spec built from options: name the bad value
+        return f"invalid {first_problem(err)}"
+    if isinstance(err, OSError):  # the machine's side: disk full, read-only, permissions
+        where = f"{err.filename}: " if err.filename else ""
+        return f"{where}{err.strerror or err}"
+    return str(err)
 
 
 def _show_warning(python: Callable[..., None]) -> Callable[..., None]:

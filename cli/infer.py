@@ -1,4 +1,4 @@
-"""`dresslog infer TRIAL.mcap [--model M] [-o OUT.rrd] [--mcap-out OUT.mcap]`."""
+"""`dresslog infer TRIAL.mcap... [--model M] [-o OUT.rrd] [--mcap-out OUT.mcap]`."""
 
 from __future__ import annotations
 
@@ -6,30 +6,53 @@ from pathlib import Path
 
 import click
 
-from .common import reports_errors
+from .common import error_line, reports_errors
 
 
 @click.command("infer")
-@click.argument("trial", type=click.Path(path_type=Path))
+@click.argument("trials", metavar="TRIAL...", nargs=-1, required=True,
+                type=click.Path(path_type=Path))  # fmt: skip
 @click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder.",
               show_default="bundled, for the trial's task")  # fmt: skip
 @click.option("-o", "--output", "--out", "output", type=click.Path(path_type=Path),
-              help="Rerun recording to write (.rrd).", show_default="TRIAL.rrd")  # fmt: skip
+              help="Rerun recording to write (.rrd); one trial only.",
+              show_default="TRIAL.rrd")  # fmt: skip
 @click.option("--mcap-out", type=click.Path(path_type=Path),
-              help="Also write the trial with the estimate (.mcap).")  # fmt: skip
+              help="Also write the trial with the estimate (.mcap); one trial only.")  # fmt: skip
 @click.option("--timings", is_flag=True, help="Print the time of each stage.")
 @reports_errors
 def infer(
-    trial: Path, model: Path | None, output: Path | None, mcap_out: Path | None, timings: bool
+    trials: tuple[Path, ...],
+    model: Path | None,
+    output: Path | None,
+    mcap_out: Path | None,
+    timings: bool,
 ) -> None:
-    """Stream TRIAL step by step through the force-map LSTM and write a Rerun recording.
+    """Stream each TRIAL step by step through the force-map LSTM and write a Rerun recording.
 
-    Prints the RMSE against ground truth when the trial has it.
+    Prints the RMSE against ground truth when a trial has it; with several trials, their
+    mean too, and a bad trial is reported without stopping the others.
     """
-    from dresslog.replay.pipeline import replay_file
+    from dresslog.replay.batch import TrialFailure, replay_files
+    from dresslog.replay.pipeline import InferenceReport
 
-    default = trial.with_suffix(".rrd") if trial.name else trial  # `.` is refused as input first
-    report = replay_file(trial, model=model, rrd=output or default, mcap=mcap_out)
-    click.echo(report.summary())
-    if timings:
-        click.echo("  " + ", ".join(f"{k} {v * 1e3:.0f} ms" for k, v in report.timings.items()))
+    if len(trials) > 1 and (output or mcap_out):
+        option = "-o/--output" if output else "--mcap-out"
+        raise click.UsageError(f"{option} names one file: give one trial or drop {option}")
+
+    def show(outcome: InferenceReport | TrialFailure) -> None:  # as each trial is done
+        if isinstance(outcome, TrialFailure):
+            click.echo(f"Error: {error_line(outcome.error)}", err=True)
+            return
+        click.echo(outcome.summary())
+        if timings:
+            times = outcome.timings.items()
+            click.echo("  " + ", ".join(f"{k} {v * 1e3:.0f} ms" for k, v in times))
+
+    batch = replay_files(trials, model=model, rrd=output, mcap=mcap_out, on_trial=show)
+    if len(trials) > 1:
+        click.echo(batch.summary())
+    if batch.failures and len(trials) > 1:
+        raise click.ClickException(f"{len(batch.failures)} of {len(trials)} trials failed")
+    if batch.failures:
+        raise click.exceptions.Exit(1)  # its error is said

@@ -26,7 +26,7 @@ HELP = {
     "info": "Summarise a trial file, a model folder or a dataset folder.",
     "record": "Simulate one dressing trial in pybullet and record it to MCAP.",
     "convert": "Convert a ROS bag or force/torque CSV into a dresslog trial.",
-    "infer": "Stream a trial through the force-map LSTM; write a Rerun recording.",
+    "infer": "Stream trials through the force-map LSTM; write Rerun recordings.",
     "view": "Open a trial or .rrd in the Rerun viewer.",
     "generate": "Simulate many trials in parallel into a dataset folder.",
     "train": "Train a force-map LSTM on a dataset.",

@@ -519,6 +519,75 @@ def test_the_estimated_force_summary_counts_time_and_steps_from_the_trials_start
     assert m.touching == pytest.approx(0.1) and m.mean_total == pytest.approx(1.2)
 
 
+@pytest.fixture
+def day(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A folder of trials as a researcher's day holds them: the two samples, copied."""
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+    (folder := tmp_path / "day1").mkdir()
+    for task in Task:
+        (folder / f"{task.value}.mcap").write_bytes((SAMPLES / f"{task.value}.mcap").read_bytes())
+    return folder
+
+
+def test_infer_on_several_trials_writes_each_recording_and_prints_the_mean(day: Path) -> None:
+    gown, shorts = day / "gown.mcap", day / "shorts.mcap"
+    result = CliRunner().invoke(main, ["infer", str(gown), str(shorts)])
+    assert result.exit_code == 0, result.output
+    each = [replay_file(t) for t in (gown, shorts)]  # the same replays, no outputs
+    lines = result.output.splitlines()
+    assert [line.split(": ", 1)[0] for line in lines[:2]] == [str(gown), str(shorts)]
+    assert f"-> {day / 'gown.rrd'}; RMSE {each[0].rmse:.4g} N" in lines[0]
+    assert f"-> {day / 'shorts.rrd'}; RMSE {each[1].rmse:.4g} N" in lines[1]
+    rmse = np.mean([r.rmse for r in each])
+    ratio = np.mean([r.metrics.ratio for r in each])
+    assert lines[2:] == [f"mean over 2 trials: RMSE {rmse:.4g} N, ratio {ratio:.3f}"]
+    assert sorted(p.name for p in day.iterdir()) == [
+        "gown.mcap", "gown.rrd", "shorts.mcap", "shorts.rrd"
+    ]  # fmt: skip
+
+
+def test_a_bad_trial_among_good_ones_is_said_and_the_others_are_done(day: Path) -> None:
+    """Not MCAP, cut short, a channel missing: each its error, no recording of it, exit 1."""
+    gown, shorts = day / "gown.mcap", day / "shorts.mcap"
+    (junk := day / "notes.mcap").write_text("not a recording\n")
+    (cut := day / "cut.mcap").write_bytes(gown.read_bytes()[:100_000])
+    no_twist = missing_twist(day, gown)
+    trials = [junk, gown, cut, no_twist, shorts]
+    result = CliRunner().invoke(main, ["infer", *map(str, trials)])
+    assert result.exit_code == 1, result.output
+    errors = result.stderr.splitlines()
+    assert [e.split(": ", 2)[1] for e in errors[:3]] == [str(junk), str(cut), str(no_twist)]
+    assert "not an MCAP file" in errors[0] and "truncated" in errors[1]
+    assert "missing channel /ee/twist" in errors[2]
+    assert errors[3:] == ["Error: 3 of 5 trials failed"]  # the last line
+    assert result.stdout.splitlines()[-1].startswith("mean over 2 trials: RMSE ")
+    assert sorted(p.name for p in day.iterdir() if p.suffix == ".rrd") == ["gown.rrd", "shorts.rrd"]
+    assert not [p for p in day.iterdir() if p.name.startswith(".")]  # no temporaries
+
+
+def test_a_model_for_the_other_task_fails_those_trials_alone(day: Path) -> None:
+    gown, shorts = day / "gown.mcap", day / "shorts.mcap"
+    model = SAMPLES / "models" / "gown"
+    result = CliRunner().invoke(main, ["infer", str(shorts), str(gown), "--model", str(model)])
+    assert result.exit_code == 1, result.output
+    assert result.stderr.splitlines() == [
+        f"Error: {model}: model is for gown but the trial is shorts; leave out --model to use "
+        f"the bundled one ({SAMPLES / 'models' / 'shorts'})",
+        "Error: 1 of 2 trials failed",
+    ]
+    assert result.stdout.startswith(f"{gown}: 700 steps, gown, model {model}")
+    assert sorted(p.name for p in day.iterdir() if p.suffix == ".rrd") == ["gown.rrd"]
+
+
+@pytest.mark.parametrize("option", [["-o", "out.rrd"], ["--mcap-out", "out.mcap"]])
+def test_an_output_name_with_several_trials_is_a_usage_error(day: Path, option: list[str]) -> None:
+    trials = [str(day / "gown.mcap"), str(day / "shorts.mcap")]
+    result = CliRunner().invoke(main, ["infer", *trials, option[0], str(day / option[1])])
+    assert result.exit_code == 2, result.output
+    assert "names one file: give one trial or drop" in result.output
+    assert sorted(p.name for p in day.iterdir()) == ["gown.mcap", "shorts.mcap"]
+
+
 def test_a_batch_loads_each_model_once(gown, tmp_path: Path, monkeypatch) -> None:
     """The bundled model is read and verified before the first trial only: replaced on disk
     after it, the rest of the batch still runs on the model it began with."""
