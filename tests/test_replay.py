@@ -539,8 +539,10 @@ def test_infer_on_several_trials_writes_each_recording_and_prints_the_mean(day: 
     assert f"-> {day / 'gown.rrd'}; RMSE {each[0].rmse:.4g} N" in lines[0]
     assert f"-> {day / 'shorts.rrd'}; RMSE {each[1].rmse:.4g} N" in lines[1]
     rmse = np.mean([r.rmse for r in each])
-    ratio = np.mean([r.metrics.ratio for r in each])
-    assert lines[2:] == [f"mean over 2 trials: RMSE {rmse:.4g} N, ratio {ratio:.3f}"]
+    ratio = rmse / np.mean([r.zero_rmse for r in each])  # as eval takes a split's ratio
+    assert lines[2:] == [
+        f"mean over 2 trials: RMSE {rmse:.4g} N, ratio to the all-zero estimate's {ratio:.3f}"
+    ]
     assert sorted(p.name for p in day.iterdir()) == [
         "gown.mcap", "gown.rrd", "shorts.mcap", "shorts.rrd"
     ]  # fmt: skip
@@ -626,7 +628,7 @@ def test_the_batch_mean_leaves_out_trials_without_ground_truth_and_says_so() -> 
     ]
     assert BatchReport(trials).summary() == (
         "mean over 3 trials (1 without ground truth left out): RMSE 0.01333 N, "
-        "ratio 0.625 (over the 2 with force on the limb)"
+        "ratio to the all-zero estimate's 0.667"  # 0.01333 / 0.02, the pooled means
     )
     assert BatchReport([log, log]).summary() == (
         "2 trials replayed, none with ground truth: no RMSE to average"

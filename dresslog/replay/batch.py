@@ -40,23 +40,24 @@ class BatchReport:
 
     @property
     def mean_ratio(self) -> float | None:
-        """Mean ratio to the all-zero estimate over the trials that have one (truth, force)."""
-        ratios = [r.metrics.ratio for r in self.reports if r.metrics.ratio is not None]
-        return statistics.fmean(ratios) if ratios else None
+        """Mean RMSE over the same trials' mean all-zero RMSE, as `dresslog eval` takes a
+        split's ratio; None without ground truth or with no force on the limb in any."""
+        zeros = [r.zero_rmse for r in self.reports if r.zero_rmse is not None]
+        if self.mean_rmse is None or not zeros or statistics.fmean(zeros) == 0:
+            return None
+        return self.mean_rmse / statistics.fmean(zeros)
 
     def summary(self) -> str:
         """The mean scores in a line, saying which trials they are over."""
         done = len(self.reports)
         scored = sum(r.rmse is not None for r in self.reports)
-        ratios = sum(r.metrics.ratio is not None for r in self.reports)
         if self.mean_rmse is None:
             return f"{_trials(done)} replayed, none with ground truth: no RMSE to average"
         left_out = f" ({done - scored} without ground truth left out)" if scored < done else ""
         line = f"mean over {_trials(scored)}{left_out}: RMSE {self.mean_rmse:.4g} N"
         if self.mean_ratio is None:
             return line + "; no ratio (no force on the limb in any)"
-        line += f", ratio {self.mean_ratio:.3f}"
-        return line + (f" (over the {ratios} with force on the limb)" if ratios < scored else "")
+        return line + f", ratio to the all-zero estimate's {self.mean_ratio:.3f}"
 
 
 def _trials(n: int) -> str:
