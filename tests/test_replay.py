@@ -548,6 +548,17 @@ def test_infer_on_several_trials_writes_each_recording_and_prints_the_mean(day: 
     ]  # fmt: skip
 
 
+def test_a_folder_of_trials_given_to_infer_is_told_to_give_its_trials(day: Path) -> None:
+    result = CliRunner().invoke(main, ["infer", str(day)])
+    assert result.exit_code == 1
+    assert (
+        result.stderr
+        == f"Error: {day}: is a folder, not an MCAP file; give its trials, {day}/*.mcap\n"
+    )
+    (day / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")  # a ROS 2 bag's
+    assert "run `dresslog convert` first" in CliRunner().invoke(main, ["infer", str(day)]).stderr
+
+
 def test_a_bad_trial_among_good_ones_is_said_and_the_others_are_done(day: Path) -> None:
     """Not MCAP, cut short, a channel missing: each its error, no recording of it, exit 1."""
     gown, shorts = day / "gown.mcap", day / "shorts.mcap"

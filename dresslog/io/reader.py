@@ -55,6 +55,14 @@ _CONTACT_REALS = np.dtype(
 CONVERT_HINT = "for a ROS bag or a force/torque CSV, run `dresslog convert` first"
 
 
+def _folder_hint(folder: Path) -> str:
+    """A folder of trials (a day's, a dataset split) is given by its files; a bag folder
+    (metadata.yaml beside its storage) is converted first."""
+    if (folder / "metadata.yaml").exists() or not any(folder.glob("*.mcap")):
+        return CONVERT_HINT
+    return f"give its trials, {folder / '*.mcap'}"
+
+
 @dataclass(frozen=True)
 class ChannelInfo:
     """One channel of the file: its schema, encoding and message count."""
@@ -88,7 +96,8 @@ class TrialReader:
         if not self.path.exists():
             raise TrialFormatError("no such file", path=self.path)
         if self.path.is_dir():
-            raise TrialFormatError(f"is a folder, not an MCAP file; {CONVERT_HINT}", path=self.path)
+            raise TrialFormatError(f"is a folder, not an MCAP file; {_folder_hint(self.path)}",
+                                   path=self.path)  # fmt: skip
         if not self.path.is_file():  # read again from its start after the magic: not a pipe
             raise TrialFormatError(
                 "is not a regular file (a pipe or a device); save it to a file first",
