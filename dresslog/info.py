@@ -51,9 +51,9 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
 def _inside(path: Path) -> str:
     """What `info` takes in a folder of ours that is neither a model nor a dataset: a
     sweep's (a setting's folder) or a dataset's split folder (the dataset); else ""."""
-    from dresslog.dataset.manifest import dataset_holding
+    from dresslog.dataset.manifest import SWEEP_FILE, dataset_holding
 
-    if (path / "sweep.json").is_file():
+    if (path / SWEEP_FILE).is_file():
         return (
             "; a sweep's folder: its table is sweep.csv, and `dresslog info` takes one "
             f"setting's folder, e.g. {path / 'in-range'}"

@@ -32,6 +32,9 @@ from dresslog.io.files import atomic_path, sha256_file
 from dresslog.spec import RECORDED, Outcome, Task, TrialSpec
 
 MANIFEST_FILE = "manifest.json"
+#: The file that marks a sweep's folder (`dresslog sweep` writes it beside its table and
+#: plot): named here, below the sweep code, so a dataset's checks can recognise one too.
+SWEEP_FILE = "sweep.json"
 FORMAT: Final = "dresslog-dataset"
 FORMAT_VERSION = 1
 #: The paper's proportion: 1,000 test sequences to 5,000 training ones.
@@ -231,7 +234,7 @@ def load_manifest(root: str | Path) -> Manifest:
         raise DatasetError("no such dataset folder", path=root)
     if not path.is_file():
         hint = "not a dataset folder (make one with `dresslog generate`)"
-        if (root / "sweep.json").is_file():  # a sweep's settings each hold a dataset
+        if (root / SWEEP_FILE).is_file():  # a sweep's settings each hold a dataset
             hint = "a sweep's folder: `dresslog sweep` scores its settings (table: sweep.csv)"
         elif (dataset := dataset_holding(root)) is not None:  # `data/gown/test`
             hint = f"a dataset's {root.resolve().name} folder: give the dataset, {dataset}"

@@ -17,7 +17,7 @@ from dresslog.dataset import Split, generate, load_dataset, load_manifest
 from dresslog.dataset.executors import check_executor
 from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
-from dresslog.dataset.manifest import MANIFEST_FILE, Manifest, check_files
+from dresslog.dataset.manifest import MANIFEST_FILE, SWEEP_FILE, Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
 from dresslog.experiments.evaluation import (
     check_data_task,
@@ -347,7 +347,7 @@ def _write_sweep(out: Path, report: SweepReport) -> None:
     with contextlib.ExitStack() as stack:
         table, summary, plot = (
             stack.enter_context(atomic_path(out / name))
-            for name in ("sweep.csv", "sweep.json", "sweep.png")
+            for name in ("sweep.csv", SWEEP_FILE, "sweep.png")
         )
         table.write_text("\n".join(rows) + "\n")
         summary.write_text(json.dumps(finite(summary_json), indent=2) + "\n")
