@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 import multiprocessing
 import os
@@ -242,6 +243,19 @@ def test_a_planted_or_damaged_cache_is_rebuilt_never_unpickled(copy: Path) -> No
         stream.seek(100)
         stream.write(b"X" * 44)
     assert load_dataset(copy, workers=1, progress=False).forces.shape == (4, 50, 300)
+
+
+def test_a_damaged_cache_is_not_left_open(copy: Path) -> None:
+    """numpy's own open of a file that starts as a zip and is none was never closed: one
+    file handle (and a ResourceWarning) lost per `train` or `eval` until it was rebuilt."""
+    path = cache_path(copy, load_manifest(copy))
+    path.parent.mkdir()
+    path.write_bytes(b"PK\x03\x04" + bytes(1000))  # a zip's first bytes, then nothing
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ResourceWarning)
+        assert load_dataset(copy, workers=1, progress=False).phi.shape == (4, 50, 9)
+        gc.collect()
+    assert [str(w.message) for w in caught if w.category is ResourceWarning] == []
 
 
 @pytest.mark.slow
