@@ -243,6 +243,9 @@ def test_a_planted_or_damaged_cache_is_rebuilt_never_unpickled(copy: Path) -> No
         stream.seek(100)
         stream.write(b"X" * 44)
     assert load_dataset(copy, workers=1, progress=False).forces.shape == (4, 50, 300)
+    with path.open("wb") as stream:  # one array, not an archive: was a TypeError traceback
+        np.save(stream, np.zeros(3))
+    assert load_dataset(copy, workers=1, progress=False).forces.shape == (4, 50, 300)
 
 
 def test_a_damaged_cache_is_not_left_open(copy: Path) -> None:

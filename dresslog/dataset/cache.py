@@ -183,8 +183,12 @@ def _write(path: Path, arrays: dict[str, np.ndarray]) -> None:
 def _read(path: Path, manifest: Manifest) -> dict[str, np.ndarray] | None:
     """The cached arrays if the file is whole and made from this manifest, else None."""
     try:  # opened here: numpy does not close a file it opened that is a broken zip
-        with path.open("rb") as stream, np.load(stream, allow_pickle=False) as npz:
-            arrays = {k: npz[k] for k in _FIELDS}
+        with path.open("rb") as stream:
+            loaded = np.load(stream, allow_pickle=False)
+            if not isinstance(loaded, np.lib.npyio.NpzFile):
+                return None  # one array (a .npy), not the archive written here
+            with loaded as npz:
+                arrays = {k: npz[k] for k in _FIELDS}
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, SyntaxError, TokenError):
         return None  # numpy parses a damaged array header as Python: it may fail as such
     info = arrays["info"]
