@@ -355,6 +355,7 @@ def test_record_connect_to_something_not_a_viewer_keeps_the_trial_and_says_so(
         result = CliRunner().invoke(main, [*args, "-o", str(out)])
     finally:
         server.shutdown()
+        server.server_close()
     assert result.exit_code == 0, result.output
     assert "Warning: the Rerun viewer went away before the live view ended" in result.stderr
     assert read_trial(out).force_map.forces.shape == (20, 300)

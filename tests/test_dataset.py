@@ -316,60 +316,60 @@ def test_ctrl_c_leaves_a_manifest_that_lists_every_trial_on_disk(tmp_path: Path,
     """A terminal's Ctrl-C reaches the whole process group; `kill PID` the main process
     alone; a batch scheduler's timeout SIGTERMs every process of the job; a closed
     terminal hangs up every process (multiprocessing's resource tracker too)."""
-    run = _generation_under_way(tmp_path, 12)
-    stopped = time.monotonic()
-    if stop == "ctrl-c":
-        os.killpg(run.pid, signal.SIGINT)
-    elif stop == "sigterm":
-        os.kill(run.pid, signal.SIGTERM)
-    else:
-        os.killpg(run.pid, signal.SIGTERM if stop == "sigterm-group" else signal.SIGHUP)
-    assert run.wait(timeout=60) != 0
-    # the trials under way stop too: a kill to the main process alone used to wait for
-    # them and start the next queued one (a scheduler's grace period may be 10 s)
-    assert time.monotonic() - stopped < 5
-    assert run.stderr is not None
-    said = run.stderr.read().decode()
-    assert "KeyboardInterrupt" in said and "BrokenProcessPool" not in said, said[-3000:]
-    assert "resource_tracker" not in said and "KeyError" not in said, said[-3000:]
-    manifest = load_manifest(tmp_path)
-    on_disk = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.glob("*/*.mcap"))
-    assert sorted(str(e.file) for e in manifest.trials) == on_disk
-    assert 2 <= len(on_disk) < 12 and not list(tmp_path.glob("*/.*.partial"))
-    check_files(tmp_path, manifest, checksums=True)
+    with _generation_under_way(tmp_path, 12) as run:  # then its stderr pipe is closed
+        stopped = time.monotonic()
+        if stop == "ctrl-c":
+            os.killpg(run.pid, signal.SIGINT)
+        elif stop == "sigterm":
+            os.kill(run.pid, signal.SIGTERM)
+        else:
+            os.killpg(run.pid, signal.SIGTERM if stop == "sigterm-group" else signal.SIGHUP)
+        assert run.wait(timeout=60) != 0
+        # the trials under way stop too: a kill to the main process alone used to wait for
+        # them and start the next queued one (a scheduler's grace period may be 10 s)
+        assert time.monotonic() - stopped < 5
+        assert run.stderr is not None
+        said = run.stderr.read().decode()
+        assert "KeyboardInterrupt" in said and "BrokenProcessPool" not in said, said[-3000:]
+        assert "resource_tracker" not in said and "KeyError" not in said, said[-3000:]
+        manifest = load_manifest(tmp_path)
+        on_disk = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.glob("*/*.mcap"))
+        assert sorted(str(e.file) for e in manifest.trials) == on_disk
+        assert 2 <= len(on_disk) < 12 and not list(tmp_path.glob("*/.*.partial"))
+        check_files(tmp_path, manifest, checksums=True)
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGKILL are POSIX")
 def test_workers_of_a_killed_generation_stop_and_leave_no_temporary(tmp_path: Path) -> None:
     """`kill -9` (or the out-of-memory killer) on the main process alone."""
-    run = _generation_under_way(tmp_path, 40)
-    os.kill(run.pid, signal.SIGKILL)
-    run.wait(timeout=10)
-    deadline = time.monotonic() + 20
-    while _session_alive(run.pid) and time.monotonic() < deadline:
-        time.sleep(0.2)
-    assert not _session_alive(run.pid), "workers outlived their generation"
-    assert not list(tmp_path.glob("*/.*.partial"))
+    with _generation_under_way(tmp_path, 40) as run:  # then its stderr pipe is closed
+        os.kill(run.pid, signal.SIGKILL)
+        run.wait(timeout=10)
+        deadline = time.monotonic() + 20
+        while _session_alive(run.pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not _session_alive(run.pid), "workers outlived their generation"
+        assert not list(tmp_path.glob("*/.*.partial"))
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds workers in Linux's /proc")
 def test_a_worker_killed_alone_is_one_line_and_the_folder_resumable(tmp_path: Path) -> None:
     """The out-of-memory killer takes one worker: say so, keep what is done."""
-    run = _generation_under_way(tmp_path, 12)
-    workers = [
-        int(p.parent.name)
-        for p in Path("/proc").glob("[0-9]*/cmdline")
-        if _parent(p.parent) == run.pid and b"spawn_main" in _read(p)
-    ]
-    assert workers
-    os.kill(workers[0], signal.SIGKILL)
-    assert run.wait(timeout=60) != 0
-    assert run.stderr is not None
-    said = run.stderr.read().decode()
-    assert "a worker process died" in said and "BrokenProcessPool" not in said, said[-3000:]
-    manifest = load_manifest(tmp_path)
-    assert manifest.trials and not list(tmp_path.glob("*/.*.partial"))
-    check_files(tmp_path, manifest, checksums=True)
+    with _generation_under_way(tmp_path, 12) as run:  # then its stderr pipe is closed
+        workers = [
+            int(p.parent.name)
+            for p in Path("/proc").glob("[0-9]*/cmdline")
+            if _parent(p.parent) == run.pid and b"spawn_main" in _read(p)
+        ]
+        assert workers
+        os.kill(workers[0], signal.SIGKILL)
+        assert run.wait(timeout=60) != 0
+        assert run.stderr is not None
+        said = run.stderr.read().decode()
+        assert "a worker process died" in said and "BrokenProcessPool" not in said, said[-3000:]
+        manifest = load_manifest(tmp_path)
+        assert manifest.trials and not list(tmp_path.glob("*/.*.partial"))
+        check_files(tmp_path, manifest, checksums=True)
 
 
 def _read(path: Path) -> bytes:

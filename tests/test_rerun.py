@@ -507,14 +507,15 @@ def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferr
     env = {**os.environ, "PYTHONFAULTHANDLER": "1"}  # SIGABRT dumps where it is stuck
     try:
         for log in logs:  # the second once the first serves
-            run = subprocess.Popen(
-                [*command, "view", str(rrd), "--web"],
-                stdout=subprocess.PIPE,
-                stderr=log.open("w"),
-                text=True,
-                start_new_session=True,
-                env=env,
-            )
+            with log.open("w") as err:  # the child holds its own copy
+                run = subprocess.Popen(
+                    [*command, "view", str(rrd), "--web"],
+                    stdout=subprocess.PIPE,
+                    stderr=err,
+                    text=True,
+                    start_new_session=True,
+                    env=env,
+                )
             runs.append(run)
             assert run.stdout is not None
             line = run.stdout.readline()
@@ -544,6 +545,8 @@ def test_two_view_webs_serve_on_localhost_until_interrupted_or_terminated(inferr
                 stuck.append(f"pytest's {_signal_state('self')}")
                 with contextlib.suppress(ProcessLookupError):
                     os.killpg(run.pid, signal.SIGKILL)
+            assert run.stdout is not None
+            run.stdout.close()
         assert not stuck, "\n".join(stuck)
     assert [run.returncode for run in runs] == [1, 1]  # click's "Aborted!"
     time.sleep(1)
@@ -595,6 +598,7 @@ def test_view_web_killed_outright_takes_its_viewer_with_it(inferred) -> None:
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(run.pid, signal.SIGKILL)
+        run.stdout.close()
 
 
 def test_view_web_on_a_port_in_use_says_so_before_starting(inferred) -> None:
@@ -634,7 +638,8 @@ def test_a_viewer_that_ignores_sigterm_is_killed(
         [sys.executable, "-c", code], start_new_session=True, stdout=subprocess.PIPE, text=True
     )
     assert process.stdout is not None
-    child = int(process.stdout.readline())
+    with process.stdout:
+        child = int(process.stdout.readline())
     time.sleep(0.5)  # the handlers in place
     started = time.monotonic()
     viewer._stop(process, group=True)
@@ -698,6 +703,7 @@ def test_ctrl_c_stops_view_whichever_thread_the_kernel_hands_it_to(inferred) -> 
         if run.poll() is None:
             os.killpg(run.pid, signal.SIGKILL)
             run.wait()
+        run.stdout.close()
 
 
 def _signal_state(pid: str) -> str:
