@@ -18,6 +18,11 @@ SAMPLES = REPO / "samples"
 
 N_POINTS = {Task.GOWN: 300, Task.SHORTS: 400}
 
+#: For a test of the `Warning: ...` line a command prints: the suite makes a DresslogWarning
+#: an error (pyproject.toml), which would end the command; this lets it reach the CLI's
+#: printer as in a user's shell, so the test can assert the line.
+prints_warnings = pytest.mark.filterwarnings("default::dresslog.errors.DresslogWarning")
+
 
 def write_synthetic_trial(path: Path, task: Task = Task.GOWN, steps: int = 50) -> dict:
     """A trial with every channel filled from a seeded generator; returns what was written."""

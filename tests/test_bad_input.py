@@ -18,7 +18,7 @@ from dresslog.io import well_known as wk
 from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader
 from dresslog.spec import Task, TrialMetadata
-from tests.conftest import SAMPLES
+from tests.conftest import SAMPLES, prints_warnings
 
 
 def _raw_mcap(
@@ -473,6 +473,7 @@ def test_a_trial_at_another_rate_than_the_models_is_refused_by_infer(
     )
 
 
+@prints_warnings
 def test_view_shows_a_trial_at_another_rate_with_ground_truth_alone(tmp_path: Path) -> None:
     """Only an asked-for model refuses it: `view` falls back as for a task without a model."""
     from dresslog.sim.record import record_trial

@@ -18,7 +18,7 @@ from dresslog import __version__
 from dresslog.cli.main import COMMANDS, main
 from dresslog.io.reader import read_trial
 from dresslog.spec import Task, TrialSpec
-from tests.conftest import SAMPLES
+from tests.conftest import SAMPLES, prints_warnings
 
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "gown.mcap"
 
@@ -337,6 +337,7 @@ def test_record_connect_to_no_viewer_is_one_line_and_writes_nothing(
     assert list(tmp_path.iterdir()) == []
 
 
+@prints_warnings
 def test_record_connect_to_something_not_a_viewer_keeps_the_trial_and_says_so(
     tmp_path: Path,
 ) -> None:

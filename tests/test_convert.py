@@ -20,7 +20,7 @@ from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.summary import format_summary, summarize
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
-from tests.conftest import SAMPLES
+from tests.conftest import SAMPLES, prints_warnings
 from tests.convert_signals import (
     YAW_RATE,
     pose,
@@ -578,6 +578,7 @@ def test_an_output_inside_the_bag_folder_being_read_is_refused(bags: dict[str, P
     assert {p: p.read_bytes() for p in folder.iterdir()} == before
 
 
+@prints_warnings
 def test_the_command_prints_gap_warnings(tmp_path: Path) -> None:
     topics = standard_topics(1.0)
     kind, stamps, values = topics["/arm/ee_pose"]

@@ -16,6 +16,7 @@ from dresslog.convert.csv import role_of
 from dresslog.convert.units import value_scale
 from dresslog.errors import ConversionError
 from dresslog.io.reader import TrialReader, read_trial
+from tests.conftest import prints_warnings
 from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
 
 
@@ -484,6 +485,7 @@ def test_an_empty_cell_is_named_by_column_and_line(tmp_path: Path) -> None:
         ("1.999,0.5,0.2,1,0,0,0,0.1,0,-", "its last field '-' is not a number"),
     ],
 )
+@prints_warnings
 def test_a_last_line_cut_off_mid_write_is_dropped_with_a_warning(
     tmp_path: Path, cut: str, what: str
 ) -> None:

@@ -39,7 +39,7 @@ from dresslog.errors import DatasetError, DresslogError, DresslogWarning, Simula
 from dresslog.io.files import exclusive
 from dresslog.io.reader import TrialReader
 from dresslog.spec import Outcome, Task, TrialSpec
-from tests.conftest import SAMPLES, write_synthetic_trial
+from tests.conftest import SAMPLES, prints_warnings, write_synthetic_trial
 
 FAKE = "tests.test_dataset:fake_record"
 FAILING_SEED = trial_seed(0, Split.TRAIN, 1, 0)
@@ -160,7 +160,9 @@ def test_a_slot_failing_every_seed_stops_generation_with_one_line(tmp_path: Path
     with pytest.raises(
         DatasetError, match=r"1 slot\(s\) failed 2 seeds.*SimulationError: .*exceeds"
     ):
-        generate("shorts", 1, tmp_path, workers=1, overrides=unstable, max_attempts=2)
+        generate(  # a test set of one: no training split too small to warn of
+            "shorts", 1, tmp_path, workers=1, test_fraction=1, overrides=unstable, max_attempts=2
+        )
     failures = load_manifest(tmp_path).failures
     assert len(failures) == 2 and failures[0].spec.seed != failures[1].spec.seed
 
@@ -176,14 +178,14 @@ def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
     with pytest.raises(
         DatasetError, match=r"fields duration=0\.5, not none fixed \(no --duration\)"
     ):
-        generate(
-            "gown", 2, tmp_path / "short", workers=1, overrides={"duration": 0.5}, recorder=FAKE
-        )
-        generate("gown", 2, tmp_path / "short", workers=1, recorder=FAKE)
+        short = {"workers": 1, "test_fraction": 0, "recorder": FAKE}
+        generate("gown", 2, tmp_path / "short", overrides={"duration": 0.5}, **short)
+        generate("gown", 2, tmp_path / "short", **short)
     fixed = tmp_path / "fixed"
-    generate("gown", 1, fixed, workers=1, overrides={"speed": 0.2, "duration": 1}, recorder=FAKE)
+    options = {"workers": 1, "test_fraction": 0, "recorder": FAKE}
+    generate("gown", 2, fixed, overrides={"speed": 0.2, "duration": 1}, **options)
     same = {"duration": 1.0, "speed": 0.2}  # other order, 1.0 for 1: the same request
-    assert len(generate("gown", 2, fixed, workers=1, overrides=same, recorder=FAKE).trials) == 2
+    assert len(generate("gown", 3, fixed, overrides=same, **options).trials) == 3
     with pytest.raises(DatasetError, match="more than the 1 asked for"):
         generate("gown", 1, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
 
@@ -448,16 +450,19 @@ def test_cli_bad_data_folder_is_one_line_and_exit_1(tmp_path: Path, command: str
 
 
 def test_cli_generate_seed_reaches_every_trial(tmp_path: Path) -> None:
-    args = ["generate", "--task", "shorts", "--trials", "2", "--test-fraction", "0.5"]
+    args = ["generate", "--task", "shorts", "--trials", "3", "--test-fraction", "0.34"]
     args += ["--seed", "5", "--duration", "0.1", "--workers", "1", "-q", "-o", str(tmp_path / "d")]
-    assert CliRunner().invoke(main, args).exit_code == 0
+    result = CliRunner().invoke(main, args)  # 2 to train on, as `train` needs, and 1 to test
+    assert result.exit_code == 0, result.output
     manifest = load_manifest(tmp_path / "d")
     assert manifest.seed == 5
     assert {(e.split, e.spec.seed) for e in manifest.trials} == {
-        (split, trial_seed(5, split, 0)) for split in (Split.TRAIN, Split.TEST)
+        (split, trial_seed(5, split, slot))
+        for split, slot in ((Split.TRAIN, 0), (Split.TRAIN, 1), (Split.TEST, 0))
     }
 
 
+@prints_warnings
 def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
     """3 trials at the default 1/6 made no test trials, found only when `eval` failed."""
     out = tmp_path / "d"
@@ -488,10 +493,9 @@ def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
 def test_info_on_a_dataset_names_the_spec_fields_fixed_for_every_trial(tmp_path: Path) -> None:
     """Two folders of 0.3 s and 7 s trials, or of two sweep speeds, read alike in `info`."""
     fixed = {"duration": 0.3, "limb_rotation": {"axis": "z", "degrees": 10.0}}
-    generate(
-        "gown", 2, tmp_path / "d", workers=1, test_fraction=0.5, overrides=fixed, recorder=FAKE
-    )
-    generate("gown", 2, tmp_path / "e", workers=1, test_fraction=0.5, recorder=FAKE)
+    options = {"workers": 1, "test_fraction": 1 / 3, "recorder": FAKE}  # 2 train, 1 test
+    generate("gown", 3, tmp_path / "d", overrides=fixed, **options)
+    generate("gown", 3, tmp_path / "e", **options)
     shown = CliRunner().invoke(main, ["info", str(tmp_path / "d")])
     assert shown.exit_code == 0 and shown.output.splitlines()[1:] == [
         '  fixed for every trial: duration=0.3, limb_rotation={"axis": "z", "degrees": 10.0}'
@@ -563,11 +567,12 @@ def test_a_folder_holding_something_else_is_refused_and_left_as_it_was(
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1 and "holds no dataset (manifest.json)" in result.output
     assert sorted(tmp_path.rglob("*")) == before
-    generate("gown", 1, tmp_path / "new", workers=1, recorder=FAKE)  # an empty folder is fine
+    options = {"workers": 1, "test_fraction": 0, "recorder": FAKE}  # 2 to train on, no warning
+    generate("gown", 2, tmp_path / "new", **options)  # an empty folder is fine
     killed = tmp_path / "killed"  # a first run killed while saving its manifest
     (killed / "train").mkdir(parents=True)
     (killed / ".manifest.json.4242.partial").write_text("{")
-    generate("gown", 1, killed, workers=1, recorder=FAKE)
+    generate("gown", 2, killed, **options)
 
 
 def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
@@ -575,10 +580,11 @@ def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
 ) -> None:
     tmp_path.joinpath("d").mkdir()
     lock = exclusive(tmp_path / "d" / ".generate.lock", "dresslog generate")
+    options = {"workers": 1, "test_fraction": 0, "recorder": FAKE}  # 2 to train on, no warning
     with lock, pytest.raises(DresslogError, match=r"another `dresslog generate` .* is writing it"):
-        generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)
-    generate("gown", 1, tmp_path / "d", workers=1, recorder=FAKE)  # free again
-    assert len(load_manifest(tmp_path / "d").trials) == 1
+        generate("gown", 2, tmp_path / "d", **options)
+    generate("gown", 2, tmp_path / "d", **options)  # free again
+    assert len(load_manifest(tmp_path / "d").trials) == 2
     tmp_path.joinpath("s").mkdir()  # a sweep's setting: the message names the sweep
     lock = exclusive(tmp_path / "s" / ".generate.lock", "dresslog sweep")
     with lock, pytest.raises(DresslogError, match=r"another `dresslog sweep` .* is writing it"):
@@ -737,6 +743,7 @@ def test_generate_on_a_sweep_setting_folder_names_the_sweep_not_its_fields(tmp_p
         generate("gown", 2, setting, overrides={"duration": 0.5}, recorder=FAKE, progress=False)
 
 
+@prints_warnings
 def test_an_unfinished_sweep_setting_is_finished_by_its_sweep(tmp_path: Path) -> None:
     """An interrupted sweep's setting folder was to be finished by its `generate` command,
     which refuses the folder (and had never made it)."""

@@ -21,7 +21,7 @@ from click.testing import CliRunner
 
 from dresslog.cli.main import main
 from dresslog.dataset import generate, load_manifest
-from dresslog.errors import DatasetError, ModelError
+from dresslog.errors import DatasetError, DresslogWarning, ModelError
 from dresslog.experiments import (
     Scores,
     SweepReport,
@@ -35,7 +35,7 @@ from dresslog.model.files import ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_lines
 from dresslog.spec import Task
-from tests.conftest import SAMPLES
+from tests.conftest import SAMPLES, prints_warnings
 
 
 @pytest.fixture(scope="module")
@@ -175,13 +175,15 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
 
 
 @pytest.mark.slow
+@prints_warnings
 def test_training_on_trials_that_never_touch_the_limb_is_warned_about(
     data: Path, tmp_path: Path
 ) -> None:
     """Short trials, the natural first try, end before the garment reaches the arm: the
     model learnt to estimate nothing, and only `eval --bounds` said why."""
     away = tmp_path / "away"
-    generate("gown", 2, away, workers=1, overrides={"duration": 0.3, "limb_offset": (0, 5, 0)})
+    far = {"duration": 0.3, "limb_offset": (0, 5, 0)}
+    generate("gown", 2, away, workers=1, test_fraction=0, overrides=far)  # all to train on
     tiny = ["--epochs", "1", "--hidden", "4", "--layers", "1", "-q"]
     for folder, warned in ((away, True), (data, False)):
         args = ["train", str(folder), "-o", str(tmp_path / f"m-{folder.name}"), *tiny]
@@ -193,6 +195,7 @@ def test_training_on_trials_that_never_touch_the_limb_is_warned_about(
 
 
 @pytest.mark.slow
+@prints_warnings
 def test_an_incomplete_dataset_is_used_with_a_warning(
     model: Path, data: Path, tmp_path: Path
 ) -> None:
@@ -294,6 +297,7 @@ def test_a_test_set_of_fresh_seeds_alone_scores_a_model(model: Path, data: Path)
     assert code == 1 and "needs at least 2 training trials, has 0" in output
 
 
+@prints_warnings
 def test_eval_says_why_its_ratios_are_nan_when_the_split_has_no_force(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -301,7 +305,7 @@ def test_eval_says_why_its_ratios_are_nan_when_the_split_has_no_force(
     where train warns of the same data; and the bounds say there is nothing to place."""
     monkeypatch.chdir(tmp_path)
     data = "early"  # the first 0.3 s: the gripper has not reached the hand yet
-    args = ["--task", "gown", "--trials", "2", "--test-fraction", "0.5", "--duration", "0.3"]
+    args = ["--task", "gown", "--trials", "1", "--test-fraction", "1", "--duration", "0.3"]
     code, output = invoke("generate", *args, "--out", data, "--workers", "1", "-q")
     assert code == 0, output
     model = SAMPLES / "models" / "gown"
@@ -320,6 +324,7 @@ def test_eval_says_why_its_ratios_are_nan_when_the_split_has_no_force(
     assert result.stderr.startswith("Warning: early: no test sequence")
 
 
+@prints_warnings
 def test_sweep_says_why_its_ratios_are_nan_when_no_sequence_has_force(tmp_path: Path) -> None:
     """As eval: sweep's table printed nan in both ratio columns, unexplained."""
     model, out = SAMPLES / "models" / "gown", tmp_path / "sweep"
@@ -382,6 +387,7 @@ def test_sweep_writes_a_table_and_a_plot(
 
 
 @pytest.mark.slow
+@prints_warnings
 def test_a_sweep_run_again_with_other_values_tables_every_complete_setting(
     model: Path, tmp_path: Path
 ) -> None:
@@ -412,6 +418,7 @@ def test_a_sweep_run_again_with_other_values_tables_every_complete_setting(
 
 
 @pytest.mark.slow
+@prints_warnings
 def test_a_damaged_earlier_sweep_setting_is_left_out_and_named_not_fatal(tmp_path: Path) -> None:
     """A corrupt trial in an earlier run's setting stopped the new sweep with "run `dresslog
     generate` on the folder again" (which refuses a sweep's folder), and a missing one was
@@ -798,7 +805,10 @@ def test_train_dataset_names_an_unknown_schedule_before_loading_any_trial(tmp_pa
 
 def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
     data = tmp_path / "one"
-    generate("gown", 1, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
+    with pytest.warns(DresslogWarning, match="1 trial at --test-fraction 0 leaves 1 to train on"):
+        generate(  # what `train` then refuses: said while the trials were still to be made
+            "gown", 1, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record"
+        )
     code, output = invoke("train", data, "-o", tmp_path / "m", "-q")
     assert code == 1 and "needs at least 2 training trials, has 1" in output
     code, output = invoke("eval", _fake_model(tmp_path / "gown", "gown"), data)
@@ -825,6 +835,7 @@ def test_sweep_without_a_setting_or_with_a_bad_speed_is_refused(
 
 
 @pytest.mark.slow
+@prints_warnings
 def test_a_model_trained_without_standardisation_still_warns_of_a_signal_far_from_its_data(
     model: Path, data: Path, tmp_path: Path
 ) -> None:

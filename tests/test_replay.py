@@ -24,7 +24,7 @@ from dresslog.replay.metrics import MetricsSink
 from dresslog.replay.pipeline import replay_file
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
-from tests.conftest import SAMPLES
+from tests.conftest import SAMPLES, prints_warnings
 from tests.test_bad_input import TWIST, _raw_mcap, _vectors, missing_twist, nan_wrench
 
 STEPS = 40
@@ -400,6 +400,7 @@ def _csv_of(trial: Path, out: Path, fz_offset: float = 0.0, turn: np.ndarray | N
     return out
 
 
+@prints_warnings
 def test_a_signal_far_from_the_training_data_is_warned_about_with_its_likely_cause(
     tmp_path: Path, monkeypatch
 ) -> None:
@@ -440,6 +441,7 @@ def test_a_knock_or_a_channel_constant_in_training_is_not_called_far() -> None:
     assert unfamiliar(phi, mean, std) is None
 
 
+@prints_warnings
 def test_a_log_in_another_robots_axes_is_warned_about_and_rotate_puts_it_right(
     tmp_path: Path, monkeypatch
 ) -> None:
