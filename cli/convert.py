@@ -6,7 +6,7 @@ from __future__ import annotations
 import click
 
 from .common import reports_errors
-from .options import task_option
+from .options import FINITE, FiniteRange, task_option
 
 
 @click.command("convert")
@@ -32,20 +32,20 @@ from .options import task_option
 @click.option("--wrench-frame", type=click.Choice(["world", "pose"]), default="world",
               show_default=True, help="The wrench's axes: world, or the gripper's own "
               "(turned by the pose's orientation).")  # fmt: skip
-@click.option("--sensor-rotation", nargs=4, type=float, metavar="QX QY QZ QW",
+@click.option("--sensor-rotation", nargs=4, type=FINITE, metavar="QX QY QZ QW",
               help="With --wrench-frame pose: the sensor's axes in the gripper's (quaternion).",
               show_default="none")  # fmt: skip
-@click.option("--sensor-offset", nargs=3, type=float, metavar="X Y Z",
+@click.option("--sensor-offset", nargs=3, type=FINITE, metavar="X Y Z",
               help="With --wrench-frame pose: sensor origin from gripper centre, m.",
               show_default="0 0 0")  # fmt: skip
-@click.option("--rotate", nargs=4, type=float, metavar="QX QY QZ QW",
+@click.option("--rotate", nargs=4, type=FINITE, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame (quaternion).",
               show_default="none")  # fmt: skip
-@click.option("--translate", nargs=3, type=float, metavar="X Y Z",
+@click.option("--translate", nargs=3, type=FINITE, metavar="X Y Z",
               help="Then move every pose by X Y Z, m, to place the gripper's path in the "
               "scene's frame (the drawing only: the estimate does not use position).",
               show_default="none")  # fmt: skip
-@click.option("--tare", "tare_s", type=click.FloatRange(min=0), default=0.0, metavar="SECONDS",
+@click.option("--tare", "tare_s", type=FiniteRange(min=0), default=0.0, metavar="SECONDS",
               show_default=True,
               help="Subtract the mean wrench of the first SECONDS, s; 0: no tare.")  # fmt: skip
 @click.option("--overwrite", is_flag=True, help="Replace OUTPUT if it exists.")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .common import reports_errors
-from .options import duration_option, executor_option, task_option
+from .options import FiniteRange, duration_option, executor_option, task_option
 
 
 @click.command("generate")
@@ -18,10 +18,10 @@ from .options import duration_option, executor_option, task_option
               show_default="all cores")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws every trial's spec.")  # fmt: skip
-@click.option("--test-fraction", type=click.FloatRange(0, 1), default=1 / 6, show_default="1/6",
+@click.option("--test-fraction", type=FiniteRange(0, 1), default=1 / 6, show_default="1/6",
               help="Share of the trials in the test split (1: a test set of fresh seeds "
               "only, to score models on).")  # fmt: skip
-@duration_option(" per trial", click.FloatRange(min=0, min_open=True))
+@duration_option(" per trial")
 @executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors

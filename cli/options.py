@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from dresslog.spec import MAX_DURATION, Task, TrialSpec
+from dresslog.spec import MAX_DURATION, MAX_ROTATION, MAX_SPEED, Task, TrialSpec
 
 task_option = click.option(
     "--task",
@@ -30,25 +30,40 @@ executor_option = click.option(
 )
 
 
-def duration_option(each: str, kind: Any = float) -> Callable[[Any], Any]:
-    """`--duration`, `each` naming what it sets ("", " per trial"); `kind` its click type
-    (`record` leaves the range to the library, whose error names the bound)."""
+def duration_option(each: str, *, checked: bool = True) -> Callable[[Any], Any]:
+    """`--duration`, `each` naming what it sets ("", " per trial"). `checked`: click refuses a
+    value out of 0<x<=MAX_DURATION (nan, inf) as a usage error; `record` leaves it to the
+    library (exit 1, `invalid duration: ...`, nan as not finite), whose error names the
+    bound, the two-step minimum too."""
     return click.option(
         "--duration",
-        type=kind,
+        type=FiniteRange(0, MAX_DURATION, min_open=True) if checked else float,
         metavar="SECONDS",
-        help=f"Recorded motion{each}, s (0<x<={MAX_DURATION:g}); outcomes are judged at its "
-        "end, and a path takes 4-7 s.",
+        help=f"Recorded motion{each}, s{'' if checked else f' (0<x<={MAX_DURATION:g})'}; "
+        "outcomes are judged at its end, and a path takes 4-7 s.",
         show_default=f"{TrialSpec.model_fields['duration'].default:g} s",
     )
 
 
 class FiniteRange(click.FloatRange):
-    """`click.FloatRange` that refuses nan too, which compares false with either bound and
-    so slipped through to the library's error (exit 1, not the usage error's 2)."""
+    """`click.FloatRange` that refuses nan and inf too: nan compares false with either bound,
+    and inf passes an open side (`x>=0`), so both slipped through to the library's error
+    (exit 1, not the usage error's 2). With no bounds: any finite number."""
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         number = super().convert(value, param, ctx)
-        if math.isnan(number):
-            self.fail(f"{number} is not in the range {self._describe_range()}.", param, ctx)
+        if not math.isfinite(number):
+            where = f"in the range {self._describe_range()}" if self._describe_range() else "finite"
+            self.fail(f"{number} is not {where}.", param, ctx)
         return number
+
+    def _describe_range(self) -> str:
+        """What help shows after the default, and errors name; nothing when unbounded."""
+        return "" if self.min is None and self.max is None else super()._describe_range()
+
+
+#: A number, any but nan and inf (a quaternion's or a translation's component).
+FINITE = FiniteRange()
+#: The spec's speed (m/s) and limb rotation (degrees) ranges.
+SPEED_RANGE = FiniteRange(0, MAX_SPEED, min_open=True)
+ROTATION_RANGE = FiniteRange(-MAX_ROTATION, MAX_ROTATION)

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import click
 
-from dresslog.spec import MAX_OFFSET, MAX_ROTATION, MAX_SPEED
+from dresslog.spec import MAX_OFFSET, MAX_ROTATION
 
 from .common import reports_errors
-from .options import FiniteRange, duration_option, task_option
+from .options import ROTATION_RANGE, SPEED_RANGE, FiniteRange, duration_option, task_option
 
 
 @click.command("record")
@@ -18,17 +18,17 @@ from .options import FiniteRange, duration_option, task_option
               required=True, help="Trial file to write (.mcap).")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws speed, limb offset and path.")  # fmt: skip
-@click.option("--speed", type=FiniteRange(0, MAX_SPEED, min_open=True), metavar="M/S",
+@click.option("--speed", type=SPEED_RANGE, metavar="M/S",
               help="End-effector speed, m/s.",
               show_default="from --seed: gown 0.10-0.15, shorts 0.15-0.20")  # fmt: skip
 @click.option("--offset", type=FiniteRange(-MAX_OFFSET, MAX_OFFSET), nargs=3, metavar="X Y Z",
               help="Limb offset from its nominal pose, m (the range is each component's).",
               show_default="from --seed, within the paper's ranges")  # fmt: skip
 @click.option("--rotation", type=(click.Choice(["x", "y", "z"]),
-              FiniteRange(-MAX_ROTATION, MAX_ROTATION)), metavar="AXIS DEG",
+              ROTATION_RANGE), metavar="AXIS DEG",
               help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
               f"(-{MAX_ROTATION:g}<=DEG<={MAX_ROTATION:g}).", show_default="none")  # fmt: skip
-@duration_option("")
+@duration_option("", checked=False)
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
 @click.option("--model", "-m", type=click.Path(path_type=Path),

@@ -40,7 +40,7 @@ def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
               help="Fresh sequences per setting (at most 1,000,000).")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws the sequences' specs.")  # fmt: skip
-@duration_option(" per sequence", click.FloatRange(min=0, min_open=True))
+@duration_option(" per sequence")
 @click.option("--workers", type=click.IntRange(min=1), help="Sequences simulated at once.",
               show_default="all cores")  # fmt: skip
 @executor_option

@@ -10,6 +10,7 @@ import click
 from dresslog.model.options import LR_SCHEDULES
 
 from .common import reports_errors
+from .options import FiniteRange
 
 
 @click.command("train")
@@ -24,7 +25,7 @@ from .common import reports_errors
               help="LSTM cells per layer.")  # fmt: skip
 @click.option("--layers", type=click.IntRange(min=1), default=3, show_default=True,
               help="LSTM layers.")  # fmt: skip
-@click.option("--lr", type=click.FloatRange(min=0, min_open=True), default=1e-3, show_default=True,
+@click.option("--lr", type=FiniteRange(min=0, min_open=True), default=1e-3, show_default=True,
               help="RMSprop learning rate.")  # fmt: skip
 @click.option("--normalise", is_flag=True, help="Standardise inputs (not in the paper).")
 @click.option(

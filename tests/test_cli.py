@@ -406,6 +406,47 @@ def test_record_names_an_option_out_of_its_range_as_a_usage_error(
     assert "Usage: " in result.output and not out.exists()
 
 
+#: Each command with what it requires, so that only the value under test is wrong.
+_BASE = {
+    "convert": ["convert", "{tmp}/log.csv", "-o", "{tmp}/t.mcap", "--task", "gown"],
+    "generate": ["generate", "--task", "gown", "--trials", "2", "-o", "{tmp}/data"],
+    "train": ["train", "{tmp}/data", "-o", "{tmp}/model"],
+    "sweep": ["sweep", "{tmp}/model", "--speeds", "0.2", "-o", "{tmp}/sweep"],
+}
+
+
+@pytest.mark.parametrize(
+    ("command", "option", "values"),
+    [
+        ("convert", "--tare", ["nan"]),
+        ("convert", "--tare", ["inf"]),
+        ("convert", "--rotate", ["0", "0", "nan", "1"]),
+        ("convert", "--sensor-rotation", ["0", "0", "0", "-inf"]),
+        ("convert", "--translate", ["0.1", "inf", "0"]),
+        ("convert", "--sensor-offset", ["nan", "0", "0"]),
+        ("generate", "--test-fraction", ["nan"]),
+        ("generate", "--duration", ["nan"]),
+        ("generate", "--duration", ["inf"]),
+        ("generate", "--duration", ["1e9"]),
+        ("sweep", "--duration", ["nan"]),
+        ("sweep", "--duration", ["5000"]),
+        ("train", "--lr", ["nan"]),
+        ("train", "--lr", ["inf"]),
+    ],
+    ids=lambda v: " ".join(v) if isinstance(v, list) else v,
+)
+def test_every_command_names_a_number_out_of_its_range_as_a_usage_error(
+    tmp_path: Path, command: str, option: str, values: list[str]
+) -> None:
+    """A value click can check (nan and inf too) is its usage error (exit 2, naming the option
+    and its range), as record's --speed is, not the library's exit 1 after start-up."""
+    args = [a.replace("{tmp}", str(tmp_path)) for a in _BASE[command]]
+    result = CliRunner().invoke(main, [*args, option, *values])
+    assert result.exit_code == 2, result.output
+    assert f"Invalid value for '{option}'" in result.output and "Usage: " in result.output
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM ends a process outright there")
 @pytest.mark.parametrize("sent", ["SIGTERM", "SIGHUP", "SIGHUP-under-nohup"])
 def test_a_killed_record_leaves_no_file(tmp_path: Path, sent: str) -> None:

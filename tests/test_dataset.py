@@ -518,10 +518,13 @@ def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkey
 def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
     tmp_path: Path,
 ) -> None:
-    args = ["generate", "--task", "gown", "--trials", "2", "--duration", "inf"]
+    args = ["generate", "--task", "gown", "--trials", "2", "--duration", "0.004"]  # one step
     result = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "d")])
-    assert result.exit_code == 1 and "invalid duration" in result.output
+    assert result.exit_code == 1 and "invalid duration: at least two" in result.output
     assert not (tmp_path / "d").exists()  # no manifest that would pin the bad value
+    with pytest.raises(DatasetError, match="invalid duration: Input should be a finite number"):
+        generate("gown", 2, tmp_path / "d", overrides={"duration": float("inf")})  # click's 2
+    assert not (tmp_path / "d").exists()
     for field, value in (("record_hz", 0), ("physics_hz", 0), ("garment_mass", -1)):
         # a ZeroDivisionError, a traceback from the first worker, a garment that falls up
         with pytest.raises(DatasetError, match=f"invalid sim.{field}: .* greater than 0"):
