@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from dresslog.spec import MAX_OFFSET, MAX_ROTATION
+from dresslog.spec import MAX_OFFSET
 
 from .common import reports_errors
 from .options import ROTATION_RANGE, SPEED_RANGE, FiniteRange, duration_option, task_option
@@ -27,7 +27,7 @@ from .options import ROTATION_RANGE, SPEED_RANGE, FiniteRange, duration_option, 
 @click.option("--rotation", type=(click.Choice(["x", "y", "z"]),
               ROTATION_RANGE), metavar="AXIS DEG",
               help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
-              f"(-{MAX_ROTATION:g}<=DEG<={MAX_ROTATION:g}).", show_default="none")  # fmt: skip
+              f"({ROTATION_RANGE.describe('DEG')}).", show_default="none")  # fmt: skip
 @duration_option("", checked=False)
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")

@@ -7,32 +7,23 @@ from typing import Any
 import click
 
 from .common import reports_errors
-from .options import duration_option, executor_option
-
-
-def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> list[str]:
-    """The comma-separated values, each of the form the library reads (else exit 2)."""
-    from dresslog.errors import DatasetError
-    from dresslog.experiments.sweeps import parse_rotation, parse_speed
-
-    items = [v.strip() for value in values for v in value.split(",") if v.strip()]
-    parse = parse_speed if param.name == "speeds" else parse_rotation
-    for item in items:
-        try:
-            parse(item)
-        except DatasetError as err:
-            raise click.BadParameter(err.message) from None
-    return items
+from .options import (
+    ROTATION_RANGE,
+    SPEED_RANGE,
+    duration_option,
+    executor_option,
+    sweep_values_option,
+)
 
 
 @click.command("sweep")
 @click.argument("model", type=click.Path())
-@click.option("--speeds", multiple=True, callback=_items, metavar="LIST",
-              help="End-effector speeds to sweep, m/s, comma-separated: 0.2,0.25 (each 0<x<=1). "
-              "Give --speeds, --rotations or both.")  # fmt: skip
-@click.option("--rotations", multiple=True, callback=_items, metavar="LIST",
-              help="Limb rotations to sweep, AXIS:DEG, comma-separated: y:-15,z:10 "
-              "(-90<=DEG<=90). Give --speeds, --rotations or both.")  # fmt: skip
+@sweep_values_option("--speeds", "speed", "End-effector speeds to sweep, m/s, comma-separated: "
+                     f"0.2,0.25 (each {SPEED_RANGE.describe()}). Give --speeds, --rotations "
+                     "or both.")  # fmt: skip
+@sweep_values_option("--rotations", "rotation", "Limb rotations to sweep, AXIS:DEG, "
+                     f"comma-separated: y:-15,z:10 ({ROTATION_RANGE.describe('DEG')}). "
+                     "Give --speeds, --rotations or both.")  # fmt: skip
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False),
               help="Sweep folder to write or extend.",
               show_default="./NAME-sweep, NAME the model folder's")  # fmt: skip

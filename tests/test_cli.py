@@ -432,6 +432,12 @@ _BASE = {
         ("sweep", "--duration", ["5000"]),
         ("train", "--lr", ["nan"]),
         ("train", "--lr", ["inf"]),
+        ("sweep", "--speeds", ["5"]),
+        ("sweep", "--speeds", ["0.2,nan"]),
+        ("sweep", "--speeds", ["-inf"]),
+        ("sweep", "--rotations", ["z:999"]),
+        ("sweep", "--rotations", ["y:-15,x:nan"]),
+        ("sweep", "--rotations", ["z:inf"]),
     ],
     ids=lambda v: " ".join(v) if isinstance(v, list) else v,
 )

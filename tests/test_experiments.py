@@ -533,19 +533,30 @@ def test_a_sweep_called_from_a_script_says_what_is_wrong_with_its_arguments(
 
 
 @pytest.mark.parametrize(
-    ("option", "value", "message"),
+    ("option", "value", "message", "usage"),
     [
-        ("--rotations", "z:10,z:999", "rot:z:999: invalid limb_rotation.degrees"),
-        ("--speeds", "0.2,-1", "speed:-1: invalid speed"),
-        ("--rotations", "z:10,y:88", "rot:y:88: the fist lies inside the rest of the arm"),
+        ("rotations", "z:10,z:999", "rot:z:999: invalid limb_rotation.degrees", True),
+        ("speeds", "0.2,-1", "speed:-1: invalid speed", True),
+        ("rotations", "z:10,y:88", "rot:y:88: the fist lies inside the rest of the arm", False),
     ],
 )
 def test_sweep_rejects_a_bad_setting_before_making_its_folder(
-    model: Path, tmp_path: Path, option: str, value: str, message: str
+    model: Path, tmp_path: Path, option: str, value: str, message: str, usage: bool
 ) -> None:
+    """The library refuses for its callers; `dresslog sweep` refuses a value out of the spec's
+    range first, as a usage error, and reports the library's refusal of what only it knows
+    (the limb's geometry)."""
+    from dresslog.experiments import sweep
+
     out = tmp_path / "sweep"
-    code, output = invoke("sweep", model, option, value, "-o", out)
-    assert code == 1 and message in output, output
+    with pytest.raises(DatasetError, match=re.escape(message)):
+        sweep(model, out, n=1, **{option: value.split(",")})
+    assert not out.exists()
+    code, output = invoke("sweep", model, f"--{option}", value, "-o", out)
+    if usage:
+        assert code == 2 and f"Invalid value for '--{option}'" in output, output
+    else:
+        assert code == 1 and message in output, output
     assert not out.exists()
 
 
