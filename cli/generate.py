@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import click
 
+from dresslog.dataset.generate import MAX_TRIALS
+
 from .common import reports_errors
 from .options import FiniteRange, duration_option, executor_option, task_option
 
 
 @click.command("generate")
 @task_option
-@click.option("--trials", type=click.IntRange(min=1), required=True,
-              help="Trials in all, train + test (at most 1,000,000).")  # fmt: skip
+@click.option("--trials", type=click.IntRange(1, MAX_TRIALS), required=True,
+              help="Trials in all, train + test.")  # fmt: skip
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
               help="Dataset folder to write or extend.")  # fmt: skip
 @click.option("--workers", type=click.IntRange(min=1), help="Trials simulated at once.",

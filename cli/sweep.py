@@ -6,6 +6,8 @@ from typing import Any
 
 import click
 
+from dresslog.dataset.generate import MAX_TRIALS
+
 from .common import reports_errors
 from .options import (
     ROTATION_RANGE,
@@ -27,8 +29,8 @@ from .options import (
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False),
               help="Sweep folder to write or extend.",
               show_default="./NAME-sweep, NAME the model folder's")  # fmt: skip
-@click.option("--sequences", "-n", type=click.IntRange(min=1), default=128, show_default=True,
-              help="Fresh sequences per setting (at most 1,000,000).")  # fmt: skip
+@click.option("--sequences", "-n", type=click.IntRange(1, MAX_TRIALS), default=128,
+              show_default=True, help="Fresh sequences per setting.")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws the sequences' specs.")  # fmt: skip
 @duration_option(" per sequence")

@@ -438,6 +438,8 @@ _BASE = {
         ("sweep", "--rotations", ["z:999"]),
         ("sweep", "--rotations", ["y:-15,x:nan"]),
         ("sweep", "--rotations", ["z:inf"]),
+        ("generate", "--trials", ["1000001"]),
+        ("sweep", "--sequences", ["2000000"]),
     ],
     ids=lambda v: " ".join(v) if isinstance(v, list) else v,
 )
