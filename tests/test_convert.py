@@ -139,6 +139,26 @@ def test_tare_and_rotation_are_applied_and_recorded(bags: dict[str, Path], tmp_p
     assert report.source["processing"]["rotation_xyzw"][3] == pytest.approx(np.cos(np.pi / 4))
 
 
+@pytest.mark.filterwarnings("ignore:the wrench is in frame 'ft', as the motion is")
+@pytest.mark.parametrize("scale", [1e300, 1e-300])
+@pytest.mark.parametrize("option", ["rotate", "sensor_rotation"])
+def test_a_rotation_quaternion_turns_the_same_at_any_scale(
+    bags: dict[str, Path], tmp_path: Path, option: str, scale: float
+) -> None:
+    """A quaternion is normalised, so (0 0 1e300 1e300) is a quarter turn about z; its norm
+    overflowed to inf, which made --rotate's poses nan (an error naming the output) and
+    --sensor-rotation no turn at all (a trial converted as though it were not given), and
+    (0 0 1e-300 1e-300)'s underflowed to 0, refused as the all-zero quaternion."""
+    quarter_turn_z = np.array([0.0, 0.0, 1.0, 1.0])
+    frame = {"wrench_frame": "pose"} if option == "sensor_rotation" else {}
+    unit, huge = tmp_path / "unit.mcap", tmp_path / "huge.mcap"
+    convert(bags["sqlite3"], unit, "gown", **frame, **{option: tuple(quarter_turn_z)})
+    convert(bags["sqlite3"], huge, "gown", **frame, **{option: tuple(quarter_turn_z * scale)})
+    got, want = read_trial(huge), read_trial(unit)
+    np.testing.assert_allclose(got.wrench.values, want.wrench.values, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(got.pose.values, want.pose.values, rtol=1e-12, atol=1e-12)
+
+
 def test_a_dresslog_trial_exported_as_a_ros2_bag_converts_back_unchanged(tmp_path: Path) -> None:
     from rosbags.rosbag2 import Writer
 

@@ -310,7 +310,7 @@ def _check_arguments(
                 path=printable(given),
             )
     for option, quat in (("--rotate", rotate), ("--sensor-rotation", sensor_rotation)):
-        if quat is not None and not (_finite(quat, 4) and np.linalg.norm(quat) > 0):
+        if quat is not None and not (_finite(quat, 4) and np.abs(quat).max() > 0):
             raise ConversionError(
                 f"{option}: a rotation quaternion is 4 finite numbers, x y z w, not all 0"
             )

@@ -161,9 +161,17 @@ def tare(t_ns: np.ndarray, values: np.ndarray, seconds: float) -> np.ndarray:
     return values - values[window].mean(axis=0)
 
 
+def _scaled(quats: np.ndarray) -> np.ndarray:
+    """Quaternions over their largest component: the same rotations, whose norm cannot
+    overflow (a component past 1e154 squares to inf, and q / inf is no turn at all)."""
+    q = np.asarray(quats, dtype=np.float64)
+    largest = np.abs(q).max(axis=-1, keepdims=True)
+    return np.divide(q, largest, out=np.full_like(q, np.nan), where=largest > 0)
+
+
 def rotation_matrices(quats: np.ndarray) -> np.ndarray:
     """The 3x3 matrices (..., 3, 3) of quaternions (..., 4) (x y z w), normalised first."""
-    q = np.asarray(quats, dtype=np.float64)
+    q = _scaled(quats)
     x, y, z, w = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
     rows = [
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -194,7 +202,8 @@ def rotate_vectors(values: np.ndarray, quat: tuple[float, float, float, float]) 
 
 def rotate_pose(pose: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
     """Express poses (T, 7) in the rotated frame: position rotated, orientation pre-multiplied."""
-    q = np.asarray(quat, dtype=np.float64) / np.linalg.norm(quat)
+    q = _scaled(np.asarray(quat))
+    q /= np.linalg.norm(q)
     position = pose[:, :3] @ rotation_matrix(q).T
     orientation = _multiply(np.broadcast_to(q, (len(pose), 4)), pose[:, 3:7])
     return np.concatenate([position, orientation], axis=1)
