@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import click
 
+from dresslog.convert.convert import MAX_SENSOR_OFFSET, MAX_TRANSLATE
+
 from .common import reports_errors
 from .options import FINITE, FiniteRange, task_option
 
@@ -35,13 +37,15 @@ from .options import FINITE, FiniteRange, task_option
 @click.option("--sensor-rotation", nargs=4, type=FINITE, metavar="QX QY QZ QW",
               help="With --wrench-frame pose: the sensor's axes in the gripper's (quaternion).",
               show_default="none")  # fmt: skip
-@click.option("--sensor-offset", nargs=3, type=FINITE, metavar="X Y Z",
+@click.option("--sensor-offset", nargs=3, metavar="X Y Z",
+              type=FiniteRange(-MAX_SENSOR_OFFSET, MAX_SENSOR_OFFSET),
               help="With --wrench-frame pose: sensor origin from gripper centre, m.",
               show_default="0 0 0")  # fmt: skip
 @click.option("--rotate", nargs=4, type=FINITE, metavar="QX QY QZ QW",
               help="Rotate every vector into the model's frame (quaternion).",
               show_default="none")  # fmt: skip
-@click.option("--translate", nargs=3, type=FINITE, metavar="X Y Z",
+@click.option("--translate", nargs=3, type=FiniteRange(-MAX_TRANSLATE, MAX_TRANSLATE),
+              metavar="X Y Z",
               help="Then move every pose by X Y Z, m, to place the gripper's path in the "
               "scene's frame (the drawing only: the estimate does not use position).",
               show_default="none")  # fmt: skip

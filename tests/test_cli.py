@@ -424,6 +424,8 @@ _BASE = {
         ("convert", "--sensor-rotation", ["0", "0", "0", "-inf"]),
         ("convert", "--translate", ["0.1", "inf", "0"]),
         ("convert", "--sensor-offset", ["nan", "0", "0"]),
+        ("convert", "--sensor-offset", ["0", "0", "1e300"]),  # torque beyond float32
+        ("convert", "--translate", ["0", "0", "2000"]),
         ("generate", "--test-fraction", ["nan"]),
         ("generate", "--duration", ["nan"]),
         ("generate", "--duration", ["inf"]),

@@ -755,6 +755,11 @@ def test_a_log_far_beyond_dressing_is_converted_with_a_warning_about_its_units(
         ({"max_gap_s": float("nan")}, "max_gap_s nan: give a duration above 0 s"),
         ({"max_gap_s": 0}, "max_gap_s 0: give a duration above 0 s"),
         ({"translate": (0.1, 0.2)}, "--translate: a translation is 3 finite numbers"),
+        ({"translate": (0, 0, 2000)}, r"3 finite numbers, x y z \(metres\), each within \+-1000$"),
+        (
+            {"sensor_offset": (0, 0, 1e300), "wrench_frame": "pose"},
+            "within \\+-2: the sensor is on",
+        ),
         ({"translate": (0.1, 0.2, 0.3)}, "--translate moves the gripper's pose, which the log"),
     ],
 )

@@ -39,6 +39,11 @@ from dresslog.io.writer import TrialWriter
 from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata, task_of
 
 MAX_GAP_S = 0.1
+#: Farthest a wrist sensor's origin sits from the gripper centre, m: it is on the gripper.
+MAX_SENSOR_OFFSET = 2.0
+#: Farthest --translate moves a pose, m: a robot's base is not kilometres from the limb,
+#: and a pose stored as float32 keeps millimetres only this near.
+MAX_TRANSLATE = 1000.0
 CSV_SUFFIXES = (".csv", ".tsv", ".txt")
 Quaternion = tuple[float, float, float, float]
 
@@ -322,10 +327,20 @@ def _check_arguments(
             f"--sensor-{mount[0]} places a sensor on the gripper, with --wrench-frame pose; a "
             "sensor fixed in the world is turned with --rotate"
         )
-    if sensor_offset is not None and not _finite(sensor_offset, 3):
-        raise ConversionError("sensor offset must be 3 finite numbers, x y z (metres)")
-    if translate is not None and not _finite(translate, 3):
-        raise ConversionError("--translate: a translation is 3 finite numbers, x y z (metres)")
+    if sensor_offset is not None and not (
+        _finite(sensor_offset, 3) and np.abs(sensor_offset).max() <= MAX_SENSOR_OFFSET
+    ):
+        raise ConversionError(
+            f"sensor offset must be 3 finite numbers, x y z (metres), each within "
+            f"+-{MAX_SENSOR_OFFSET:g}: the sensor is on the gripper"
+        )
+    if translate is not None and not (
+        _finite(translate, 3) and np.abs(translate).max() <= MAX_TRANSLATE
+    ):
+        raise ConversionError(
+            f"--translate: a translation is 3 finite numbers, x y z (metres), each within "
+            f"+-{MAX_TRANSLATE:g}"
+        )
     if not (_finite(tare_s, None) and tare_s >= 0):
         raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
     if not (_finite(max_gap_s, None) and max_gap_s > 0):
