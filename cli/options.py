@@ -14,9 +14,18 @@ import click
 
 from dresslog.spec import MAX_DURATION, MAX_ROTATION, MAX_SPEED, Task, TrialSpec
 
+
+class OneLineChoice(click.Choice):
+    """`click.Choice` whose 'Missing option' error stays on one line (`Choose from: gown,
+    shorts.`), where click lists the choices one per line after a tab."""
+
+    def get_missing_message(self, param: click.Parameter, ctx: click.Context | None) -> str:
+        return f"Choose from: {', '.join(map(str, self.choices))}."
+
+
 task_option = click.option(
     "--task",
-    type=click.Choice([t.value for t in Task]),
+    type=OneLineChoice([t.value for t in Task]),
     required=True,
     help="Dressing task: gown (arm) or shorts (leg).",
 )

@@ -571,3 +571,14 @@ def test_an_output_that_is_a_link_to_nothing_is_an_existing_name(tmp_path: Path)
     args = ["record", "--task", "gown", "--duration", "0.1", "-o", str(dangling)]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1 and "file exists; pass --overwrite" in result.output
+
+
+@pytest.mark.parametrize("command", ["record", "convert", "generate"])
+def test_a_forgotten_task_is_one_line_naming_the_choices(tmp_path: Path, command: str) -> None:
+    """Where click put each choice on a line of its own after a tab."""
+    given = {"convert": [str(SAMPLE)], "generate": ["--trials", "2"]}.get(command, [])
+    args = [command, *given, "-o", str(tmp_path / ("d" if command == "generate" else "t.mcap"))]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, result.output
+    error = result.output.strip().splitlines()[-1]
+    assert error == "Error: Missing option '--task'. Choose from: gown, shorts.", result.output
