@@ -561,6 +561,20 @@ def test_a_folder_of_trials_given_to_infer_is_told_to_give_its_trials(day: Path)
     assert "run `dresslog convert` first" in CliRunner().invoke(main, ["infer", str(day)]).stderr
 
 
+def test_a_folder_whose_trials_lie_in_subfolders_is_told_to_give_theirs(day: Path) -> None:
+    """A dataset (train/, test/) or a sweep's folder, where it had been told to convert."""
+    data = day.parent / "data"
+    for split, trial in (("train", "gown.mcap"), ("test", "shorts.mcap")):
+        (data / split).mkdir(parents=True)
+        (day / trial).rename(data / split / "000000.mcap")
+    result = CliRunner().invoke(main, ["infer", str(data)])
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: {data}: is a folder, not an MCAP file; give its trials, {data}/test/*.mcap "
+        f"{data}/train/*.mcap\n"
+    )
+
+
 def test_a_bad_trial_among_good_ones_is_said_and_the_others_are_done(day: Path) -> None:
     """Not MCAP, cut short, a channel missing: each its error, no recording of it, exit 1."""
     gown, shorts = day / "gown.mcap", day / "shorts.mcap"

@@ -55,12 +55,37 @@ _CONTACT_REALS = np.dtype(
 CONVERT_HINT = "for a ROS bag or a force/torque CSV, run `dresslog convert` first"
 
 
+#: How many folders of trials a folder's hint names before it counts the rest.
+_HINT_FOLDERS = 3
+
+
 def _folder_hint(folder: Path) -> str:
-    """A folder of trials (a day's, a dataset split) is given by its files; a bag folder
-    (metadata.yaml beside its storage) is converted first."""
-    if (folder / "metadata.yaml").exists() or not any(folder.glob("*.mcap")):
+    """A folder of trials (a day's, a dataset split) is given by its files, and one whose
+    trials lie in subfolders (a dataset's splits, a sweep's settings) by theirs; a bag
+    folder (metadata.yaml beside its storage) or one holding no trials is converted first."""
+    if (folder / "metadata.yaml").exists():
         return CONVERT_HINT
-    return f"give its trials, {folder / '*.mcap'}"
+    held = [folder] if any(folder.glob("*.mcap")) else _trial_folders(folder, depth=2)
+    if not held:
+        return CONVERT_HINT
+    named = " ".join(str(f / "*.mcap") for f in held[:_HINT_FOLDERS])
+    more = len(held) - _HINT_FOLDERS
+    return f"give its trials, {named}" + (f" (and {more} more folders)" if more > 0 else "")
+
+
+def _trial_folders(folder: Path, depth: int) -> list[Path]:
+    """The subfolders of `folder`, `depth` levels down at most, that hold .mcap files."""
+    try:
+        subs = sorted(p for p in folder.iterdir() if p.is_dir())
+    except OSError:  # unreadable: no hint from it
+        return []
+    found: list[Path] = []
+    for sub in subs:
+        if any(sub.glob("*.mcap")):
+            found.append(sub)
+        elif depth > 1:
+            found += _trial_folders(sub, depth - 1)
+    return found
 
 
 @dataclass(frozen=True)
