@@ -50,8 +50,10 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
 
 def _inside(path: Path) -> str:
     """What `info` takes in a folder of ours that is neither a model nor a dataset: a
-    sweep's (a setting's folder) or a dataset's split folder (the dataset); else ""."""
+    sweep's (a setting's folder), a dataset's split folder (the dataset), a folder of
+    trials (one of them, as `samples/`) or of models (one, as `samples/models/`); else ""."""
     from dresslog.dataset.manifest import SWEEP_FILE, dataset_holding
+    from dresslog.model.files import CARD_FILE
 
     if (path / SWEEP_FILE).is_file():
         return (
@@ -60,6 +62,10 @@ def _inside(path: Path) -> str:
         )
     if (dataset := dataset_holding(path)) is not None:
         return f"; a dataset's {path.resolve().name} folder: give the dataset, {dataset}"
+    if trials := sorted(path.glob("*.mcap")):
+        return f"; a folder of trials: `dresslog info` takes one, e.g. {trials[0]}"
+    if models := sorted(p.parent for p in path.glob(f"*/{CARD_FILE}")):
+        return f"; a folder of models: `dresslog info` takes one, e.g. {models[0]}"
     return ""
 
 

@@ -582,3 +582,16 @@ def test_a_forgotten_task_is_one_line_naming_the_choices(tmp_path: Path, command
     assert result.exit_code == 2, result.output
     error = result.output.strip().splitlines()[-1]
     assert error == "Error: Missing option '--task'. Choose from: gown, shorts.", result.output
+
+
+@pytest.mark.parametrize(
+    ("folder", "example"), [("", "gown.mcap"), ("models", "models/gown")], ids=["trials", "models"]
+)
+def test_info_on_a_folder_of_trials_or_models_names_one_to_give(folder: str, example: str) -> None:
+    """`dresslog info samples` or `samples/models`, a first look at the repository, where
+    it had been told only that the folder is neither a model nor a dataset."""
+    result = CliRunner().invoke(main, ["info", str(SAMPLES / folder)])
+    assert result.exit_code == 1 and result.stderr.count("\n") == 1, result.output
+    kind = "models" if folder else "trials"
+    said = f"; a folder of {kind}: `dresslog info` takes one, e.g. {SAMPLES / example}\n"
+    assert result.stderr.endswith(said), result.stderr
