@@ -31,15 +31,18 @@ STEPS = 40
 N_POINTS = {Task.GOWN: 300, Task.SHORTS: 400}
 
 
-def save_random_model(folder: Path, task: Task = Task.GOWN, seed: int = 0) -> Path:
-    """A real model folder (save_model) with random weights large enough to saturate gates."""
+def save_random_model(
+    folder: Path, task: Task = Task.GOWN, seed: int = 0, std: float = 2.0
+) -> Path:
+    """A real model folder (save_model) with random weights large enough to saturate gates,
+    its inputs standardised by `std` (the training signal's spread, as the card says)."""
     rng = np.random.default_rng(seed)
     shapes = expected_shapes(N_POINTS[task])
     weights = {k: rng.normal(0, 0.4, size=s).astype(np.float32) for k, s in shapes.items()}
     weights["input_mean"][:] = 0.0
-    weights["input_std"][:] = 2.0
+    weights["input_std"][:] = std
     path = folder / f"model-{task.value}"
-    norm = Normalisation(mean=[0.0] * 9, std=[2.0] * 9)
+    norm = Normalisation(mean=[0.0] * 9, std=[std] * 9)
     save_model(path, weights, ModelCard(task=task, n_points=N_POINTS[task], normalisation=norm))
     return path
 
@@ -424,6 +427,24 @@ def test_a_signal_far_from_the_training_data_is_warned_about_with_its_likely_cau
     assert share and int(share[1]) >= 90 and float(share[2]) < -10, warning
     assert "convert --tare" in warning
     assert len(warning.strip().splitlines()) == 1
+
+
+@prints_warnings
+def test_a_simulated_trial_far_from_a_models_training_names_the_training(tmp_path: Path) -> None:
+    """A model trained on trials unlike the sample (a signal 100 times narrower, as of trials
+    too short to reach the arm): the simulator's own signal is tared and in its axes, where
+    the warning had asked whether the sensor was tared (`convert --tare`)."""
+    model = save_random_model(tmp_path, std=0.02)
+    trial, rrd = SAMPLES / "gown.mcap", tmp_path / "g.rrd"
+    result = CliRunner().invoke(main, ["infer", str(trial), "-m", str(model), "-o", str(rrd)])
+    assert result.exit_code == 0 and rrd.exists(), result.output
+    warning = result.stderr.strip()
+    assert warning.startswith(f"Warning: {trial}: ") and " standard deviations " in warning
+    assert warning.endswith(
+        "so the estimate there is a guess; the trial is simulated, so the model was trained "
+        "on trials unlike it (`dresslog info` on the model and its dataset says how)"
+    ), warning
+    assert "convert" not in warning and len(warning.splitlines()) == 1
 
 
 def test_a_knock_or_a_channel_constant_in_training_is_not_called_far() -> None:

@@ -187,11 +187,14 @@ class LoadedModel:
         """A fresh stateful estimator (each caller gets its own recurrent state)."""
         return NumpyEstimator(self.weights)
 
-    def unfamiliar(self, phi: np.ndarray) -> str | None:
+    def unfamiliar(self, phi: np.ndarray, *, simulated: bool = False) -> str | None:
         """Why the signal (T, 9) is far from this model's training data; None if it is not
-        (or if the card records neither the training signal nor a standardisation of it)."""
+        (or if the card records neither the training signal nor a standardisation of it).
+        A `simulated` trial's cause is named as the model's training, not the recording."""
         stats = self.card.data.signal or self.card.normalisation
-        return None if stats is None else unfamiliar(phi, np.array(stats.mean), np.array(stats.std))
+        if stats is None:
+            return None
+        return unfamiliar(phi, np.array(stats.mean), np.array(stats.std), simulated=simulated)
 
     def describe(self) -> str:
         """Which model, in a line: where it is, its network and its recorded test ratio."""

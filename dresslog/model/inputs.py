@@ -46,6 +46,12 @@ _CAUSES = {
     "m/s": "is the velocity in m/s and in the world axes of the simulated trials (README, "
     '"Your robot\'s data")?',
 }
+#: A simulated trial's signal is the simulator's own, in its axes and tared, so what sets
+#: it apart is the model's training: trials of another duration, speed or limb pose.
+_SIMULATED_CAUSE = (
+    "the trial is simulated, so the model was trained on trials unlike it (`dresslog info` "
+    "on the model and its dataset says how)"
+)
 
 
 def network_inputs(phi: np.ndarray, differences: bool) -> np.ndarray:
@@ -63,12 +69,15 @@ def reads_differences(input_dim: int) -> bool:
     return input_dim == 2 * PHI_DIM
 
 
-def unfamiliar(phi: np.ndarray, mean: np.ndarray, std: np.ndarray) -> str | None:
+def unfamiliar(
+    phi: np.ndarray, mean: np.ndarray, std: np.ndarray, *, simulated: bool = False
+) -> str | None:
     """Why a trial's signal (T, 9) is far from the training data's, or None if it is not.
 
     `mean` and `std` describe the training signal per channel (the first 9 are phi's).
     A network extrapolates there without a sign of it, and the usual causes are the
-    recording's (a sensor not tared, in its own axes, in other units), not the model's.
+    recording's (a sensor not tared, in its own axes, in other units), not the model's;
+    but a `simulated` trial's signal is the simulator's, so there it is the model's.
     """
     mean, std = np.asarray(mean[:PHI_DIM]), np.asarray(std[:PHI_DIM])
     far = np.abs(phi - mean) > FAR_SD * np.maximum(std, STILL_STD)
@@ -76,17 +85,18 @@ def unfamiliar(phi: np.ndarray, mean: np.ndarray, std: np.ndarray) -> str | None
     counts = far.sum(axis=0)
     k = int(counts.argmax())
     if counts[k] < max(FAR_STEPS, FAR_SHARE * len(phi)):
-        return _heading(phi[:, 6:9], mean[6:9])
+        return _heading(phi[:, 6:9], mean[6:9], simulated)
     unit = PHI_UNITS[k]
     return (
         f"{PHI_NAMES[k]} lies beyond {FAR_SD:g} standard deviations of the model's training "
         f"data on {counts[k] / len(phi):.0%} of steps (median there "
         f"{np.median(phi[far[:, k], k]):.3g} {unit}; trained on {mean[k]:.3g} +- {std[k]:.3g} "
-        f"{unit}), so the estimate there is a guess; {_CAUSES[unit]}"
+        f"{unit}), so the estimate there is a guess; "
+        f"{_SIMULATED_CAUSE if simulated else _CAUSES[unit]}"
     )
 
 
-def _heading(velocity: np.ndarray, trained: np.ndarray) -> str | None:
+def _heading(velocity: np.ndarray, trained: np.ndarray, simulated: bool) -> str | None:
     """Why the gripper's heading (velocity (T, 3)) is not the training trials', or None.
 
     The simulated gripper draws the garment along the limb, hand to shoulder or foot to
@@ -110,8 +120,13 @@ def _heading(velocity: np.ndarray, trained: np.ndarray) -> str | None:
     else:
         where = ""
     usual_s = ", ".join(f"{round(v, 2) + 0.0:.2f}" for v in trained / usual)
+    cause = (
+        _SIMULATED_CAUSE
+        if simulated
+        else "is the log in the simulated trials' axes (`convert --rotate`; README, "
+        '"Your robot\'s data")?'
+    )
     return (
         f"{along:.0%} of the gripper's moving steps head within 45 degrees of the model's "
-        f"training trials' way ({usual_s}){where}, so the estimate is a guess; is the log "
-        "in the simulated trials' axes (`convert --rotate`; README, \"Your robot's data\")?"
+        f"training trials' way ({usual_s}){where}, so the estimate is a guess; {cause}"
     )

@@ -134,7 +134,8 @@ def replay_file(
     estimator = loaded.estimator() if loaded is not None else None
     if loaded is not None:
         context = replace(context, model=loaded.describe())
-        if far := loaded.unfamiliar(trial.measurements.phi):
+        simulated = trial.metadata.spec is not None
+        if far := loaded.unfamiliar(trial.measurements.phi, simulated=simulated):
             warnings.warn(f"{trial_path}: {far}", DresslogWarning, stacklevel=2)
     timings["load_model"] = clock() - t0
 
