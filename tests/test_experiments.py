@@ -880,3 +880,19 @@ def test_a_model_trained_without_standardisation_still_warns_of_a_signal_far_fro
     assert (
         "Warning: " in result.stderr and ": fz lies beyond 10 standard deviations" in result.stderr
     )
+
+
+def test_a_dataset_and_a_model_swapped_are_told_which_is_which(model: Path, data: Path) -> None:
+    """`dresslog eval DATA MODEL` (and `train MODEL`), where each had been told only that
+    the folder is not a model (not a dataset), though it is the other."""
+    code, output = invoke("eval", data, model)
+    assert code == 1 and output == (
+        f"Error: {data}: no card.json; a dataset folder, not a model (`eval` and `sweep` take "
+        "the model first)\n"
+    )
+    code, output = invoke("train", model, "-o", data.parent / "unmade")
+    assert code == 1 and output == (
+        f"Error: {model}: no manifest.json; a model folder, not a dataset (`eval MODEL DATA` "
+        "takes the dataset second)\n"
+    )
+    assert not (data.parent / "unmade").exists()

@@ -329,7 +329,12 @@ def read_card(path: str | Path) -> ModelCard:
     path = Path(path)
     card_path = path / CARD_FILE
     if not card_path.is_file():
-        raise ModelError(f"no {CARD_FILE}; not a dresslog model folder", path=path)
+        from dresslog.dataset.manifest import MANIFEST_FILE  # lazily: only for this hint
+
+        what = "not a dresslog model folder"
+        if (path / MANIFEST_FILE).is_file():  # `eval DATA MODEL`, the two swapped
+            what = "a dataset folder, not a model (`eval` and `sweep` take the model first)"
+        raise ModelError(f"no {CARD_FILE}; {what}", path=path)
     try:
         raw = json.loads(card_path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
