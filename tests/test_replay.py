@@ -596,6 +596,18 @@ def test_a_folder_whose_trials_lie_in_subfolders_is_told_to_give_theirs(day: Pat
     )
 
 
+def test_a_model_folder_given_as_the_trial_is_told_to_go_with_model() -> None:
+    """`dresslog infer samples/models/gown`, where it had been told to convert a ROS bag or
+    CSV first."""
+    folder = SAMPLES / "models" / "gown"
+    result = CliRunner().invoke(main, ["infer", str(folder)])
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: {folder}: is a folder, not an MCAP file; a model's (it holds weights): give "
+        "it with --model, after a trial\n"
+    )
+
+
 def test_a_bad_trial_among_good_ones_is_said_and_the_others_are_done(day: Path) -> None:
     """Not MCAP, cut short, a channel missing: each its error, no recording of it, exit 1."""
     gown, shorts = day / "gown.mcap", day / "shorts.mcap"

@@ -61,10 +61,13 @@ _HINT_FOLDERS = 3
 
 def _folder_hint(folder: Path) -> str:
     """A folder of trials (a day's, a dataset split) is given by its files, and one whose
-    trials lie in subfolders (a dataset's splits, a sweep's settings) by theirs; a bag
-    folder (metadata.yaml beside its storage) or one holding no trials is converted first."""
+    trials lie in subfolders (a dataset's splits, a sweep's settings) by theirs; a model's
+    (safetensors weights) with --model; a bag folder (metadata.yaml beside its storage) or
+    one holding no trials is converted first."""
     if (folder / "metadata.yaml").exists():
         return CONVERT_HINT
+    if any(folder.glob("*.safetensors")):  # weights: a model's folder
+        return "a model's (it holds weights): give it with --model, after a trial"
     held = [folder] if any(folder.glob("*.mcap")) else _trial_folders(folder, depth=2)
     if not held:
         return CONVERT_HINT
