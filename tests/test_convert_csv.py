@@ -16,7 +16,7 @@ from dresslog.convert.csv import role_of
 from dresslog.convert.units import value_scale
 from dresslog.errors import ConversionError
 from dresslog.io.reader import TrialReader, read_trial
-from tests.conftest import prints_warnings
+from tests.conftest import SAMPLES, prints_warnings
 from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
 
 
@@ -286,6 +286,20 @@ def test_unknown_columns_are_refused_until_mapped(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     with pytest.raises(ConversionError, match="no such column"):
         convert(path, tmp_path / "u.mcap", "gown", columns={"fx": "nope"})
+
+
+def test_a_mistyped_column_names_the_columns_of_each_file(tmp_path: Path) -> None:
+    """`--column fx=Fx` for the header `Fx (N)`: the headers to pick from are said, where
+    the error had said only that there is no such column."""
+    robot, out = SAMPLES / "robot", tmp_path / "t.mcap"
+    args = ["convert", str(robot / "ft.csv"), "--motion", str(robot / "pose.csv"), "-o"]
+    result = CliRunner().invoke(main, [*args, str(out), "--task", "gown", "--column", "fx=Fx"])
+    assert result.exit_code == 1 and not out.exists()
+    assert result.output == (
+        f"Error: {robot / 'ft.csv'}: --column fx=Fx: no such column (columns of ft.csv: "
+        "time (s), Fx (N), Fy (N), Fz (N), Tx (N m), Ty (N m), Tz (N m); pose.csv: time (s), "
+        "x (m), y (m), z (m), qx, qy, qz, qw)\n"
+    )
 
 
 def test_a_wrench_csv_without_motion_is_refused(tmp_path: Path) -> None:

@@ -513,9 +513,14 @@ def read_csv(
     """Wrench from `path`; velocity or position from `path` itself or from `motion`."""
     path, motion = Path(path), None if motion is None else Path(motion)
     columns = dict(columns or {})
-    headers = set(_header(path)[1]) | (set(_header(motion)[1]) if motion else set())
-    if unknown := [f"{r}={n}" for r, n in columns.items() if n not in headers]:
-        raise ConversionError(f"--column {', '.join(unknown)}: no such column", path=path)
+    named = {path: _header(path)[1], **({motion: _header(motion)[1]} if motion else {})}
+    if unknown := [
+        f"{r}={n}" for r, n in columns.items() if all(n not in h for h in named.values())
+    ]:
+        held = "; ".join(f"{f.name}: {', '.join(h)}" for f, h in named.items())
+        raise ConversionError(
+            f"--column {', '.join(unknown)}: no such column (columns of {held})", path=path
+        )
     t_ns, values, notes, found = read_table(path, columns, time_unit)
     if missing := [r for r in (*FORCE, *TORQUE) if r not in values]:
         raise ConversionError(_missing_hint(missing, _header(path)[1]), path=path)
