@@ -240,9 +240,16 @@ def metadata_json_schema() -> dict[str, object]:
 
 if __name__ == "__main__":  # regenerate schemas/trial_metadata.schema.json
     import json
+    import sys
     from importlib import resources
 
+    if sys.argv[1:]:  # `--help` too: it takes none, and writes only when run bare
+        sys.exit("usage: python -m dresslog.spec (regenerates the metadata JSON Schema)")
     target = resources.files("dresslog.schemas").joinpath(SCHEMA_FILE)
     with resources.as_file(target) as path:
-        path.write_text(json.dumps(metadata_json_schema(), indent=2) + "\n", encoding="utf-8")
-        print(f"wrote {path}")
+        text = json.dumps(metadata_json_schema(), indent=2) + "\n"
+        if path.exists() and path.read_text(encoding="utf-8") == text:
+            print(f"up to date: {path}")
+        else:
+            path.write_text(text, encoding="utf-8")
+            print(f"wrote {path}")

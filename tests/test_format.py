@@ -416,6 +416,24 @@ def test_metadata_json_schema_in_schemas_is_current() -> None:
     assert json.loads(kept) == metadata_json_schema(), "run `python -m dresslog.spec`"
 
 
+def test_the_schema_script_writes_only_when_run_bare_and_the_schema_changed() -> None:
+    """`python -m dresslog.spec --help` had rewritten the installed schema file."""
+    import subprocess
+    import sys
+    from importlib import resources
+
+    from dresslog.spec import SCHEMA_FILE
+
+    with resources.as_file(resources.files("dresslog.schemas").joinpath(SCHEMA_FILE)) as path:
+        before = path.stat().st_mtime_ns
+        script = [sys.executable, "-m", "dresslog.spec"]
+        asked = subprocess.run([*script, "--help"], capture_output=True, text=True)
+        assert asked.returncode == 1 and asked.stderr.startswith("usage: python -m dresslog.spec")
+        bare = subprocess.run(script, capture_output=True, text=True, check=True)
+        assert bare.stdout == f"up to date: {path}\n"
+        assert path.stat().st_mtime_ns == before
+
+
 def test_metadata_record_validates_against_the_json_schema(make_trial) -> None:
     import json
 
