@@ -48,7 +48,14 @@ class BatchReport:
         return self.mean_rmse / statistics.fmean(zeros)
 
     def summary(self) -> str:
-        """The mean scores in a line, saying which trials they are over."""
+        """The mean scores in a line, saying which trials they are over; a line per task
+        when trials of both are given, as a task's all-zero RMSE is its own scale."""
+        tasks = sorted({r.task for r in self.reports}, key=lambda task: task.value)
+        if len(tasks) > 1:
+            return "\n".join(
+                f"{task.value}: " + BatchReport([r for r in self.reports if r.task == task])
+                .summary() for task in tasks
+            )  # fmt: skip
         done = len(self.reports)
         scored = sum(r.rmse is not None for r in self.reports)
         if self.mean_rmse is None:
