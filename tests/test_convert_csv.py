@@ -635,8 +635,9 @@ def test_a_counts_preamble_that_cannot_be_applied_whole_is_refused(
 
 
 def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> None:
-    """2 s at 1 kHz read as milliseconds: 2 ms, where "do not overlap" would mislead."""
-    with pytest.raises(ConversionError, match=r"log covers 0.002 s, .* give --time-unit"):
+    """2 s at 1 kHz read as milliseconds: 2 ms, where "do not overlap" would mislead; and
+    the unit it was given is named, where it had been told to give --time-unit."""
+    with pytest.raises(ConversionError, match=r"log covers 0.002 s, .* in ms, as --time-unit ms"):
         convert(ati_style(tmp_path), tmp_path / "t.mcap", "gown", time_unit="ms")
     assert not (tmp_path / "t.mcap").exists()
 

@@ -118,8 +118,9 @@ def _span(stream: SourceStream) -> str:
     return f"{stream.name} {stream.t_ns[0] / 1e9:.3f}-{stream.t_ns[-1] / 1e9:.3f} s"
 
 
-def common_grid(source: Source, averaged: bool) -> np.ndarray:
-    """The 100 Hz grid over the time every stream covers (averaging needs half a bin spare).
+def common_grid(source: Source, averaged: bool, time_unit: str | None = None) -> np.ndarray:
+    """The 100 Hz grid over the time every stream covers (averaging needs half a bin spare);
+    `time_unit`, a CSV's as given, to name in an error.
 
     An averaged wrench's bin edges fall midway between its samples: on a sample, a
     few microseconds of clock jitter would move it between bins and let vibration
@@ -148,11 +149,13 @@ def common_grid(source: Source, averaged: bool) -> np.ndarray:
         if overlap >= 0:  # too short (or times read in too large a unit), not two clocks
             one = len({s.name for s in source.streams}) == 1
             what = "log covers" if one else f"streams ({spans}) share"
-            unit = (
-                "; if the times are in another unit, give --time-unit"
-                if source.format == "csv"
-                else ""
-            )
+            unit = ""
+            if source.format == "csv":
+                unit = (
+                    f"; are its times in {time_unit}, as --time-unit {time_unit} says?"
+                    if time_unit
+                    else "; if the times are in another unit, give --time-unit"
+                )
             raise ConversionError(
                 f"the {what} {overlap:.3g} s, less than two 100 Hz steps{unit}", path=source.path
             )
@@ -260,7 +263,7 @@ def convert(
     for stream in source.streams:
         check_stream(stream, path)
     averaged = rs.averages(source.wrench.t_ns)
-    grid = common_grid(source, averaged)
+    grid = common_grid(source, averaged, time_unit)
 
     found = source.warnings + reordered + left_out + log_warnings(source, grid, max_gap_s)
     if message := frames_differ(source, wrench_frame, rotate is not None):
