@@ -24,7 +24,7 @@ from urllib.parse import quote, urlsplit
 
 from dresslog.errors import DresslogError, TrialWriteError
 from dresslog.io.files import atomic_path, check_output
-from dresslog.io.reader import RRD_MAGIC
+from dresslog.io.reader import RRD_MAGIC, TrialReader
 from dresslog.replay.pipeline import InferenceReport, replay_file
 from dresslog.spec import Task
 from dresslog.stops import stop_signals
@@ -346,6 +346,8 @@ def view_file(
     path = Path(path)
     if web_port is not None and _free_port(web_port) != web_port:
         raise DresslogError(f"port {web_port} is in use; pass another --port or leave it out")
+    if not path.is_file():  # a typo or a folder is named first, not the display
+        TrialReader(path).open()
     if not web and not has_display():  # checked before inferring, not after
         raise no_display(
             "serve it to a browser with --web, or write the recording with --save OUT.rrd", path
