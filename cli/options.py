@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, Literal
+from typing import Any
 
 import click
 
@@ -80,46 +80,3 @@ FINITE = FiniteRange()
 #: The spec's ranges, so `record --speed` and `sweep --speeds` refuse alike.
 SPEED_RANGE = FiniteRange(0, MAX_SPEED, min_open=True)
 ROTATION_RANGE = FiniteRange(-MAX_ROTATION, MAX_ROTATION)
-
-
-class SweepValues(click.ParamType):
-    """A comma-separated list of sweep settings (`0.2,0.25` or `y:-15,z:10`), each parsed as
-    the library parses it and its number checked against the spec's range, so a bad one is a
-    usage error naming the option before the model loads; the library keeps its own checks
-    for its callers (and the limb's geometry, which only it knows)."""
-
-    name = "list"
-
-    def __init__(self, kind: Literal["speed", "rotation"]) -> None:
-        self.kind = kind
-
-    def convert(
-        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
-    ) -> list[str]:
-        from dresslog.errors import DatasetError
-        from dresslog.experiments.sweeps import parse_rotation, parse_speed
-
-        if isinstance(value, list):  # click may pass back what convert made
-            return value
-        items = [v.strip() for v in str(value).split(",") if v.strip()]
-        for item in items:
-            try:
-                number = parse_speed(item) if self.kind == "speed" else parse_rotation(item)[1]
-            except DatasetError as err:
-                self.fail(err.message, param, ctx)
-            (SPEED_RANGE if self.kind == "speed" else ROTATION_RANGE).convert(number, param, ctx)
-        return items
-
-
-def sweep_values_option(
-    name: str, kind: Literal["speed", "rotation"], help: str
-) -> Callable[[Any], Any]:
-    """`--speeds`/`--rotations`: repeatable, each a list; the command gets one flat list."""
-    return click.option(
-        name,
-        type=SweepValues(kind),
-        multiple=True,
-        metavar="LIST",
-        callback=lambda ctx, param, lists: [item for items in lists for item in items],
-        help=help,
-    )

@@ -9,23 +9,38 @@ import click
 from dresslog.dataset.generate import MAX_TRIALS
 
 from .common import reports_errors
-from .options import (
-    ROTATION_RANGE,
-    SPEED_RANGE,
-    duration_option,
-    executor_option,
-    sweep_values_option,
-)
+from .options import ROTATION_RANGE, SPEED_RANGE, duration_option, executor_option
+
+
+def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> list[str]:
+    """The comma-separated values, each parsed as the library parses it and its number
+    checked against the spec's range, so a bad one is a usage error naming the option before
+    the model loads; the library keeps its own checks (and the limb's geometry, which only
+    it knows)."""
+    from dresslog.errors import DatasetError
+    from dresslog.experiments.sweeps import parse_rotation, parse_speed
+
+    items = [v.strip() for value in values for v in value.split(",") if v.strip()]
+    for item in items:
+        try:
+            if param.name == "speeds":
+                SPEED_RANGE.convert(parse_speed(item), param, ctx)
+            else:
+                ROTATION_RANGE.convert(parse_rotation(item)[1], param, ctx)
+        except DatasetError as err:
+            raise click.BadParameter(err.message) from None
+    return items
 
 
 @click.command("sweep")
 @click.argument("model", type=click.Path())
-@sweep_values_option("--speeds", "speed", "End-effector speeds to sweep, m/s, comma-separated: "
-                     f"0.2,0.25 (each {SPEED_RANGE.describe()}). Give --speeds, --rotations "
-                     "or both.")  # fmt: skip
-@sweep_values_option("--rotations", "rotation", "Limb rotations to sweep, AXIS:DEG, "
-                     f"comma-separated: y:-15,z:10 ({ROTATION_RANGE.describe('DEG')}). "
-                     "Give --speeds, --rotations or both.")  # fmt: skip
+@click.option("--speeds", multiple=True, callback=_items, metavar="LIST",
+              help="End-effector speeds to sweep, m/s, comma-separated: 0.2,0.25 "
+              f"(each {SPEED_RANGE.describe()}). Give --speeds, --rotations or both.")  # fmt: skip
+@click.option("--rotations", multiple=True, callback=_items, metavar="LIST",
+              help="Limb rotations to sweep, AXIS:DEG, comma-separated: y:-15,z:10 "
+              f"({ROTATION_RANGE.describe('DEG')}). Give --speeds, --rotations or "
+              "both.")  # fmt: skip
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False),
               help="Sweep folder to write or extend.",
               show_default="./NAME-sweep, NAME the model folder's")  # fmt: skip
