@@ -68,27 +68,16 @@ def _folder_hint(folder: Path) -> str:
         return CONVERT_HINT
     if any(folder.glob("*.safetensors")):  # weights: a model's folder
         return "a model's (it holds weights): give it with --model, after a trial"
-    held = [folder] if any(folder.glob("*.mcap")) else _trial_folders(folder, depth=2)
+    held = [folder]
+    if not any(folder.glob("*.mcap")):  # its subfolders', or theirs where a subfolder has none
+        near = {p.parent for p in folder.glob("*/*.mcap")}
+        far = {p.parent for p in folder.glob("*/*/*.mcap") if p.parent.parent not in near}
+        held = sorted(near | far)
     if not held:
         return CONVERT_HINT
     named = " ".join(str(f / "*.mcap") for f in held[:_HINT_FOLDERS])
     more = len(held) - _HINT_FOLDERS
     return f"give its trials, {named}" + (f" (and {more} more folders)" if more > 0 else "")
-
-
-def _trial_folders(folder: Path, depth: int) -> list[Path]:
-    """The subfolders of `folder`, `depth` levels down at most, that hold .mcap files."""
-    try:
-        subs = sorted(p for p in folder.iterdir() if p.is_dir())
-    except OSError:  # unreadable: no hint from it
-        return []
-    found: list[Path] = []
-    for sub in subs:
-        if any(sub.glob("*.mcap")):
-            found.append(sub)
-        elif depth > 1:
-            found += _trial_folders(sub, depth - 1)
-    return found
 
 
 @dataclass(frozen=True)
