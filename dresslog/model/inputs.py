@@ -38,12 +38,15 @@ STILL_STD = 1e-6
 MOVING = 0.02
 HEADING_COS = float(np.cos(np.radians(45)))
 ALONG_SHARE = 0.2
-#: What most often puts a channel far from the training data, by kind.
+#: What most often puts a channel far from the training data, by kind, or the gripper's
+#: heading away from the training trials' way.
 _CAUSES = {
     "N": "is the sensor tared (`convert --tare`), in world axes (`--wrench-frame pose`) and in N?",
     "N m": "is the sensor tared (`convert --tare`), in world axes and in N m, about the gripper "
     "centre (`--wrench-frame pose --sensor-offset`)?",
     "m/s": "is the velocity in m/s and in the world axes of the simulated trials (README, "
+    '"Your robot\'s data")?',
+    "heading": "is the log in the simulated trials' axes (`convert --rotate`; README, "
     '"Your robot\'s data")?',
 }
 #: A simulated trial's signal is the simulator's own, in its axes and tared, so what sets
@@ -85,18 +88,21 @@ def unfamiliar(
     counts = far.sum(axis=0)
     k = int(counts.argmax())
     if counts[k] < max(FAR_STEPS, FAR_SHARE * len(phi)):
-        return _heading(phi[:, 6:9], mean[6:9], simulated)
-    unit = PHI_UNITS[k]
-    return (
-        f"{PHI_NAMES[k]} lies beyond {FAR_SD:g} standard deviations of the model's training "
-        f"data on {counts[k] / len(phi):.0%} of steps (median there "
-        f"{np.median(phi[far[:, k], k]):.3g} {unit}; trained on {mean[k]:.3g} +- {std[k]:.3g} "
-        f"{unit}), so the estimate there is a guess; "
-        f"{_SIMULATED_CAUSE if simulated else _CAUSES[unit]}"
-    )
+        why, cause = _heading(phi[:, 6:9], mean[6:9]), "heading"
+    else:
+        cause = unit = PHI_UNITS[k]
+        why = (
+            f"{PHI_NAMES[k]} lies beyond {FAR_SD:g} standard deviations of the model's "
+            f"training data on {counts[k] / len(phi):.0%} of steps (median there "
+            f"{np.median(phi[far[:, k], k]):.3g} {unit}; trained on {mean[k]:.3g} +- "
+            f"{std[k]:.3g} {unit}), so the estimate there is a guess"
+        )
+    if why is None:
+        return None
+    return f"{why}; {_SIMULATED_CAUSE if simulated else _CAUSES[cause]}"
 
 
-def _heading(velocity: np.ndarray, trained: np.ndarray, simulated: bool) -> str | None:
+def _heading(velocity: np.ndarray, trained: np.ndarray) -> str | None:
     """Why the gripper's heading (velocity (T, 3)) is not the training trials', or None.
 
     The simulated gripper draws the garment along the limb, hand to shoulder or foot to
@@ -120,13 +126,7 @@ def _heading(velocity: np.ndarray, trained: np.ndarray, simulated: bool) -> str 
     else:
         where = ""
     usual_s = ", ".join(f"{round(v, 2) + 0.0:.2f}" for v in trained / usual)
-    cause = (
-        _SIMULATED_CAUSE
-        if simulated
-        else "is the log in the simulated trials' axes (`convert --rotate`; README, "
-        '"Your robot\'s data")?'
-    )
     return (
         f"{along:.0%} of the gripper's moving steps head within 45 degrees of the model's "
-        f"training trials' way ({usual_s}){where}, so the estimate is a guess; {cause}"
+        f"training trials' way ({usual_s}){where}, so the estimate is a guess"
     )
