@@ -93,17 +93,15 @@ def check_data_task(model: LoadedModel, task: Task, n_points: int | None = None)
     check_task(model, task, n_points, subject="data", hint=hint)
 
 
-def warn_no_force(
-    where: str | Path, sequences: str, consequence: str, cure: str, *, stacklevel: int = 2
-) -> None:
+def warn_no_force(where: str | Path, sequences: str, consequence: str, cure: str) -> None:
     """Say that no `sequences` (of the data at `where`) carries force on the limb, so
     `consequence`: trials that end before the garment reaches the limb are the natural
     first try, and a model trained or scored on them gives numbers (none, nan) that do not
-    say why. `stacklevel` counts from the caller, as `warnings.warn`'s does."""
+    say why. The warning points at the caller's caller, as `stacklevel=2` would there."""
     warnings.warn(
         f"{printable(where)}: no {sequences} carries force on the limb, so {consequence}; {cure}",
         DresslogWarning,
-        stacklevel=stacklevel + 1,
+        stacklevel=3,
     )
 
 
