@@ -121,11 +121,6 @@ def _total_title(has_truth: bool, has_estimate: bool) -> str:
     return "Total limb force (N)"
 
 
-def _playback(live: bool) -> dict[str, Any]:
-    """The time panel's play state: a file from its start, in real time; a live view, unset."""
-    return {} if live else {"play_state": "playing", "playback_speed": 1.0}
-
-
 def default_blueprint(
     has_estimate: bool = True,
     limb_points: np.ndarray | None = None,
@@ -172,7 +167,12 @@ def default_blueprint(
             rrb.Horizontal(*comparison, rrb.TextDocumentView(name="Trial spec", origin=SPEC)),
             row_shares=[3, 1],
         ),
-        rrb.TimePanel(timeline=TIME, state="collapsed", **_playback(live)),
+        rrb.TimePanel(
+            timeline=TIME,
+            state="collapsed",
+            play_state=None if live else "playing",  # None: unset, a live view follows
+            playback_speed=None if live else 1.0,
+        ),
         rrb.BlueprintPanel(expanded=False),
         rrb.SelectionPanel(expanded=False),
     )
