@@ -219,13 +219,6 @@ def dataset_holding(folder: Path) -> Path | None:
     return named.parent if (named.parent / MANIFEST_FILE).is_file() else None
 
 
-def _holds_model(folder: Path) -> bool:
-    """Whether `folder` is a model's (its card), for the hint of a dataset expected there."""
-    from dresslog.model.files import CARD_FILE  # lazily: only for this hint
-
-    return (folder / CARD_FILE).is_file()
-
-
 def load_manifest(root: str | Path) -> Manifest:
     """Read `root/manifest.json`; a missing or foreign one is one `DatasetError` line."""
     root = Path(root)
@@ -240,12 +233,14 @@ def load_manifest(root: str | Path) -> Manifest:
     if not root.is_dir():
         raise DatasetError("no such dataset folder", path=root)
     if not path.is_file():
+        from dresslog.model.files import CARD_FILE  # lazily: only for these hints
+
         hint = "not a dataset folder (make one with `dresslog generate`)"
         if (root / SWEEP_FILE).is_file():  # a sweep's settings each hold a dataset
             hint = "a sweep's folder: `dresslog sweep` scores its settings (table: sweep.csv)"
         elif (dataset := dataset_holding(root)) is not None:  # `data/gown/test`
             hint = f"a dataset's {root.resolve().name} folder: give the dataset, {dataset}"
-        elif _holds_model(root):  # `train MODEL`, or `eval` given the model twice
+        elif (root / CARD_FILE).is_file():  # `train MODEL`, or `eval` given the model twice
             hint = "a model folder, not a dataset (`eval MODEL DATA` takes the dataset second)"
         raise DatasetError(f"no {MANIFEST_FILE}; {hint}", path=root)
     try:
