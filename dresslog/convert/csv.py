@@ -513,7 +513,7 @@ def read_csv(
     """Wrench from `path`; velocity or position from `path` itself or from `motion`."""
     path, motion = Path(path), None if motion is None else Path(motion)
     columns = dict(columns or {})
-    named = {path: _header(path)[1], **({motion: _header(motion)[1]} if motion else {})}
+    named = {f: _header(f)[1] for f in (path, motion) if f is not None}
     if unknown := [
         f"{r}={n}" for r, n in columns.items() if all(n not in h for h in named.values())
     ]:
