@@ -288,7 +288,10 @@ def test_view_without_a_display_says_so_before_any_work(
     assert "--web" in result.output and "--save" in result.output
     folder = trial.parent  # a typo or a folder is named first: no display would not cure it
     result = CliRunner().invoke(main, ["view", str(folder)])
-    assert result.exit_code == 1 and result.output.startswith(f"Error: {folder}: is a folder")
+    assert result.exit_code == 1
+    assert result.output == (
+        f"Error: {folder}: is a folder; view opens one trial or recording, such as {trial}\n"
+    )
     result = CliRunner().invoke(main, ["view", str(folder / "typo.mcap")])
     assert result.output == f"Error: {folder / 'typo.mcap'}: no such file\n"
 

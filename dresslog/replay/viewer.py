@@ -347,6 +347,10 @@ def view_file(
     if web_port is not None and _free_port(web_port) != web_port:
         raise DresslogError(f"port {web_port} is in use; pass another --port or leave it out")
     if not path.is_file():  # a typo or a folder is named first, not the display
+        if path.is_dir() and (held := sorted(path.glob("*.mcap")) + sorted(path.glob("*.rrd"))):
+            raise DresslogError(
+                f"is a folder; view opens one trial or recording, such as {held[0]}", path=path
+            )  # infer's advice, DIR/*.mcap, would be a usage error here
         TrialReader(path).open()
     if not web and not has_display():  # checked before inferring, not after
         raise no_display(
