@@ -18,7 +18,10 @@ class DresslogError(Exception):
     def __init__(self, message: str, *, path: str | Path | None = None) -> None:
         self.path = Path(path) if path is not None else None
         self.message = message
-        super().__init__(f"{self.path}: {message}" if self.path is not None else message)
+        super().__init__(message)
+
+    def __str__(self) -> str:  # from `path` as it stands: a caller may name it otherwise
+        return f"{self.path}: {self.message}" if self.path is not None else self.message
 
 
 class TrialFormatError(DresslogError):

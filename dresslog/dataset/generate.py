@@ -353,7 +353,6 @@ def _named_as_given(root: Path, given: Path) -> Iterator[None]:
     except DresslogError as err:
         if err.path == root:
             err.path = given
-            err.args = (f"{given}: {err.message}",)
         raise
     except OSError as err:  # a full disk, a read-only folder: the file inside it
         if isinstance(err.filename, str) and Path(err.filename).is_relative_to(root):
