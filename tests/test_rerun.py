@@ -277,7 +277,7 @@ def test_view_knows_a_recording_by_its_bytes_and_refuses_a_model_for_it(
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")
 def test_view_without_a_display_says_so_before_any_work(
-    inferred, monkeypatch: pytest.MonkeyPatch
+    inferred, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
         monkeypatch.delenv(name, raising=False)
@@ -294,6 +294,10 @@ def test_view_without_a_display_says_so_before_any_work(
     )
     result = CliRunner().invoke(main, ["view", str(folder / "typo.mcap")])
     assert result.output == f"Error: {folder / 'typo.mcap'}: no such file\n"
+    notes = tmp_path / "notes.md"  # a file of another kind, too
+    notes.write_text("# day 1\n")
+    result = CliRunner().invoke(main, ["view", str(notes)])
+    assert result.exit_code == 1 and result.output.startswith(f"Error: {notes}: not an MCAP file")
 
 
 @pytest.mark.parametrize(

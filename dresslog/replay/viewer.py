@@ -24,7 +24,7 @@ from urllib.parse import quote, urlsplit
 
 from dresslog.errors import DresslogError, TrialWriteError
 from dresslog.io.files import atomic_path, check_output
-from dresslog.io.reader import RRD_MAGIC, TrialReader
+from dresslog.io.reader import MAGIC, RRD_MAGIC, TrialReader
 from dresslog.replay.pipeline import InferenceReport, replay_file
 from dresslog.spec import Task
 from dresslog.stops import stop_signals
@@ -346,19 +346,21 @@ def view_file(
     path = Path(path)
     if web_port is not None and _free_port(web_port) != web_port:
         raise DresslogError(f"port {web_port} is in use; pass another --port or leave it out")
-    if not path.is_file():  # a typo or a folder is named first, not the display
+    recording = path.is_file() and is_rrd(path, model)
+    if not (recording or _starts_with(path, MAGIC)):  # a typo, a folder or a file of another
+        # kind is named first, not the display, which would not cure it
         if path.is_dir() and (held := sorted(path.glob("*.mcap")) + sorted(path.glob("*.rrd"))):
             raise DresslogError(
                 f"is a folder; view opens one trial or recording, such as {held[0]}", path=path
             )  # infer's advice, DIR/*.mcap, would be a usage error here
-        TrialReader(path).open()
+        TrialReader(path).open()  # names what the path is instead
     if not web and not has_display():  # checked before inferring, not after
         raise no_display(
             "serve it to a browser with --web, or write the recording with --save OUT.rrd", path
         )
     with contextlib.ExitStack() as stack:
         rrd = path
-        if not is_rrd(path, model):  # a recording is served as it is: no folder for it
+        if not recording:  # a recording is served as it is: no folder for it
             tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="dresslog-view-"))
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model))
