@@ -885,3 +885,59 @@ def test_rotate_then_translate_puts_a_robots_gripper_path_on_the_scenes_limb(
     np.testing.assert_allclose(pose[hold:, :3], sample.pose.values[:, :3], atol=1e-5)
     assert processing["translation_m"] == [0.1, 0.6, -0.25]
     np.testing.assert_array_equal(phi, read_trial(out["turned"]).measurements.phi)
+
+
+@prints_warnings
+def test_a_robots_log_converted_without_its_tare_is_warned_about(tmp_path: Path) -> None:
+    """Untared, the bundled log's 2.5 N of hanging gown read as force on the arm on 99% of
+    steps, not 52%, and `infer` could not tell: a garment's weight is within its training."""
+    args = ["convert", str(ROBOT / "ft.csv"), "--motion", str(ROBOT / "pose.csv"), "-o",
+            str(tmp_path / "t.mcap"), "--overwrite", "--task", "gown", "--wrench-frame", "pose",
+            *TO_SCENE]  # fmt: skip
+    said = {tare: CliRunner().invoke(main, [*args, "--tare", tare]) for tare in ("0", "0.5")}
+    assert all(result.exit_code == 0 for result in said.values())
+    assert said["0"].stderr == (
+        "Warning: the force while the gripper is still at the start is 2.45 N, where the "
+        "simulated trials start near 0 (tared with the garment hanging); if the sensor was not "
+        "zeroed with the garment hanging, convert with --tare 1 (the still start here)\n"
+    )
+    assert not said["0.5"].stderr
+
+
+def _held_then_moving(path: Path, hold_s: float, weight: float) -> Path:
+    """A 1 kHz log whose gripper holds still for its first `hold_s`, then moves, with `weight`
+    N more in fz throughout (0: a sensor zeroed with the garment hanging). The motion starts
+    5 ms on, inside the converted step at `hold_s`, not on its 10 ms bin's edge."""
+    t = np.arange(2000) / 1000.0
+    moving = (t >= hold_s + 0.005)[:, None]
+    force = np.where(moving, wrench(t), 0.0) + np.array([0, 0, weight, 0, 0, 0])
+    velocity = np.where(moving, twist(t)[:, :3], 0.0)
+    names = ["time", "fx", "fy", "fz", "tx", "ty", "tz", "vx", "vy", "vz"]
+    return write_csv(path, names, [t, *force.T, *velocity.T])
+
+
+@pytest.mark.parametrize(
+    ("hold_s", "weight", "tare_s", "message"),
+    [
+        (0.5, 2.0, 0.0, r"^the force while .* still at the start is 2\.00 N, .* --tare 0\.5 \("),
+        (0.5, 0.0, 0.0, None),  # tared with the garment hanging
+        (0.5, 0.4, 0.0, None),  # a sensor's drift, or a garment under 40 g
+        (0.1, 2.0, 0.0, None),  # a pause as the motion begins: no still start to tare by
+        (0.5, 2.0, 0.5, None),
+        (0.3, 2.0, 0.5, r"^the gripper starts moving at 0\.30 s, .* --tare 0\.3 or less keeps"),
+        (0.0, 0.0, 0.5, r"^the gripper moves from the first step, so the tare's 0\.5 s take in"),
+    ],
+    ids=["untared", "tared", "drift", "pause", "tare-still", "tare-into-motion", "no-still"],
+)
+def test_a_tare_left_out_or_reaching_into_the_motion_is_warned_about(
+    tmp_path: Path, hold_s: float, weight: float, tare_s: float, message: str | None
+) -> None:
+    source = _held_then_moving(tmp_path / "h.csv", hold_s, weight)
+    if message is None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            convert(source, tmp_path / "t.mcap", "gown", tare_s=tare_s)
+        return
+    with pytest.warns(ConversionWarning, match=message):
+        report = convert(source, tmp_path / "t.mcap", "gown", tare_s=tare_s)
+    assert report.warnings == report.source["warnings"] and len(report.warnings) == 1

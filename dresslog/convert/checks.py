@@ -1,5 +1,5 @@
 """What `convert` refuses or warns about in a log: its streams' stamps and values before
-resampling, and gaps, clocks, frames and implausible signals after.
+resampling, and gaps, clocks, frames, implausible signals and tares after.
 
 Refusals are `ConversionError`s naming the file (and a bag's topic); warnings come back
 as strings, which `convert` issues and records in its report.
@@ -166,6 +166,65 @@ def beyond_dressing(wrench: np.ndarray, twist: np.ndarray) -> str | None:
     return (
         f"{', '.join(beyond)}, far beyond a robot dressing a person: are the columns in SI "
         "units? (raw sensor counts, N mm or mm/s read as N, N m and m/s?)"
+    )
+
+
+#: A gripper slower than this, m/s, is still: the simulated trials draw the garment at
+#: 10-20 cm/s, and an arm at rest reads its pose's jitter, differentiated, as a little
+#: speed. It is the speed `infer` calls moving (dresslog.model.inputs.MOVING, an engine's,
+#: which this layer does not import).
+STILL_SPEED = 0.02
+#: A still start this long, s, is the garment hanging at rest before the motion, not a
+#: pause as the gripper gets going; over it the mean force is the garment's weight.
+MIN_STILL_S = 0.2
+#: Above this force, N, a still start is not tared: a sensor zeroed with the garment hanging
+#: reads there only its noise and drift (the bundled robot log, tared, 0.002 N), where a
+#: hanging garment weighs its mass times g (the simulated gown or shorts, 0.25 kg, 2.45 N);
+#: 0.5 N, a 50 g garment's weight, lies far above the one and below the other.
+UNTARED_FORCE = 0.5
+
+
+def _still_steps(twist: np.ndarray) -> int:
+    """How many steps the converted log begins with, the gripper slower than STILL_SPEED."""
+    moving = np.flatnonzero(np.linalg.norm(twist[:, :3], axis=1) >= STILL_SPEED)
+    return int(moving[0]) if len(moving) else len(twist)
+
+
+def tare_mistake(wrench: np.ndarray, twist: np.ndarray, tare_s: float) -> str | None:
+    """A warning when the tare (`tare_s`, 0 for none) is likely wrong for the converted log.
+
+    The simulated trials are tared with the garment hanging, so a garment's weight left
+    on the sensor reads as force on the limb at every step; yet a weight of a few newtons
+    lies within the training data's spread, and `infer` cannot tell. Two mistakes are
+    seen on the log itself: no tare though the gripper starts still under a garment's
+    weight (`wrench` as converted, untared), and a tare window that reaches past the
+    still start into the motion, whose force it then subtracts from every step.
+    """
+    still = _still_steps(twist)
+    still_s = still / rs.RATE_HZ  # each step stands for its 10 ms
+    if tare_s == 0:
+        if still_s < MIN_STILL_S:
+            return None
+        force = float(np.linalg.norm(wrench[:still, :3].mean(axis=0)))  # what a tare removes
+        if force <= UNTARED_FORCE:
+            return None
+        return (
+            f"the force while the gripper is still at the start is {force:.2f} N, where the "
+            "simulated trials start near 0 (tared with the garment hanging); if the sensor "
+            f"was not zeroed with the garment hanging, convert with --tare {still_s:g} (the "
+            "still start here)"
+        )
+    if round(tare_s * 1e9) <= still * rs.PERIOD_NS:  # as `rs.tare` counts its window
+        return None
+    if not still:
+        return (
+            f"the gripper moves from the first step, so the tare's {tare_s:g} s take in force "
+            "from the motion, not the garment hanging still; tare only a log that starts still"
+        )
+    return (
+        f"the gripper starts moving at {still_s:.2f} s, within the tare's {tare_s:g} s, so the "
+        f"tare takes in force from the motion; --tare {still_s:g} or less keeps to the still "
+        "start"
     )
 
 

@@ -30,6 +30,7 @@ from dresslog.convert.checks import (
     frames_differ,
     log_warnings,
     put_in_time_order,
+    tare_mistake,
     unneeded_pose_without_orientation,
 )
 from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
@@ -227,7 +228,8 @@ def convert(
     every pose in it, so that the gripper's path lies where the viewer draws the limb
     (the signal holds no position: the estimate is the same); `tare_s` subtracts the mean
     wrench of the first seconds. Gaps longer than `max_gap_s` are bridged by
-    interpolation and reported as `ConversionWarning`s (and in the report).
+    interpolation and reported as `ConversionWarning`s (and in the report), as are a tare
+    left out under a still garment's weight and one reaching into the motion.
     """
     started = time.perf_counter()
     path, output = Path(path), Path(output)
@@ -274,9 +276,10 @@ def convert(
     wrench, twist, pose, processing = _resample_all(
         source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset, translate
     )
-    if message := beyond_dressing(wrench, twist):
-        warnings.warn(message, ConversionWarning, stacklevel=2)
-        found.append(message)
+    for message in (beyond_dressing(wrench, twist), tare_mistake(wrench, twist, tare_s)):
+        if message:
+            warnings.warn(message, ConversionWarning, stacklevel=2)
+            found.append(message)
 
     info = _source_info(source, grid, processing, found, motion)
     metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
