@@ -331,6 +331,31 @@ def test_eval_says_why_its_ratios_are_nan_when_the_split_has_no_force(
     assert result.stderr.startswith("Warning: early: no test sequence")
 
 
+@pytest.mark.slow
+def test_eval_says_why_an_outcomes_ratio_is_nan_when_that_outcome_has_no_force(
+    tmp_path: Path,
+) -> None:
+    """The split has force, so nothing is warned of, but its missed trial none: that row's
+    ratio printed nan unexplained, beside a dressed row and an overall ratio of numbers."""
+    data = tmp_path / "edge"  # the arm at the gripper's edge: one trial is dressed, one missed
+    edge = {"duration": 1.0, "limb_offset": (0.22, 0.0, 0.05)}
+    generate("gown", 2, data, workers=1, test_fraction=1, overrides=edge, progress=False)
+    model = SAMPLES / "models" / "gown"
+    result = CliRunner().invoke(main, ["eval", str(model), str(data), "-q"])
+    assert result.exit_code == 0 and result.stderr == "", result.output
+    rows = {line.split()[0]: line.split()[1:] for line in result.stdout.splitlines()[2:5]}
+    assert rows["all"][3] != "nan" and rows["dressed"][3] != "nan"  # n, RMSE, zero, ratio
+    assert rows["missed"][2:4] == ["0.00000", "nan"]
+    assert result.stdout.splitlines()[5] == (
+        "nan: no missed sequence carries force on the limb, so their all-zero RMSE is 0 and "
+        "the ratios to it, as contact recall, are not numbers"
+    )
+    result = CliRunner().invoke(main, ["eval", str(model), str(data), "--json"])
+    assert result.exit_code == 0 and result.stderr == "", result.output
+    missed = json.loads(result.stdout)["per_outcome"]["missed"]
+    assert missed["n"] == 1 and missed["zero_rmse"] == 0 and missed["ratio"] is None
+
+
 @prints_warnings
 def test_sweep_says_why_its_ratios_are_nan_when_no_sequence_has_force(tmp_path: Path) -> None:
     """As eval: sweep's table printed nan in both ratio columns, unexplained."""

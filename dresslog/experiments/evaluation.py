@@ -57,6 +57,12 @@ class EvalReport:
                 f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
                 f"{s.contact_precision:>7.3f}{s.contact_recall:>7.3f}"
             )
+        forceless = [o for o, s in self.per_outcome.items() if s.n and s.zero_rmse == 0]
+        if forceless and self.overall.zero_rmse > 0:  # a split with none at all is warned of
+            lines.append(
+                f"nan: no {' or '.join(forceless)} sequence carries force on the limb, so their "
+                "all-zero RMSE is 0 and the ratios to it, as contact recall, are not numbers"
+            )
         lines.append(
             f"half the truth: the estimate at each step's true total force "
             f"{self.overall.ratio_at_true_total:.3f}, the true shape at the estimate's "
