@@ -457,6 +457,32 @@ def test_every_command_names_a_number_out_of_its_range_as_a_usage_error(
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (["--lr", "10"], "'--lr': 10.0 is not in the range 0<x<=1."),
+        (["--hidden", "5000"], "'--hidden': 5000 is not in the range 1<=x<=1024."),
+        (["--layers", "9"], "'--layers': 9 is not in the range 1<=x<=8."),
+    ],
+    ids=["lr", "hidden", "layers"],
+)
+def test_train_refuses_a_network_or_learning_rate_beyond_any_use_as_a_usage_error(
+    tmp_path: Path, option: list[str], message: str
+) -> None:
+    """They had no ceiling, so a slip (--lr 10, --hidden 5000) went on to load the trials
+    and train; the bundled models' settings are well inside."""
+    args = ["train", str(tmp_path / "data"), "-o", str(tmp_path / "model"), *option]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and f"Error: Invalid value for {message}" in result.output
+    assert list(tmp_path.iterdir()) == []
+    for task in Task:
+        card = json.loads((SAMPLES / "models" / task.value / "card.json").read_text())
+        bundled = ["--hidden", str(card["hidden"]), "--layers", str(card["layers"]),
+                   "--lr", str(card["hyperparameters"]["lr"])]  # fmt: skip
+        result = CliRunner().invoke(main, [*args[:4], *bundled])
+        assert result.exit_code == 1 and "Invalid value" not in result.output, result.output
+
+
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM ends a process outright there")
 @pytest.mark.parametrize("sent", ["SIGTERM", "SIGHUP", "SIGHUP-under-nohup"])
 def test_a_killed_record_leaves_no_file(tmp_path: Path, sent: str) -> None:
