@@ -542,6 +542,31 @@ def test_an_mcap_file_convert_cannot_read_is_named_for_what_it_is(
     assert ("recover" in result.output) is (kind == "truncated")
 
 
+@pytest.mark.parametrize(
+    ("kind", "message"),
+    [
+        ("ros1", f"an MCAP file of profile 'ros1', not ROS 2's 'ros2'; {READS}"),
+        ("json", f"MCAP channels not in ROS 2's CDR: /ft (json); {READS}"),
+    ],
+)
+def test_a_ros2_bag_folder_whose_mcap_convert_cannot_read_names_that_file(
+    tmp_path: Path, kind: str, message: str
+) -> None:
+    """The bare file was checked, not a bag folder's storage: another profile was "cannot
+    read bag: Profile is not ros2." with `ros2 bag reindex` to repair it, JSON a KeyError."""
+    bag = write_bag(tmp_path / "log", standard_topics(1.0), "mcap")
+    (storage,) = bag.glob("*.mcap")  # rosbags' own, replaced: metadata.yaml still names it
+    if kind == "ros1":
+        _foreign_mcap(storage, "ros1", "ros1msg", "ros1")
+    else:
+        _foreign_mcap(storage, "ros2", "jsonschema", "json")
+    args = ["convert", str(bag), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1, result.output
+    assert result.output.startswith(f"Error: {storage}: {message}"), result.output
+    assert len(result.output.splitlines()) == 1 and not (tmp_path / "out.mcap").exists()
+
+
 @pytest.mark.parametrize("name", ["noise.bag", "bag/metadata.yaml"])
 def test_a_bag_of_bytes_that_are_not_text_is_one_line(tmp_path: Path, name: str) -> None:
     """A .bag file (or a bag folder's metadata.yaml) of binary bytes where rosbags reads

@@ -305,6 +305,10 @@ def read_bag(
     path = Path(path)
     if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
         check_mcap(path)
+    elif path.is_dir():  # a ROS 2 bag folder's MCAP storage, which rosbags reads as a file
+        for storage in sorted(path.iterdir()):
+            if storage.suffix.lower() == ".mcap" and storage.is_file():
+                check_mcap(storage)
     highlevel, rosbag1, rosbag2, typesys = _rosbags()
     # UnicodeDecodeError: bytes where rosbags reads text (a ROS 1 bag's first line, the YAML)
     errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError,
