@@ -1,4 +1,4 @@
-"""`dresslog infer TRIAL.mcap... [--model M] [-o OUT.rrd] [--mcap-out OUT.mcap]`."""
+"""`dresslog infer TRIAL.mcap... [--model M] [-o OUT.rrd|DIR] [--mcap-out OUT.mcap|DIR]`."""
 
 from __future__ import annotations
 
@@ -15,10 +15,11 @@ from .common import error_line, reports_errors
 @click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder.",
               show_default="bundled, for the trial's task")  # fmt: skip
 @click.option("-o", "--output", "--out", "output", type=click.Path(path_type=Path),
-              help="Rerun recording to write (.rrd); one trial only.",
-              show_default="TRIAL.rrd")  # fmt: skip
+              help="Rerun recording to write (.rrd); with several trials, the folder for "
+              "each TRIAL.rrd.", show_default="TRIAL.rrd, beside the trial")  # fmt: skip
 @click.option("--mcap-out", type=click.Path(path_type=Path),
-              help="Also write the trial with the estimate (.mcap); one trial only.")  # fmt: skip
+              help="Also write the trial with the estimate (.mcap); with several trials, "
+              "the folder for each TRIAL.mcap.")  # fmt: skip
 @click.option("--timings", is_flag=True, help="Print the time of each stage.")
 @reports_errors
 def infer(
@@ -33,12 +34,9 @@ def infer(
     Prints the RMSE against ground truth when a trial has it; with several trials, their
     mean too, and a bad trial is reported without stopping the others.
     """
+    from dresslog.errors import TrialWriteError
     from dresslog.replay.batch import TrialFailure, replay_files
     from dresslog.replay.pipeline import InferenceReport
-
-    if len(trials) > 1 and (output or mcap_out):
-        option = "-o/--output" if output else "--mcap-out"
-        raise click.UsageError(f"{option} names one file: give one trial or drop {option}")
 
     def show(outcome: InferenceReport | TrialFailure) -> None:  # as each trial is done
         if isinstance(outcome, TrialFailure):
@@ -49,7 +47,19 @@ def infer(
             times = outcome.timings.items()
             click.echo("  " + ", ".join(f"{k} {v * 1e3:.0f} ms" for k, v in times))
 
-    batch = replay_files(trials, model=model, rrd=output, mcap=mcap_out, on_trial=show)
+    one = len(trials) == 1  # -o and --mcap-out name a file; with several trials, a folder
+    try:
+        batch = replay_files(
+            trials,
+            model=model,
+            rrd=output if one else None,
+            mcap=mcap_out if one else None,
+            rrd_folder=None if one else output,
+            mcap_folder=None if one else mcap_out,
+            on_trial=show,
+        )
+    except TrialWriteError as err:  # only the folders, refused before any trial
+        raise click.UsageError(error_line(err)) from None
     if len(trials) > 1:
         click.echo(batch.summary())
     if batch.failures and len(trials) > 1:

@@ -641,13 +641,103 @@ def test_a_model_for_the_other_task_fails_those_trials_alone(day: Path) -> None:
     assert sorted(p.name for p in day.iterdir() if p.suffix == ".rrd") == ["gown.rrd"]
 
 
-@pytest.mark.parametrize("option", [["-o", "out.rrd"], ["--mcap-out", "out.mcap"]])
-def test_an_output_name_with_several_trials_is_a_usage_error(day: Path, option: list[str]) -> None:
-    trials = [str(day / "gown.mcap"), str(day / "shorts.mcap")]
-    result = CliRunner().invoke(main, ["infer", *trials, option[0], str(day / option[1])])
-    assert result.exit_code == 2, result.output
-    assert "names one file: give one trial or drop" in result.output
+def test_infer_on_several_trials_writes_each_into_the_folders_given(day: Path) -> None:
+    """A day's estimate copies in one command: each trial's recording and copy in the folders
+    given (made if missing), named after it; a re-run replaces them, as with one trial."""
+    gown, shorts = day / "gown.mcap", day / "shorts.mcap"
+    rec, est = day.parent / "out" / "rec", day.parent / "out" / "est"
+    args = ["infer", str(gown), str(shorts), "-o", str(rec), "--mcap-out", str(est)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert f"{gown}: 700 steps, gown" in lines[0]
+    assert f" -> {rec / 'gown.rrd'}, {est / 'gown.mcap'}; RMSE " in lines[0]
+    assert f" -> {rec / 'shorts.rrd'}, {est / 'shorts.mcap'}; RMSE " in lines[1]
+    assert sorted(p.name for p in rec.iterdir()) == ["gown.rrd", "shorts.rrd"]
+    assert sorted(p.name for p in est.iterdir()) == ["gown.mcap", "shorts.mcap"]
     assert sorted(p.name for p in day.iterdir()) == ["gown.mcap", "shorts.mcap"]
+    one = replay_file(gown, mcap=day.parent / "one.mcap")  # the same replay, alone
+    assert one.steps == 700
+    with TrialReader(est / "gown.mcap") as copy, TrialReader(day.parent / "one.mcap") as alone:
+        assert copy.has(wk.ESTIMATE) and copy.metadata.task is Task.GOWN
+        assert copy.estimate is not None and alone.estimate is not None
+        np.testing.assert_array_equal(copy.estimate.forces, alone.estimate.forces)
+    assert CliRunner().invoke(main, args).exit_code == 0
+
+
+def test_a_bad_trial_among_good_ones_leaves_nothing_of_it_in_the_folders(day: Path) -> None:
+    (junk := day / "notes.mcap").write_text("not a recording\n")
+    out = day.parent / "out"
+    trials = [str(junk), str(day / "gown.mcap")]
+    result = CliRunner().invoke(main, ["infer", *trials, "-o", str(out), "--mcap-out", str(out)])
+    assert result.exit_code == 1, result.output
+    assert result.stderr.splitlines()[-1] == "Error: 1 of 2 trials failed"
+    assert sorted(p.name for p in out.iterdir()) == ["gown.mcap", "gown.rrd"]  # no temporaries
+
+
+def twice_named(day: Path) -> list[str]:
+    (other := day.parent / "day2").mkdir()
+    (other / "gown.mcap").write_bytes((day / "gown.mcap").read_bytes())
+    return [str(day / "gown.mcap"), str(other / "gown.mcap")]
+
+
+def both_tasks(day: Path) -> list[str]:
+    return [str(day / "gown.mcap"), str(day / "shorts.mcap")]
+
+
+FOLDERS = [  # (trials, option, folder, the error line)
+    (twice_named, "-o", "out", "{day}/gown.mcap and {day2}/gown.mcap would both be written to "
+     "{tmp}/out/gown.rrd; infer them into separate folders"),
+    (twice_named, "--mcap-out", "out", "{day}/gown.mcap and {day2}/gown.mcap would both be "
+     "written to {tmp}/out/gown.mcap; infer them into separate folders"),
+    (both_tasks, "-o", "file", "{tmp}/file: is a file; give a folder for the trials' outputs"),
+    (both_tasks, "--mcap-out", "file/est", "{tmp}/file/est: {tmp}/file is not a folder"),
+    (both_tasks, "--mcap-out", "day1", "{day}/gown.mcap: would overwrite gown.mcap, the file "
+     "being read; give another folder"),
+    (both_tasks, "-o", "out.rrd", "{tmp}/out.rrd: with several trials, the output is a folder, "
+     "not a .rrd recording; name it without .rrd (e.g. {tmp}/out)"),
+    (both_tasks, "--mcap-out", "out.mcap", "{tmp}/out.mcap: with several trials, the output "
+     "is a folder, not a .mcap recording; name it without .mcap (e.g. {tmp}/out)"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("trials", "option", "folder", "line"),
+    FOLDERS,
+    ids=["collision-o", "collision-mcap", "file", "under-a-file", "own-folder", "rrd", "mcap"],
+)
+def test_output_folders_that_cannot_hold_every_trial_are_a_usage_error(
+    day: Path, trials, option: str, folder: str, line: str
+) -> None:
+    """Refused before any trial, where two trials of one name would have left the second's."""
+    tmp = day.parent
+    (tmp / "file").write_text("")
+    args = ["infer", *trials(day), option, str(tmp / folder)]
+    before = sorted(tmp.rglob("*"))
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, result.output
+    said = line.format(tmp=tmp, day=day, day2=tmp / "day2")
+    assert result.stderr.splitlines()[-1] == f"Error: {said}"
+    assert sorted(tmp.rglob("*")) == before
+
+
+def test_replay_files_takes_the_folders_from_python(gown, tmp_path: Path) -> None:
+    from dresslog.errors import TrialWriteError
+    from dresslog.replay.batch import replay_files
+
+    trial, model = gown
+    a, b, out = tmp_path / "a" / "t.mcap", tmp_path / "b" / "t.mcap", tmp_path / "out"
+    for path in (a, b):
+        path.parent.mkdir()
+        path.write_bytes(trial.read_bytes())
+    with pytest.raises(TrialWriteError, match=f"{a} and {b} would both be written to"):
+        replay_files([a, b], model=model, rrd_folder=out)
+    assert not out.exists()
+    batch = replay_files([a, trial], model=model, mcap_folder=out)
+    assert [r.outputs for r in batch.reports] == [
+        [a.with_suffix(".rrd"), out / "t.mcap"],
+        [trial.with_suffix(".rrd"), out / "trial.mcap"],
+    ]
 
 
 def test_a_batch_loads_each_model_once(gown, tmp_path: Path, monkeypatch) -> None:

@@ -60,8 +60,8 @@ def check_output(
     if path.is_dir():
         raise TrialWriteError("is a folder; give a file name", path=path)
     check_writable(folder)
-    if source is not None and resolved(path) == resolved(source):
-        raise TrialWriteError(f"would overwrite {source.name}, the file being read", path=path)
+    if source is not None:
+        check_not_source(path, source)
     if source is not None and source.is_dir() and resolved(path).is_relative_to(resolved(source)):
         raise TrialWriteError(
             f"is inside {source.name}, the folder being read; write it elsewhere", path=path
@@ -78,6 +78,24 @@ def check_output(
             "Rerun cannot write a file whose path is not UTF-8; name the recording otherwise",
             path=printable(path),
         )
+
+
+def check_not_source(path: str | Path, source: str | Path, advice: str | None = None) -> None:
+    """Fail if `path` is `source`, the file being read, under its own name or another
+    (a symbolic link, `./t.mcap`); `advice` says what to do instead."""
+    if resolved(path) == resolved(source):
+        problem = f"would overwrite {Path(source).name}, the file being read"
+        raise TrialWriteError(f"{problem}; {advice}" if advice else problem, path=path)
+
+
+def check_output_folder(folder: str | Path, what: str) -> None:
+    """Fail before any work if `folder`, to hold `what` ("the trials' outputs"), is a file,
+    or would be made under one; a missing one is fine, the writers make it."""
+    folder = Path(folder)
+    if not (above := nearest_folder(folder / "_")).is_dir():  # `folder` itself, if it exists
+        if above == folder and not folder.is_symlink():
+            raise TrialWriteError(f"is a file; give a folder for {what}", path=folder)
+        raise TrialWriteError(_not_a_folder(above), path=folder)
 
 
 def nearest_folder(path: str | Path) -> Path:

@@ -12,7 +12,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from dresslog.errors import DresslogError
+from dresslog.errors import DresslogError, TrialWriteError
+from dresslog.io.files import check_not_source, check_output_folder, named_as_recording
 from dresslog.model.files import LoadedModel, load_model
 from dresslog.replay.pipeline import InferenceReport, replay_file
 
@@ -76,32 +77,76 @@ def default_rrd(trial: Path) -> Path:
     return trial.with_suffix(".rrd") if trial.name else trial  # `.` is refused as input first
 
 
+def outputs_in(folder: str | Path, trials: Sequence[Path], suffix: str) -> list[Path]:
+    """Each trial's output in `folder`, named after it (`a/t.mcap` -> `folder/t.rrd`).
+
+    Checked before any trial, as no trial could go there: a folder named as a recording
+    (`out.rrd`, a slip for one trial's file), a file where it goes, two trials of one name,
+    or an output that is its trial (the trial's own folder given for its `.mcap` copy).
+    """
+    folder = Path(folder)
+    if (misnamed := named_as_recording(folder, "with several trials, the output")) is not None:
+        raise TrialWriteError(misnamed, path=folder)
+    check_output_folder(folder, "the trials' outputs")
+    named: dict[Path, Path] = {}  # output -> the trial it is of
+    for trial in trials:
+        out = folder / f"{trial.stem}{suffix}"
+        if out in named:
+            raise TrialWriteError(
+                f"{named[out]} and {trial} would both be written to {out}; "
+                "infer them into separate folders"
+            )
+        check_not_source(out, trial, "give another folder")  # a trial's own folder
+        named[out] = trial
+    return list(named)
+
+
 def replay_files(
     trials: Sequence[str | Path],
     *,
     model: str | Path | None = None,
     rrd: str | Path | None = None,
     mcap: str | Path | None = None,
+    rrd_folder: str | Path | None = None,
+    mcap_folder: str | Path | None = None,
     on_trial: Callable[[InferenceReport | TrialFailure], None] | None = None,
 ) -> BatchReport:
-    """Replay each trial into its `.rrd` (`rrd`, one trial only, else TRIAL.rrd beside it).
+    """Replay each trial into its `.rrd`: `rrd` (one trial only), else TRIAL.rrd in
+    `rrd_folder`, else beside the trial; and with `mcap` (one trial only) or `mcap_folder`
+    (TRIAL.mcap in it), into a copy of the trial with the estimate.
 
-    A trial's `DresslogError` or `OSError` is its failure and the next trial runs; `on_trial`
-    hears each outcome as it comes. A given `model` that does not load fails the batch
-    before any trial when there are several (it would fail each alike); with one trial, what
-    is wrong with the trial is still said first.
+    The folders are made if missing; one that cannot hold every trial's output (see
+    `outputs_in`) raises `TrialWriteError` before any trial. A trial's `DresslogError` or
+    `OSError` is its failure and the next trial runs; `on_trial` hears each outcome as it
+    comes. A given `model` that does not load fails the batch before any trial when there
+    are several (it would fail each alike); with one trial, what is wrong with the trial is
+    still said first.
     """
     if len(trials) > 1 and (rrd is not None or mcap is not None):
-        raise ValueError("rrd and mcap name one file each: give one trial")
+        raise ValueError(
+            "rrd and mcap name one file each: give one trial, or rrd_folder/mcap_folder"
+        )
+    if (rrd is not None and rrd_folder is not None) or (
+        mcap is not None and mcap_folder is not None
+    ):
+        raise ValueError("give rrd or rrd_folder, mcap or mcap_folder, not both")
+    paths = [Path(t) for t in trials]
+    rrds = (
+        outputs_in(rrd_folder, paths, ".rrd") if rrd_folder is not None
+        else [Path(rrd) if rrd is not None else default_rrd(t) for t in paths]
+    )  # fmt: skip
+    mcaps: list[Path | None] = (
+        [*outputs_in(mcap_folder, paths, ".mcap")] if mcap_folder is not None
+        else [Path(mcap) if mcap is not None else None] * len(paths)
+    )  # fmt: skip
     models: dict[Path, LoadedModel] = {}
-    if model is not None and len(trials) > 1:
+    if model is not None and len(paths) > 1:
         models[Path(model)] = load_model(model)
     batch = BatchReport()
-    for trial in map(Path, trials):
+    for trial, out, copy in zip(paths, rrds, mcaps, strict=True):
         outcome: InferenceReport | TrialFailure
         try:
-            out = rrd if rrd is not None else default_rrd(trial)
-            outcome = replay_file(trial, model=model, rrd=out, mcap=mcap, models=models)
+            outcome = replay_file(trial, model=model, rrd=out, mcap=copy, models=models)
             batch.reports.append(outcome)
         except (DresslogError, OSError) as err:
             outcome = TrialFailure(trial, err)
