@@ -47,17 +47,8 @@ def infer(
             times = outcome.timings.items()
             click.echo("  " + ", ".join(f"{k} {v * 1e3:.0f} ms" for k, v in times))
 
-    one = len(trials) == 1  # -o and --mcap-out name a file; with several trials, a folder
-    try:
-        batch = replay_files(
-            trials,
-            model=model,
-            rrd=output if one else None,
-            mcap=mcap_out if one else None,
-            rrd_folder=None if one else output,
-            mcap_folder=None if one else mcap_out,
-            on_trial=show,
-        )
+    try:  # -o and --mcap-out name a file; with several trials, a folder
+        batch = replay_files(trials, model=model, rrd=output, mcap=mcap_out, on_trial=show)
     except TrialWriteError as err:  # only the folders, refused before any trial
         raise click.UsageError(error_line(err)) from None
     if len(trials) > 1:

@@ -731,9 +731,9 @@ def test_replay_files_takes_the_folders_from_python(gown, tmp_path: Path) -> Non
         path.parent.mkdir()
         path.write_bytes(trial.read_bytes())
     with pytest.raises(TrialWriteError, match=f"{a} and {b} would both be written to"):
-        replay_files([a, b], model=model, rrd_folder=out)
+        replay_files([a, b], model=model, rrd=out)
     assert not out.exists()
-    batch = replay_files([a, trial], model=model, mcap_folder=out)
+    batch = replay_files([a, trial], model=model, mcap=out)
     assert [r.outputs for r in batch.reports] == [
         [a.with_suffix(".rrd"), out / "t.mcap"],
         [trial.with_suffix(".rrd"), out / "trial.mcap"],

@@ -107,36 +107,27 @@ def replay_files(
     model: str | Path | None = None,
     rrd: str | Path | None = None,
     mcap: str | Path | None = None,
-    rrd_folder: str | Path | None = None,
-    mcap_folder: str | Path | None = None,
     on_trial: Callable[[InferenceReport | TrialFailure], None] | None = None,
 ) -> BatchReport:
-    """Replay each trial into its `.rrd`: `rrd` (one trial only), else TRIAL.rrd in
-    `rrd_folder`, else beside the trial; and with `mcap` (one trial only) or `mcap_folder`
-    (TRIAL.mcap in it), into a copy of the trial with the estimate.
+    """Replay each trial into its `.rrd`, and with `mcap` into a copy of it with the estimate.
 
-    The folders are made if missing; one that cannot hold every trial's output (see
+    With one trial `rrd` and `mcap` name the files (the recording TRIAL.rrd beside the
+    trial by default); with several they name folders, made if missing, for each
+    TRIAL.rrd and TRIAL.mcap, and one that cannot hold every trial's output (see
     `outputs_in`) raises `TrialWriteError` before any trial. A trial's `DresslogError` or
     `OSError` is its failure and the next trial runs; `on_trial` hears each outcome as it
     comes. A given `model` that does not load fails the batch before any trial when there
     are several (it would fail each alike); with one trial, what is wrong with the trial is
     still said first.
     """
-    if len(trials) > 1 and (rrd is not None or mcap is not None):
-        raise ValueError(
-            "rrd and mcap name one file each: give one trial, or rrd_folder/mcap_folder"
-        )
-    if (rrd is not None and rrd_folder is not None) or (
-        mcap is not None and mcap_folder is not None
-    ):
-        raise ValueError("give rrd or rrd_folder, mcap or mcap_folder, not both")
     paths = [Path(t) for t in trials]
+    one = len(paths) == 1
     rrds = (
-        outputs_in(rrd_folder, paths, ".rrd") if rrd_folder is not None
+        outputs_in(rrd, paths, ".rrd") if rrd is not None and not one
         else [Path(rrd) if rrd is not None else default_rrd(t) for t in paths]
     )  # fmt: skip
     mcaps: list[Path | None] = (
-        [*outputs_in(mcap_folder, paths, ".mcap")] if mcap_folder is not None
+        [*outputs_in(mcap, paths, ".mcap")] if mcap is not None and not one
         else [Path(mcap) if mcap is not None else None] * len(paths)
     )  # fmt: skip
     models: dict[Path, LoadedModel] = {}
