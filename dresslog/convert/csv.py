@@ -180,7 +180,7 @@ def _key(name: str) -> str:
 def role_of(name: str) -> str | None:
     """The role a header plays, or None when it is not recognised."""
     key = _key(name)
-    if _TIME.match(key) or name.strip() == "%time" or key == "stamp":
+    if _TIME.match(key):  # `%time` and `header.stamp` too: their keys are `time`, `stamp`
         return "time"
     for pattern, prefix in _PATTERNS:
         if match := pattern.match(key):
