@@ -463,8 +463,7 @@ def read_table(
 
 
 def _group(values: dict[str, np.ndarray], roles: tuple[str, ...]) -> np.ndarray | None:
-    if not any(r in values for r in roles):
-        return None
+    """The columns of `roles` side by side, or None unless every one is there."""
     return np.stack([values[r] for r in roles], axis=1) if all(r in values for r in roles) else None
 
 
