@@ -522,7 +522,7 @@ def read_csv(
         )
     t_ns, values, notes, found = read_table(path, columns, time_unit)
     if missing := [r for r in (*FORCE, *TORQUE) if r not in values]:
-        raise ConversionError(_missing_hint(missing, _header(path)[1]), path=path)
+        raise ConversionError(_missing_hint(missing, named[path]), path=path)
     _incomplete(values, path)
     wrench = SourceStream(
         "wrench", path.name, t_ns, np.stack([values[r] for r in (*FORCE, *TORQUE)], axis=1),
@@ -536,8 +536,7 @@ def read_csv(
         found += m_found
         twist, pose = _motion(m_ns, m_values, motion.name)
         if twist is None and pose is None:
-            names = _header(motion)[1]
-            raise ConversionError(_missing_hint([*LINEAR, *POSITION], names), path=motion)
+            raise ConversionError(_missing_hint([*LINEAR, *POSITION], named[motion]), path=motion)
     if twist is None and pose is None:
         raise ConversionError(
             "no velocity (vx vy vz) or position (x y z) columns for the end-effector velocity; "
