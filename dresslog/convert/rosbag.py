@@ -328,10 +328,8 @@ def read_bag(
             chosen, notes = choose_topics(types, wanted, path, empty)
             topics = set(chosen.values())
             connections = [c for c in reader.connections if c.topic in topics]
-            fast = _ros1_messages(reader.readers[0], connections) if ros1 else None
-            if ros1 and len(reader.readers) == 1 and fast is not None:
-                buckets = fast
-            else:
+            buckets = _ros1_messages(reader.readers[0], connections) if ros1 else None
+            if buckets is None:  # rosbags' own per-message path
                 buckets = {t: ([], []) for t in topics}
                 for connection, t_ns, raw in reader.messages(connections=connections):
                     times, payloads = buckets[connection.topic]
