@@ -21,6 +21,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from dresslog.trial import STEP_HZ as RATE_HZ
 from dresslog.trial import median_rate
@@ -161,7 +162,7 @@ def tare(t_ns: np.ndarray, values: np.ndarray, seconds: float) -> np.ndarray:
     return values - values[window].mean(axis=0)
 
 
-def _scaled(quats: np.ndarray) -> np.ndarray:
+def _scaled(quats: ArrayLike) -> np.ndarray:
     """Quaternions over their largest component: the same rotations, whose norm cannot
     overflow (a component past 1e154 squares to inf, and q / inf is no turn at all)."""
     q = np.asarray(quats, dtype=np.float64)
@@ -169,8 +170,9 @@ def _scaled(quats: np.ndarray) -> np.ndarray:
     return np.divide(q, largest, out=np.full_like(q, np.nan), where=largest > 0)
 
 
-def rotation_matrices(quats: np.ndarray) -> np.ndarray:
-    """The 3x3 matrices (..., 3, 3) of quaternions (..., 4) (x y z w), normalised first."""
+def rotation_matrices(quats: ArrayLike) -> np.ndarray:
+    """The 3x3 matrices (..., 3, 3) of quaternions (..., 4) (x y z w), normalised first: one
+    matrix (3, 3) of one quaternion (4,)."""
     q = _scaled(quats)
     x, y, z, w = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
     rows = [
@@ -179,11 +181,6 @@ def rotation_matrices(quats: np.ndarray) -> np.ndarray:
         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
     ]
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
-
-
-def rotation_matrix(quat: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
-    """The 3x3 matrix of a quaternion (x y z w), normalised first."""
-    return rotation_matrices(np.asarray(quat))
 
 
 def rotate_by_orientation(values: np.ndarray, quats: np.ndarray) -> np.ndarray:
@@ -195,16 +192,15 @@ def rotate_by_orientation(values: np.ndarray, quats: np.ndarray) -> np.ndarray:
 
 def rotate_vectors(values: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
     """Rotate every 3-vector block of (T, 3k) rows (force and torque, linear and angular)."""
-    matrix = rotation_matrix(quat)
     blocks = values.reshape(len(values), -1, 3)
-    return (blocks @ matrix.T).reshape(values.shape)
+    return (blocks @ rotation_matrices(quat).T).reshape(values.shape)
 
 
 def rotate_pose(pose: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
     """Express poses (T, 7) in the rotated frame: position rotated, orientation pre-multiplied."""
-    q = _scaled(np.asarray(quat))
+    q = _scaled(quat)
     q /= np.linalg.norm(q)
-    position = pose[:, :3] @ rotation_matrix(q).T
+    position = pose[:, :3] @ rotation_matrices(q).T
     orientation = _multiply(np.broadcast_to(q, (len(pose), 4)), pose[:, 3:7])
     return np.concatenate([position, orientation], axis=1)
 
