@@ -31,11 +31,11 @@ PERIOD_NS = 1_000_000_000 // RATE_HZ
 AVERAGE_ABOVE_HZ = 1.5 * RATE_HZ
 
 
-def grid(start_ns: int, stop_ns: int, period_ns: int = PERIOD_NS) -> np.ndarray:
-    """Grid times from `start_ns` up to and including `stop_ns`, every `period_ns`."""
+def grid(start_ns: int, stop_ns: int) -> np.ndarray:
+    """Grid times from `start_ns` up to and including `stop_ns`, every `PERIOD_NS`."""
     if stop_ns < start_ns:
         return np.zeros(0, dtype=np.int64)
-    return start_ns + period_ns * np.arange((stop_ns - start_ns) // period_ns + 1, dtype=np.int64)
+    return start_ns + PERIOD_NS * np.arange((stop_ns - start_ns) // PERIOD_NS + 1, dtype=np.int64)
 
 
 def interpolate(t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray) -> np.ndarray:
@@ -47,9 +47,7 @@ def interpolate(t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray) -> np
     return np.stack([np.interp(g, x, values[:, d]) for d in range(values.shape[1])], axis=1)
 
 
-def bin_average(
-    t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray, period_ns: int = PERIOD_NS
-) -> np.ndarray:
+def bin_average(t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray) -> np.ndarray:
     """Box-filter a fast stream: the mean of each 10 ms bin around a grid time, placed on the grid.
 
     The mean of the samples in [g - period/2, g + period/2) belongs to their
@@ -59,10 +57,10 @@ def bin_average(
     they are bridged by interpolation and the result never holds NaN.
     """
     values = np.asarray(values, dtype=np.float64).reshape(len(t_ns), -1)
-    half = period_ns // 2
+    half = PERIOD_NS // 2
     # one bin beyond each end, so the first and last grid times lie between bin mean times
-    centres = np.concatenate([[grid_ns[0] - period_ns], grid_ns, [grid_ns[-1] + period_ns]])
-    edges = np.append(centres - half, centres[-1] + period_ns - half)
+    centres = np.concatenate([[grid_ns[0] - PERIOD_NS], grid_ns, [grid_ns[-1] + PERIOD_NS]])
+    edges = np.append(centres - half, centres[-1] + PERIOD_NS - half)
     index = np.searchsorted(t_ns, edges, side="left")
     counts = np.diff(index)
     full = counts > 0
