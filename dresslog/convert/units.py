@@ -9,8 +9,8 @@ Public API
 ``value_scale(name, role, path) -> (unit, factor) | None``: the unit a value column's
     header gives and its SI factor; a unit not converted is a ``ConversionError``.
 ``si_factor(written, group) -> float | None``, ``is_unit(written) -> bool``,
-``bracketed(name) -> list[str]``, ``unit_key(unit) -> str``: the pieces, for the
-    counts-per-unit preamble and time columns of `dresslog.convert.csv`.
+``bracketed(name) -> list[str]``: the pieces, for the counts-per-unit preamble and time
+    columns of `dresslog.convert.csv`.
 ``VALUE_UNITS`` (SI factors by role group), ``NO_UNIT`` and ``RAW`` (brackets that mean
     no unit, or raw sensor readings).
 """
@@ -80,7 +80,7 @@ NO_UNIT = {"", "-", "1", "none", "unitless", "dimensionless"}
 RAW = {"raw", "counts", "count", "cnt", "cnts", "adc", "lsb", "bits"}
 
 
-def unit_key(unit: str) -> str:
+def _unit_key(unit: str) -> str:
     """`N·m`, `N-m`, `Nm` -> `nm`; `°/sec`, `deg s-1`, `degree/s`, `dps` -> `deg/s`."""
     unit = re.sub(r"\s+per\s+", "/", unit)  # mm per s
     unit = re.sub(r"[\s·⋅×*._]*([a-zA-Zµμ°]+)\s*(?:\^-1|-1|⁻¹)", r"/\1", unit)  # s-1 -> /s
@@ -99,14 +99,14 @@ def si_factor(written: str, group: str) -> float | None:
     """The SI factor of a unit as written for a role group (`f`, `t`, ...), or None."""
     if re.search(r"(?<![A-Za-z])M(?=[Nn])", written):  # MN is mega, not milli, newtons
         return None
-    known = {unit_key(unit): factor for unit, factor in VALUE_UNITS[group].items()}
-    key = unit_key(written)
+    known = {_unit_key(unit): factor for unit, factor in VALUE_UNITS[group].items()}
+    key = _unit_key(written)
     return known.get(_SPELLED.get(key, key))
 
 
 def is_unit(written: str) -> bool:
     """Whether a bracket's text is a unit (known or not), rather than a label."""
-    parts = re.sub(r"\^-?\d", "", unit_key(written)).split("/")
+    parts = re.sub(r"\^-?\d", "", _unit_key(written)).split("/")
     return all(_UNIT_ATOMS.match(part) or part in _WHOLE_UNITS for part in parts)
 
 
