@@ -71,8 +71,8 @@ def put_in_time_order(stream: SourceStream, path: Path) -> str | None:
 
 
 def check_stream(stream: SourceStream, path: Path) -> None:
-    """Enough samples, finite values (in float32), strictly increasing times: else a
-    ConversionError."""
+    """Enough samples, strictly increasing times, finite values (in float32) and a pose's
+    orientations set: else a ConversionError."""
     where = _where(stream, path)
     if len(stream) < 2:
         raise ConversionError(
@@ -102,25 +102,19 @@ def check_stream(stream: SourceStream, path: Path) -> None:
             f"sample {row} ({seconds:.3f} s in); drop or fill that sample",
             path=path,
         )
-    if stream.kind == "pose":
-        _check_orientation(stream, where, path)
-
-
-def _unset_orientations(pose: SourceStream) -> np.ndarray:
-    """Samples whose quaternion is zero: no rotation at all (ROS 1's unset value)."""
-    return np.flatnonzero(np.linalg.norm(pose.values[:, 3:7], axis=1) < 1e-6)
-
-
-def _check_orientation(stream: SourceStream, where: str, path: Path) -> None:
-    """A zero quaternion is not the identity: normalised, it would pass for one."""
-    zero = _unset_orientations(stream)
-    if len(zero):
+    # a zero quaternion is not the identity: normalised, it would pass for one
+    if stream.kind == "pose" and len(zero := _unset_orientations(stream)):
         raise ConversionError(
             f"{where}pose orientation is the zero quaternion at {len(zero)} of {len(stream)} "
             f"samples (first: sample {zero[0]}), ROS 1's unset value; drop those samples or "
             "fill in the orientation",
             path=path,
         )
+
+
+def _unset_orientations(pose: SourceStream) -> np.ndarray:
+    """Samples whose quaternion is zero: no rotation at all (ROS 1's unset value)."""
+    return np.flatnonzero(np.linalg.norm(pose.values[:, 3:7], axis=1) < 1e-6)
 
 
 #: Gaps listed one by one before the rest are summed up in one warning.
