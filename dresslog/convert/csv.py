@@ -72,6 +72,8 @@ _UNIT_NAMES = {
 }  # fmt: skip
 #: Time units a header may name that dresslog does not read: refused, never guessed past.
 _OTHER_TIME_UNITS = {"min", "mins", "minute", "minutes", "h", "hr", "hrs", "hour", "hours"}
+#: A number written with a decimal comma, as spreadsheets in many locales export them.
+_DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+([eE][-+]?\d+)?$")
 
 
 def _preamble(path: Path, header_line: int) -> tuple[dict[str, str], str]:
@@ -357,10 +359,6 @@ def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.
             "number (empty cells and decimal commas are not read)",
             path=path,
         ) from None
-
-
-#: A number written with a decimal comma, as spreadsheets in many locales export them.
-_DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+([eE][-+]?\d+)?$")
 
 
 def _check_rate(t_ns: np.ndarray, unit: str, name: str, path: Path, *, header: bool) -> None:
