@@ -387,7 +387,7 @@ def _check_rate(t_ns: np.ndarray, unit: str, name: str, path: Path, *, header: b
 def read_table(
     path: str | Path, columns: Mapping[str, str] | None = None, time_unit: str | None = None
 ) -> tuple[np.ndarray, dict[str, np.ndarray], list[str], list[str]]:
-    """Time (int64 ns) and one float column per recognised role; notes on what was assumed,
+    """Time (int64 ns) and one float column per recognised role, in SI; notes on what was assumed,
     and warnings (a last line cut off, dropped)."""
     path = Path(path)
     if not path.is_file():
@@ -419,45 +419,56 @@ def read_table(
         _check_rate(t_ns, unit, time_name, path, header=given is not None)
     values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
     notes = [f"{path.name}: time column {time_name!r} read as {unit}"]
+    notes += _scale_to_si(values, {role: names[found[role]] for role in values}, path, line)
+    if ignored:
+        notes.append(f"{path.name}: ignored columns {', '.join(ignored)}")
+    return t_ns, values, notes, cut
+
+
+def _scale_to_si(
+    values: dict[str, np.ndarray], headers: dict[str, str], path: Path, header_line: int
+) -> list[str]:
+    """Scale each role's column in `values` to SI, by the unit its header gives or by the
+    preamble's counts per unit; notes on what was scaled."""
+    counts = _counts_scales(path, header_line)
     scaled = []
-    counts = _counts_scales(path, line)
-    for role in values:
-        brackets = bracketed(names[found[role]])
+    for role, name in headers.items():
+        brackets = bracketed(name)
         raw = [b for b in brackets if RAW & set(re.findall(r"[a-z]+", b.lower()))]
         has_unit = any(b.lower() not in NO_UNIT and is_unit(b) for b in brackets)
         if raw and not has_unit and role[:-1] not in counts:  # `Fx (N) [raw]` is unfiltered N
             raise ConversionError(
-                f"column {names[found[role]]!r} holds {raw[0]!r} readings, not a unit; scale "
+                f"column {name!r} holds {raw[0]!r} readings, not a unit; scale "
                 "them to SI first (an ATI Net F/T log's counts per unit in its preamble are read)",
                 path=path,
             )
-        unit_scale = value_scale(names[found[role]], role, path)
+        given = value_scale(name, role, path)  # (unit, SI factor) or None
+        factor = 1.0 if given is None else given[1]
         if role[:-1] in counts:
-            if unit_scale is not None:
+            if given is not None:
                 raise ConversionError(
-                    f"column {names[found[role]]!r} gives a unit, but the preamble says the "
+                    f"column {name!r} gives a unit, but the preamble says the "
                     "column is in counts; keep one",
                     path=path,
                 )
             column = values[role]
             if len(odd := np.flatnonzero(np.isfinite(column) & (column != np.round(column)))):
                 raise ConversionError(
-                    f"column {names[found[role]]!r}, line {line + odd[0] + 2}: "
+                    f"column {name!r}, line {header_line + odd[0] + 2}: "
                     f"{column[odd[0]]:g} is not a count, though the preamble gives counts per "
                     "unit; remove those lines if the values are in N and N m",
                     path=path,
                 )
-            unit_scale = ("counts", counts[role[:-1]])
-        if unit_scale is not None and unit_scale[1] != 1.0:
-            values[role] = values[role] * unit_scale[1]
-            scaled.append(f"{names[found[role]]!r}")
+            factor = counts[role[:-1]]
+        if factor != 1.0:
+            values[role] = values[role] * factor
+            scaled.append(f"{name!r}")
+    notes = []
     if counts:
         notes.append(f"{path.name}: force and torque are counts, scaled by the preamble")
     if scaled:
         notes.append(f"{path.name}: scaled to SI units: {', '.join(scaled)}")
-    if ignored:
-        notes.append(f"{path.name}: ignored columns {', '.join(ignored)}")
-    return t_ns, values, notes, cut
+    return notes
 
 
 def _group(values: dict[str, np.ndarray], roles: tuple[str, ...]) -> np.ndarray | None:
