@@ -223,7 +223,8 @@ def tare_mistake(wrench: np.ndarray, twist: np.ndarray, tare_s: float) -> str | 
 
 
 def log_warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
-    """Gaps bridged, streams on different clocks, and time cut off the wrench."""
+    """Gaps bridged, streams on different clocks (or header clocks that disagree), and time
+    cut off the wrench."""
     found = _gap_warnings(source, grid, max_gap_s)
     if len({s.clock for s in source.streams}) > 1:
         clocks = ", ".join(f"{s.name} on its {s.clock} clock" for s in source.streams)

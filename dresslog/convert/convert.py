@@ -3,8 +3,8 @@
 The steps: read the wrench, twist and pose streams on the source's clock
 (`rosbag.read_bag`, `csv.read_csv`), check their timestamps, resample them
 onto one 100 Hz grid over the span they all cover (`resample`), optionally
-tare and rotate, and write a trial with `TrialWriter`, which only puts the
-file in place when everything succeeded.
+tare, turn the wrench by the pose, rotate and translate, and write a trial with
+`TrialWriter`, which only puts the file in place when everything succeeded.
 
 Time: the output starts at 0 ns; the source time of output time t is
 `t + source["start_ns"]`, recorded in the metadata with the topics, rates
