@@ -119,14 +119,15 @@ def _span(stream: SourceStream) -> str:
     return f"{stream.name} {stream.t_ns[0] / 1e9:.3f}-{stream.t_ns[-1] / 1e9:.3f} s"
 
 
-def common_grid(source: Source, averaged: bool, time_unit: str | None = None) -> np.ndarray:
-    """The 100 Hz grid over the time every stream covers (averaging needs half a bin spare);
-    `time_unit`, a CSV's as given, to name in an error.
+def common_grid(source: Source, time_unit: str | None = None) -> np.ndarray:
+    """The 100 Hz grid over the time every stream covers (an averaged wrench needs half a bin
+    spare); `time_unit`, a CSV's as given, to name in an error.
 
     An averaged wrench's bin edges fall midway between its samples: on a sample, a
     few microseconds of clock jitter would move it between bins and let vibration
     above 50 Hz leak into the means.
     """
+    averaged = rs.averages(source.wrench.t_ns)
     half = rs.PERIOD_NS // 2 if averaged else 0
     start = max(int(s.t_ns[0]) + (half if s is source.wrench else 0) for s in source.streams)
     stop = min(int(s.t_ns[-1]) - (half if s is source.wrench else 0) for s in source.streams)
@@ -264,8 +265,7 @@ def convert(
     )
     for stream in source.streams:
         check_stream(stream, path)
-    averaged = rs.averages(source.wrench.t_ns)
-    grid = common_grid(source, averaged, time_unit)
+    grid = common_grid(source, time_unit)
 
     found = source.warnings + reordered + left_out + log_warnings(source, grid, max_gap_s)
     if message := frames_differ(source, wrench_frame, rotate is not None):
