@@ -389,9 +389,7 @@ def read_table(
 ) -> tuple[np.ndarray, dict[str, np.ndarray], list[str], list[str]]:
     """Time (int64 ns) and one float column per recognised role, in SI; notes on what was assumed,
     and warnings (a last line cut off, dropped)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConversionError("no such file", path=path)
+    path = Path(path)  # read_csv has read its header: it is a file
     if time_unit is not None and time_unit not in UNITS:
         raise ConversionError(f"time unit {time_unit!r} is not one of {', '.join(UNITS)}")
     line, names, delimiter = _header(path)
