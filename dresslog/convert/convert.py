@@ -447,7 +447,7 @@ def _source_info(
         "streams": {s.kind: _describe(s, source) for s in source.streams},
         "processing": processing,
     }
-    if source.format == "csv" and motion is not None:
+    if motion is not None:  # a CSV's: load refuses --motion for a bag
         info["motion_file"] = printable(Path(motion).resolve())
     if source.notes:
         info["notes"] = source.notes
