@@ -305,28 +305,30 @@ class TrialReader:
             raise TrialFormatError(f"metadata record is invalid: {first}", path=self.path) from None
 
     # -- contents --------------------------------------------------------------
-    def _channel(self, topic: str) -> _Raw:
+    def _opened(self) -> dict[str, _Raw]:
         if self._raw is None:
             raise TrialFormatError("reader is not open", path=self.path)
-        if topic not in self._raw:
+        return self._raw
+
+    def _channel(self, topic: str) -> _Raw:
+        if topic not in (raw := self._opened()):
             raise TrialFormatError(f"has no channel {topic}", path=self.path)
-        return self._raw[topic]
+        return raw[topic]
 
     @property
     def metadata(self) -> TrialMetadata:
-        self._channel(wk.WRENCH)
+        self._opened()
         assert self._metadata is not None
         return self._metadata
 
     @property
     def channels(self) -> dict[str, ChannelInfo]:
         """Every channel in the file, ours or not, by topic."""
-        if self._raw is None:
-            raise TrialFormatError("reader is not open", path=self.path)
-        return {topic: raw.info for topic, raw in sorted(self._raw.items())}
+        return {topic: raw.info for topic, raw in sorted(self._opened().items())}
 
     def has(self, topic: str) -> bool:
-        return topic in self.channels and self.channels[topic].count > 0
+        raw = self._opened().get(topic)
+        return raw is not None and raw.info.count > 0
 
     def messages(self, topic: str) -> tuple[np.ndarray, list[bytes]]:
         """Raw log times (int64 ns) and CDR payloads of one channel (dresslog's own in
@@ -344,9 +346,9 @@ class TrialReader:
             ) from None
 
     def _vectors(self, topic: str) -> Stream:
-        msgs = np.concatenate(self._decode(topic)) if self.has(topic) else None
-        if msgs is None:
+        if not self.has(topic):
             return Stream(np.zeros(0, np.int64), np.zeros((0, 6)))
+        msgs = np.concatenate(self._decode(topic))
         values = np.concatenate([msgs[f] for f in wk.VECTOR_FIELDS[topic]], axis=1)
         bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
         if len(bad):
