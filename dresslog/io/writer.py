@@ -9,6 +9,7 @@ from __future__ import annotations
 import errno
 import struct
 from collections.abc import Sequence
+from functools import cache
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Self
@@ -55,6 +56,26 @@ def software_versions() -> dict[str, str]:
     return out
 
 
+@cache
+def _contacts_header() -> tuple[bytes, int, int]:
+    """A Contacts message of zero contacts (stamp 0) as bytes, and the offsets of its stamp
+    and its count, which `write_contacts` fills in."""
+    frame = wk.FRAMES[wk.CONTACTS]
+    head = cdr.new_messages(
+        wk.SCHEMAS[wk.CONTACTS], {"header.frame_id": len(frame), "contacts": 0}, 1
+    )
+    cdr.set_stamp(head, np.zeros(1, np.int64), frame)
+    fields = head.dtype.fields
+    assert fields is not None
+    sec, nanosec, count = (
+        fields[n] for n in ("header.stamp.sec", "header.stamp.nanosec", "contacts.len")
+    )
+    # the struct formats above must be the fields' own layouts (fixed by the .msg text)
+    assert (sec[0], nanosec[0], count[0]) == (np.dtype("<i4"), np.dtype("<u4"), np.dtype("<u4"))
+    assert nanosec[1] == sec[1] + 4
+    return head.tobytes(), sec[1], count[1]
+
+
 class TrialWriter:
     """Write one trial; use as a context manager. Times are integer nanoseconds."""
 
@@ -75,13 +96,11 @@ class TrialWriter:
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[str, int] = {}
-        self._contact_head: bytes | None = None
         self._last_stamp: dict[str, int] = {}  # per topic: stamps must increase
         self._widths: dict[str, int] = {}  # per force-map topic: one width throughout
         self._points: int | None = None  # limb points written: every map's width
         self._garment_size: int | None = None  # vertices of the first garment message
         self._steps: dict[str, list[np.ndarray]] = {wk.WRENCH: [], wk.TWIST: []}
-        self._contact_stamp_at = self._contact_len_at = 0
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
@@ -195,10 +214,13 @@ class TrialWriter:
         return self._channels[topic]
 
     def _write(self, topic: str, t_ns: np.ndarray, messages: np.ndarray) -> None:
+        self._write_payloads(topic, t_ns.tolist(), cdr.to_payloads(messages))
+
+    def _write_payloads(self, topic: str, t_ns: list[int], payloads: list[bytes]) -> None:
         channel = self._channel(topic)
         assert self._writer is not None
         seq = self._sequence[topic]
-        for t, payload in zip(t_ns.tolist(), cdr.to_payloads(messages), strict=True):
+        for t, payload in zip(t_ns, payloads, strict=True):
             self._writer.add_message(channel, t, payload, t, seq)
             seq += 1
         self._sequence[topic] = seq
@@ -313,38 +335,11 @@ class TrialWriter:
         if not all(np.isfinite(contacts[name]).all() for name in numbers):
             raise TrialWriteError(f"{wk.CONTACTS} has NaN or infinite values", path=self.path)
         t_ns = int(self._times(wk.CONTACTS, t_ns, 1)[0])
-        if self._contact_head is None:
-            self._contact_head = self._contact_template()
-        head = bytearray(self._contact_head)
-        sec, nanosec = divmod(int(t_ns), 1_000_000_000)
-        _HEAD_STAMP.pack_into(head, self._contact_stamp_at, sec, nanosec)
-        _HEAD_LEN.pack_into(head, self._contact_len_at, len(contacts))
-        channel = self._channel(wk.CONTACTS)
-        assert self._writer is not None
-        seq = self._sequence[wk.CONTACTS]
-        head += contacts.tobytes()
-        self._writer.add_message(channel, int(t_ns), bytes(head), int(t_ns), seq)
-        self._sequence[wk.CONTACTS] = seq + 1
-
-    def _contact_template(self) -> bytes:
-        """The contacts header for zero contacts as bytes; notes where stamp and count go."""
-        frame = wk.FRAMES[wk.CONTACTS]
-        head = cdr.new_messages(
-            wk.SCHEMAS[wk.CONTACTS], {"header.frame_id": len(frame), "contacts": 0}, 1
-        )
-        cdr.set_stamp(head, np.zeros(1, np.int64), frame)
-        fields = head.dtype.fields
-        assert fields is not None
-        sec, nanosec, count = (
-            fields[n] for n in ("header.stamp.sec", "header.stamp.nanosec", "contacts.len")
-        )
-        # the struct formats below must be the fields' own layouts
-        if (sec[0], nanosec[0], count[0]) != (np.dtype("<i4"), np.dtype("<u4"), np.dtype("<u4")):
-            raise TrialWriteError("unexpected Contacts header layout", path=self.path)
-        if nanosec[1] != sec[1] + 4:
-            raise TrialWriteError("unexpected Contacts header layout", path=self.path)
-        self._contact_stamp_at, self._contact_len_at = sec[1], count[1]
-        return head.tobytes()
+        empty, stamp_at, len_at = _contacts_header()
+        head = bytearray(empty)
+        _HEAD_STAMP.pack_into(head, stamp_at, *divmod(t_ns, 1_000_000_000))
+        _HEAD_LEN.pack_into(head, len_at, len(contacts))
+        self._write_payloads(wk.CONTACTS, [t_ns], [bytes(head + contacts.tobytes())])
 
     def write_limb_points(self, t_ns: int, limb_points: LimbPoints) -> None:
         """The force-map sites, once at the start."""
