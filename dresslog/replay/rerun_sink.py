@@ -11,6 +11,7 @@ Rerun is imported lazily: `import dresslog.replay` stays cheap.
 from __future__ import annotations
 
 import uuid
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -337,10 +338,9 @@ class RerunSink:
                 ],
             )
             send(total, mask, rr.Scalars.columns(scalars=stacked.sum(axis=1, dtype=np.float64)))
-        mask = np.array([r is not None for r in b.rmse])
-        if mask.any():
-            values = np.array([r for r in b.rmse if r is not None], dtype=np.float64)
-            send(bp.RMSE, mask, rr.Scalars.columns(scalars=values))
+        mask, rmse = _present(b.rmse)
+        if rmse is not None:
+            send(bp.RMSE, mask, rr.Scalars.columns(scalars=rmse))
         self._send_pose(b, send)
         self._send_contacts(b, send)
         mask, garment = _present(b.garment)
@@ -411,7 +411,7 @@ class RerunSink:
         )
 
 
-def _present(items: list[np.ndarray | None]) -> tuple[np.ndarray, np.ndarray | None]:
+def _present(items: Sequence[np.ndarray | float | None]) -> tuple[np.ndarray, np.ndarray | None]:
     """Mask of the steps that have this item, and those items stacked (None if no step has)."""
     mask = np.array([x is not None for x in items], dtype=bool)
     if not mask.any():
