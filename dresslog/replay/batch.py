@@ -101,6 +101,15 @@ def outputs_in(folder: str | Path, trials: Sequence[Path], suffix: str) -> list[
     return list(named)
 
 
+def _outputs(named: str | Path | None, trials: list[Path], suffix: str) -> list[Path | None]:
+    """Each trial's output: the file `named` for one trial, in the folder `named` for several."""
+    if named is None:
+        return [None] * len(trials)
+    if len(trials) == 1:
+        return [Path(named)]
+    return [*outputs_in(named, trials, suffix)]
+
+
 def replay_files(
     trials: Sequence[str | Path],
     *,
@@ -121,15 +130,9 @@ def replay_files(
     still said first.
     """
     paths = [Path(t) for t in trials]
-    one = len(paths) == 1
-    rrds = (
-        outputs_in(rrd, paths, ".rrd") if rrd is not None and not one
-        else [Path(rrd) if rrd is not None else default_rrd(t) for t in paths]
-    )  # fmt: skip
-    mcaps: list[Path | None] = (
-        [*outputs_in(mcap, paths, ".mcap")] if mcap is not None and not one
-        else [Path(mcap) if mcap is not None else None] * len(paths)
-    )  # fmt: skip
+    named = _outputs(rrd, paths, ".rrd")
+    rrds = [out or default_rrd(t) for t, out in zip(paths, named, strict=True)]
+    mcaps = _outputs(mcap, paths, ".mcap")
     models: dict[Path, LoadedModel] = {}
     if model is not None and len(paths) > 1:
         models[Path(model)] = load_model(model)
