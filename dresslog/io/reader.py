@@ -133,7 +133,8 @@ class TrialReader:
                 raise TrialFormatError(f"not an MCAP file; {CONVERT_HINT}", path=self.path)
             stream.seek(0)
             self._raw, metadata = self._scan(stream)
-        self._check(metadata)
+        self._check_channels(metadata)
+        self._metadata = self._parse_metadata(metadata)
         self._put_in_stamp_order()
         return self
 
@@ -256,7 +257,8 @@ class TrialReader:
                 channel=topic,
             )
 
-    def _check(self, metadata: dict[str, str] | None) -> None:
+    def _check_channels(self, metadata: dict[str, str] | None) -> None:
+        """Refuse a file without our required channels, or with ours under another schema."""
         assert self._raw is not None
         missing = [t for t in wk.REQUIRED if t not in self._raw]
         if missing and (metadata is None or not any(t in self._raw for t in wk.SCHEMAS)):
@@ -278,6 +280,9 @@ class TrialReader:
                     path=self.path,
                     channel=topic,
                 )
+
+    def _parse_metadata(self, metadata: dict[str, str] | None) -> TrialMetadata:
+        """The trial's metadata from the `dresslog` record, or why it cannot be read."""
         if metadata is None:
             raise TrialFormatError(
                 f"has no `{wk.METADATA_NAME}` metadata record; {CONVERT_HINT}", path=self.path
@@ -287,15 +292,15 @@ class TrialReader:
                 f"`{wk.METADATA_NAME}` metadata record has no `trial` entry", path=self.path
             )
         try:
-            raw = json.loads(metadata["trial"])
-            version = raw.get("format_version") if isinstance(raw, dict) else None
+            entry = json.loads(metadata["trial"])
+            version = entry.get("format_version") if isinstance(entry, dict) else None
             if isinstance(version, int) and version > TRIAL_FORMAT_VERSION:
                 raise TrialFormatError(
                     f"written by a newer dresslog (trial format {version}; this one reads "
                     f"{TRIAL_FORMAT_VERSION}); upgrade dresslog",
                     path=self.path,
                 )
-            self._metadata = TrialMetadata.model_validate(raw, context=RECORDED)
+            return TrialMetadata.model_validate(entry, context=RECORDED)
         except ValidationError as err:
             problem = first_problem(err, "metadata")
             message = f"metadata record is invalid: {problem}"
