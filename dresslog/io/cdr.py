@@ -57,7 +57,7 @@ class _Builder:
         self.sizes = dict(sizes)
         self.payload = payload
         self.names: list[str] = []
-        self.formats: list[object] = []
+        self.formats: list[npt.DTypeLike] = []
         self.offsets: list[int] = []
         self.offset = _ORIGIN
 
@@ -169,17 +169,13 @@ def _max_align(dtype: np.dtype) -> int:
 def element_dtype(msg: str) -> np.dtype:
     """The fixed layout of one element of a `msg[]` sequence (no strings or sequences inside)."""
     builder = _Builder({})
-    builder.offset = _ORIGIN
     builder.message(msg, "")
-    raw = builder.dtype()
-    names, layout = _names(raw)[1:], dict(raw.fields or {})
-    offsets = [layout[n][1] - _ORIGIN for n in names]
-    formats = [layout[n][0] for n in names]
+    offsets = [offset - _ORIGIN for offset in builder.offsets]
+    formats = [np.dtype(f) for f in builder.formats]
     size = builder.offset - _ORIGIN
-    align = max(_max_align(f) for f in formats)
-    if size % align:
+    if size % max(_max_align(f) for f in formats):
         raise ValueError(f"{msg} has trailing padding; its elements do not tile")
-    return np.dtype({"names": list(names), "formats": formats, "offsets": offsets,
+    return np.dtype({"names": builder.names, "formats": formats, "offsets": offsets,
                      "itemsize": size})  # fmt: skip
 
 
