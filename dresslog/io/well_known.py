@@ -29,6 +29,9 @@ SCHEMAS: dict[str, str] = {
     GARMENT: "dresslog_msgs/msg/GarmentState",
 }
 
+#: The real-number fields of a contact (the rest are indices), which must be finite.
+CONTACT_REALS = ("position", "normal", "friction", "normal_force")
+
 #: The two 3-vector fields of each end-effector message: its columns 0-2 and 3-5 (3-6).
 VECTOR_FIELDS: dict[str, tuple[str, str]] = {
     WRENCH: ("wrench.force", "wrench.torque"),

@@ -331,8 +331,7 @@ class TrialWriter:
         if np.asarray(contacts).dtype.names != CONTACT_DTYPE.names or np.ndim(contacts) != 1:
             raise TrialWriteError(f"{wk.CONTACTS} needs a 1-D CONTACT_DTYPE array", path=self.path)
         contacts = np.asarray(contacts, dtype=CONTACT_DTYPE)
-        numbers = ("position", "normal", "friction", "normal_force")
-        if not all(np.isfinite(contacts[name]).all() for name in numbers):
+        if not all(np.isfinite(contacts[name]).all() for name in wk.CONTACT_REALS):
             raise TrialWriteError(f"{wk.CONTACTS} has NaN or infinite values", path=self.path)
         t_ns = int(self._times(wk.CONTACTS, t_ns, 1)[0])
         empty, stamp_at, len_at = _contacts_header()
