@@ -328,6 +328,23 @@ def viewer_command(rrd: Path, *, web: bool, web_port: int, grpc_port: int) -> li
     return [*cmd, _not_an_option(rrd)]
 
 
+def _run_viewer(cmd: list[str]) -> tuple[int, str]:
+    """Run the viewer until it exits; its exit status and stderr.
+
+    In its own process group: `python -m rerun` starts the viewer binary as a child,
+    which terminating the wrapper alone would leave serving.
+    """
+    group = hasattr(os, "killpg")
+    with _stopped_by_hangup_and_term():  # from before the viewer starts
+        process = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=group)
+        try:
+            err = _wait_interruptibly(process)
+        except KeyboardInterrupt:
+            _stop(process, group)
+            raise
+    return process.returncode, err
+
+
 def view_file(
     path: str | Path,
     *,
@@ -369,19 +386,8 @@ def view_file(
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
             echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")
-        # its own process group: `python -m rerun` starts the viewer binary as a child,
-        # which terminating the wrapper alone would leave serving
-        group = hasattr(os, "killpg")
-        with _stopped_by_hangup_and_term():  # from before the viewer starts
-            process = subprocess.Popen(
-                cmd, stderr=subprocess.PIPE, text=True, start_new_session=group
-            )
-            try:
-                err = _wait_interruptibly(process)
-            except KeyboardInterrupt:
-                _stop(process, group)
-                raise
-        if process.returncode != 0:
-            last = (err or "").strip().splitlines()[-1:] or ["no output"]
+        status, err = _run_viewer(cmd)
+        if status != 0:
+            last = err.strip().splitlines()[-1:] or ["no output"]
             hint = "" if web else "; without a display, try --web or --save"
             raise DresslogError(f"the Rerun viewer failed: {last[0][:200]}{hint}", path=path)
