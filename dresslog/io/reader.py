@@ -70,6 +70,22 @@ def _folder_hint(folder: Path) -> str:
     return f"give its trials, {named}" + (f" (and {more} more folders)" if more > 0 else "")
 
 
+def _stamp_problem(stamps: np.ndarray) -> str:
+    """What makes a channel's sorted header stamps not one step each: all unset, some
+    repeated, or negative; "" if nothing."""
+    repeated = np.flatnonzero(np.diff(stamps) == 0)
+    if len(stamps) > 1 and stamps[0] == stamps[-1]:
+        return f"all {len(stamps)} messages have the header stamp {stamps[0]} ns, unset"
+    if len(repeated):
+        return (
+            f"{len(repeated)} messages repeat another's header stamp (the first "
+            f"{stamps[repeated[0]] / 1e9:.6g} s), and a step is one stamp"
+        )
+    if stamps[0] < 0:
+        return f"header stamp {stamps[0]} ns is negative"
+    return ""
+
+
 @dataclass(frozen=True)
 class ChannelInfo:
     """One channel of the file: its schema, encoding and message count."""
@@ -226,26 +242,14 @@ class TrialReader:
                 raw.times = [raw.times[i] for i in order]
                 raw.payloads = [raw.payloads[i] for i in order]
                 stamps = stamps[order]
-            if topic == wk.LIMB_POINTS:  # sent once; only the first is read
-                continue
-            repeated = np.flatnonzero(np.diff(stamps) == 0)
-            if len(stamps) > 1 and stamps[0] == stamps[-1]:
-                problem = f"all {len(stamps)} messages have the header stamp {stamps[0]} ns, unset"
-            elif len(repeated):
-                problem = (
-                    f"{len(repeated)} messages repeat another's header stamp (the first "
-                    f"{stamps[repeated[0]] / 1e9:.6g} s), and a step is one stamp"
+            # limb points are sent once; only the first is read
+            if topic != wk.LIMB_POINTS and (problem := _stamp_problem(stamps)):
+                raise TrialFormatError(
+                    f"{problem}; re-record it, or re-convert its log (`dresslog convert` drops "
+                    "messages logged twice, and with --clock log takes receive times)",
+                    path=self.path,
+                    channel=topic,
                 )
-            elif stamps[0] < 0:
-                problem = f"header stamp {stamps[0]} ns is negative"
-            else:
-                continue
-            raise TrialFormatError(
-                f"{problem}; re-record it, or re-convert its log (`dresslog convert` drops "
-                "messages logged twice, and with --clock log takes receive times)",
-                path=self.path,
-                channel=topic,
-            )
 
     def _check_channels(self, metadata: dict[str, str] | None) -> None:
         """Refuse a file without our required channels, or with ours under another schema."""
