@@ -41,10 +41,9 @@ def heat_colors(forces: np.ndarray, vmax: float) -> np.ndarray:
     return out
 
 
-def color_scale(*maps: np.ndarray | None, quantile: float = 0.995) -> float:
-    """A shared `vmax` from the positive forces of all maps, robust to a few spikes."""
-    positive = [m[m > 0] for m in maps if m is not None and m.size]
-    values = np.concatenate(positive) if positive else np.zeros(0)
-    if not values.size:
-        return 1.0
-    return float(max(np.quantile(values, quantile), 1e-6))
+def color_scale(forces: np.ndarray | None, quantile: float = 0.995) -> float | None:
+    """A `vmax` from the positive forces, robust to a few spikes; None if there are none."""
+    positive = np.zeros(0) if forces is None else forces[forces > 0]
+    if not positive.size:
+        return None
+    return float(max(np.quantile(positive, quantile), 1e-6))

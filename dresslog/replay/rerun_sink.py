@@ -163,9 +163,8 @@ class RerunSink:
         try:
             rec.save(self._tmp, default_blueprint=self.blueprint())
             if self.vmax is None:  # calibrated on the truth, so a poor estimate cannot rescale it
-                truth = _present(self._buf.truth)[1]
-                forced = truth is not None and bool((truth > 0).any())
-                self.vmax = color_scale(truth) if forced else FIXED_VMAX
+                fitted = color_scale(_present(self._buf.truth)[1])
+                self.vmax = FIXED_VMAX if fitted is None else fitted
             self._send_static()
             self.flush()
             rec.flush()
