@@ -65,7 +65,6 @@ class Scene:
     cloth: int
     ee: int
     constraint: int
-    n_vertices: int
 
     # -- construction -------------------------------------------------------
     @classmethod
@@ -118,7 +117,7 @@ class Scene:
         pb.changeConstraint(con, ee_start.tolist(), maxForce=2000, physicsClientId=c)
         for i in garment.gripped:
             pb.createSoftBodyAnchor(cloth, int(i), ee, -1, physicsClientId=c)
-        return cls(c, cloth, ee, con, len(garment.vertices))
+        return cls(c, cloth, ee, con)
 
     # -- per step -------------------------------------------------------------
     def move_ee(self, position: np.ndarray) -> None:
