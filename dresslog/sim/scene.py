@@ -114,10 +114,11 @@ class Scene:
             ee, -1, -1, -1, pb.JOINT_FIXED, [0, 0, 0], [0, 0, 0], ee_start.tolist(),
             physicsClientId=c,
         )  # fmt: skip
-        pb.changeConstraint(con, ee_start.tolist(), maxForce=2000, physicsClientId=c)
+        scene = cls(c, cloth, ee, con)
+        scene.move_ee(ee_start)  # the constraint's force limit, as every step sets it
         for i in garment.gripped:
             pb.createSoftBodyAnchor(cloth, int(i), ee, -1, physicsClientId=c)
-        return cls(c, cloth, ee, con)
+        return scene
 
     # -- per step -------------------------------------------------------------
     def move_ee(self, position: np.ndarray) -> None:
