@@ -59,23 +59,22 @@ def resolve_model(
     verifies each model once, however many trials it runs on.
     """
     task = task_of(task, ModelError)
-    given = model is not None
-    if model is None:
-        model = bundled_model(task)
-        if model is None and not required:
+    bundled = bundled_model(task)
+    hint = "pass --model with a {task} model folder"
+    if model is not None and bundled is not None:
+        hint = f"leave out --model to use the bundled one ({bundled})"
+    elif model is None:
+        if bundled is None and not required:
             return None
-        if model is None:
+        if bundled is None:
             looked = ", ".join(str(p) for p in bundled_model_candidates(task))
             raise ModelError(
                 f"no bundled {task.value} model (looked in {looked}); "
                 f"pass --model with a {task.value} model folder"
             )
+        model = bundled
     cache = {} if loaded is None else loaded
     if (found := cache.get(Path(model))) is None:
         found = cache[Path(model)] = load_model(model)
-    bundled = bundled_model(task)
-    hint = "pass --model with a {task} model folder"
-    if given and bundled is not None:
-        hint = f"leave out --model to use the bundled one ({bundled})"
     check_task(found, task, n_points, hint=hint)
     return found
