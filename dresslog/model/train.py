@@ -115,13 +115,10 @@ def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -
     return n_points
 
 
-def _batch(
-    phis: Sequence[np.ndarray], targets: Sequence[np.ndarray], idx: np.ndarray, length: int
-) -> Batch:
-    """Zero-pad the chosen sequences to `length` steps; mask marks the real steps."""
-    x = padded([phis[k] for k in idx], length)
-    y = padded([targets[k] for k in idx], length)
-    real = np.array([len(phis[k]) for k in idx])[:, None] > np.arange(length)
+def _batch(phis: Sequence[np.ndarray], targets: Sequence[np.ndarray]) -> Batch:
+    """Zero-pad a batch to its longest sequence; mask marks the real steps."""
+    x, y = padded(phis), padded(targets)
+    real = np.array([len(p) for p in phis])[:, None] > np.arange(x.shape[1])
     mask = real[..., None].astype(np.float32)
     return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
 
@@ -157,7 +154,7 @@ def _evaluate_loss(
     with torch.no_grad():
         for start in range(0, len(order), batch_size):
             idx = order[start : start + batch_size]
-            x, y, mask = _batch(phis, targets, idx, max(len(phis[k]) for k in idx))
+            x, y, mask = _batch([phis[k] for k in idx], [targets[k] for k in idx])
             out, _ = net(x)
             total += float(((out - y) ** 2 * mask).sum())
             count += float(mask.sum()) * out.shape[-1]
@@ -307,12 +304,10 @@ def _fit(
         total, count = 0.0, 0
         for start in range(0, len(order), s.batch_size):
             idx = order[start : start + s.batch_size]
+            pairs = [(phis[k], targets[k]) for k in idx]
             if s.window is not None:
-                pairs = [_crop(phis[k], targets[k], s.window, rng) for k in idx]
-                bp, bt = [p for p, _ in pairs], [t for _, t in pairs]
-                x, y, mask = _batch(bp, bt, np.arange(len(idx)), max(len(p) for p in bp))
-            else:
-                x, y, mask = _batch(phis, targets, idx, max(len(phis[k]) for k in idx))
+                pairs = [_crop(p, t, s.window, rng) for p, t in pairs]
+            x, y, mask = _batch([p for p, _ in pairs], [t for _, t in pairs])
             out, _ = net(x)
             loss = _masked_mse(out, y, mask)
             optim.zero_grad(set_to_none=True)
