@@ -104,8 +104,8 @@ def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -
         raise ModelError("no training sequences")
     n_points = forces[0].shape[-1]
     for k, (phi, f) in enumerate(zip(sequences, forces, strict=True)):
-        if phi.ndim != 2 or phi.shape[1] != 9 or len(phi) == 0:
-            raise ModelError(f"sequence {k}: phi has shape {phi.shape}, expected (T, 9)")
+        if phi.ndim != 2 or phi.shape[1] != PHI_DIM or len(phi) == 0:
+            raise ModelError(f"sequence {k}: phi has shape {phi.shape}, expected (T, {PHI_DIM})")
         if f.shape != (len(phi), n_points):
             raise ModelError(
                 f"sequence {k}: force map has shape {f.shape}, expected ({len(phi)}, {n_points})"
