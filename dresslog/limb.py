@@ -258,11 +258,6 @@ def surface_points(
     return p - at[:, None] * n, n
 
 
-def _part_sdf(limb: Limb, p: np.ndarray, skip: set[str]) -> np.ndarray:
-    keep = [name not in skip for name in limb.geometry.part_names]
-    return limb.geometry.part_distances(p)[keep].min(axis=0)
-
-
 # ---------------------------------------------------------------------------
 # Point generation.
 
@@ -302,7 +297,9 @@ def _frustum_points(a: np.ndarray, ra: float, b: np.ndarray, rb: float, total: i
 
 
 def _visible(limb: Limb, pts: np.ndarray, own: set[str]) -> np.ndarray:
-    return _part_sdf(limb, pts, own) > 0.5 * POINT_LIFT
+    """Which points lie outside every part but the `own` ones (by half the lift)."""
+    others = [name not in own for name in limb.geometry.part_names]
+    return limb.geometry.part_distances(pts)[others].min(axis=0) > 0.5 * POINT_LIFT
 
 
 def _part_points(limb: Limb, part: str, target: int) -> np.ndarray:
