@@ -261,17 +261,7 @@ class _StepBatch:
             held, index, verts = held[: exploded[0]], index[: exploded[0]], verts[: exploded[0]]
         every, counts = _contacts_of_steps([h[1] for h in held], self.limb, verts, self.substeps)
         mags = contact_magnitudes(every)
-        if self.spread is not None and len(every):
-            at, pos, f = self.spread.spread(
-                self.limb,
-                verts,
-                np.repeat(np.arange(len(held)), counts),
-                every["vertex"].astype(np.int64),
-                mags,
-            )
-            maps = self.force_map.maps(pos, f, np.bincount(at, minlength=len(held)))
-        else:
-            maps = self.force_map.maps(every["position"], mags, counts)
+        maps = self._force_maps(verts, every, counts, mags)
         m = self.motion
         # garment on gripper = -(constraint force) - weight + m a, minus the tare
         wrench = -(np.array([h[2] for h in held]).reshape(-1, 6) / self.substeps - m.tare)
@@ -301,6 +291,17 @@ class _StepBatch:
             self.timings["sink"] += time.thread_time() - t2
         if exploded is not None:
             raise exploded[1]
+
+    def _force_maps(
+        self, verts: np.ndarray, contacts: np.ndarray, counts: np.ndarray, mags: np.ndarray
+    ) -> np.ndarray:
+        """The force map (B, N) of each step, its contacts first spread over the cloth."""
+        if self.spread is None or not len(contacts):
+            return self.force_map.maps(contacts["position"], mags, counts)
+        step = np.repeat(np.arange(len(verts)), counts)
+        nodes = contacts["vertex"].astype(np.int64)
+        at, pos, f = self.spread.spread(self.limb, verts, step, nodes, mags)
+        return self.force_map.maps(pos, f, np.bincount(at, minlength=len(verts)))
 
     def _exploded(self, index: np.ndarray, verts: np.ndarray) -> tuple[int, SimulationError] | None:
         """The first held step whose garment flew apart, with its error; None if none did."""
