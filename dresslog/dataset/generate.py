@@ -18,7 +18,7 @@ import signal
 import threading
 import time
 import warnings
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Iterator, Mapping
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
@@ -218,40 +218,24 @@ def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[J
     for failure in manifest.failures:
         key = (failure.split, failure.slot)
         tried[key] = max(tried.get(key, 0), failure.attempt + 1)
-    todo = [
-        (split, slot)
+    return [
+        _job(root, manifest, split, slot, tried.get((split, slot), 0), recorder)
         for split in Split
         for slot in range(manifest.wanted(split))
         if (split, slot) not in done
     ]
-    if not todo:  # the simulator is imported only when there is something to simulate
-        return []
-    factory = _spec_factory(recorder)
-    return [
-        _job(root, manifest, split, slot, tried.get((split, slot), 0), recorder, factory)
-        for split, slot in todo
-    ]
-
-
-def _spec_factory(recorder: str) -> Callable[..., TrialSpec] | None:
-    """The simulator's `random_spec`, unless a test recorder stands in for the simulator."""
-    return resolve(SPEC_FACTORY) if recorder == RECORDER else None
 
 
 def _job(
-    root: Path,
-    manifest: Manifest,
-    split: Split,
-    slot: int,
-    attempt: int,
-    recorder: str,
-    factory: Callable[..., TrialSpec] | None,
+    root: Path, manifest: Manifest, split: Split, slot: int, attempt: int, recorder: str
 ) -> Job:
+    """The attempt's spec is the simulator's `random_spec` (imported with the first job), or
+    for a test recorder one validated without the simulator."""
     seed = trial_seed(manifest.seed, split, slot, attempt)
-    if factory is None:  # a test recorder: the spec needs no simulator
-        spec = TrialSpec.model_validate({"task": manifest.task, "seed": seed, **manifest.overrides})
+    if recorder == RECORDER:
+        spec = resolve(SPEC_FACTORY)(manifest.task, seed, **manifest.overrides)
     else:
-        spec = factory(manifest.task, seed, **manifest.overrides)
+        spec = TrialSpec.model_validate({"task": manifest.task, "seed": seed, **manifest.overrides})
     return Job(str(root), split, slot, attempt, spec, recorder)
 
 
@@ -402,8 +386,6 @@ def _run(
         try:
             for job in jobs:
                 executor.submit(job)
-            recorder = jobs[0].recorder
-            factory = _spec_factory(recorder)
             while executor.pending() and not stop.is_set():
                 for entry in executor.done(timeout=POLL_S):
                     if entry.status == Status.OK:
@@ -416,9 +398,8 @@ def _run(
                         bar.update()
                     else:
                         retry = entry.attempt + 1
-                        executor.submit(
-                            _job(root, manifest, entry.split, entry.slot, retry, recorder, factory)
-                        )
+                        job = _job(root, manifest, entry.split, entry.slot, retry, jobs[0].recorder)
+                        executor.submit(job)
                     bar.set_postfix(failed=len(manifest.failures))
                 if time.monotonic() - saved > SAVE_EVERY_S:
                     manifest.save(root)
