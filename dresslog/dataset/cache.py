@@ -14,6 +14,7 @@ more). It is read with ``allow_pickle=False``: a planted cache file cannot run c
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import zipfile
 from collections.abc import Sequence
@@ -133,24 +134,19 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
     mtimes = _mtimes(root, manifest)  # before decoding: a file changed meanwhile is stale
     task = manifest.task.value
     jobs = [(str(root / str(e.file)), str(e.file), str(e.sha256), task) for e in entries]
-    bar = tqdm(total=len(jobs), unit="trial", desc="decoding", disable=not progress)
+    bar = functools.partial(
+        tqdm, total=len(jobs), unit="trial", desc="decoding", disable=not progress
+    )
     if workers > 1 and len(jobs) > 1:
         pool = decoding_pool(min(workers, len(jobs)))
         try:
             with deferred_in_children():  # the workers start as the jobs are submitted
                 results = pool.map(_decode, jobs, chunksize=4)
-            decoded = []
-            for item in results:
-                decoded.append(item)
-                bar.update()
+            decoded = list(bar(results))
         finally:  # stopped: the trials not begun are dropped, not decoded first
             pool.shutdown(cancel_futures=True)
     else:
-        decoded = []
-        for job in jobs:
-            decoded.append(_decode(job))
-            bar.update()
-    bar.close()
+        decoded = list(bar(map(_decode, jobs)))
     widths = {f.shape[1] for _, f in decoded}
     if len(widths) != 1:
         raise DatasetError(f"trials have different limb point counts {sorted(widths)}", path=root)
