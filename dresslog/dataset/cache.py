@@ -153,7 +153,6 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
     lengths = np.array([len(p) for p, _ in decoded], np.int64)
     phi = padded([p for p, _ in decoded])
     forces = padded([f for _, f in decoded])
-    info = np.array([str(CACHE_VERSION), manifest.task.value, manifest.content_hash()])
     return {
         "phi": phi,
         "forces": forces,
@@ -162,7 +161,7 @@ def _build(root: Path, manifest: Manifest, workers: int, progress: bool) -> dict
         "split": np.array([e.split.value for e in entries]),
         "files": np.array([str(e.file) for e in entries]),
         "mtimes": mtimes,
-        "info": info,
+        "info": np.array(_key(manifest)),
     }
 
 
@@ -188,15 +187,16 @@ def _read(path: Path, manifest: Manifest) -> dict[str, np.ndarray] | None:
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, SyntaxError, TokenError):
         return None  # numpy parses a damaged array header as Python: it may fail as such
     info = arrays["info"]
-    if info.shape != (3,) or list(info) != [
-        str(CACHE_VERSION),
-        manifest.task.value,
-        manifest.content_hash(),
-    ]:
+    if info.shape != (3,) or list(info) != _key(manifest):
         return None
     if not np.array_equal(arrays["mtimes"], _mtimes(path.parents[1], manifest)):
         return None  # a trial was rewritten in place since: decode (and check) it again
     return arrays
+
+
+def _key(manifest: Manifest) -> list[str]:
+    """What a cache file's `info` holds: the cache version, the task, the manifest hash."""
+    return [str(CACHE_VERSION), manifest.task.value, manifest.content_hash()]
 
 
 def _mtimes(root: Path, manifest: Manifest) -> np.ndarray:
