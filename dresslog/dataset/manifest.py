@@ -18,6 +18,7 @@ import hashlib
 import json
 import os
 import warnings
+from collections import Counter
 from collections.abc import Iterator
 from datetime import UTC, datetime
 from enum import IntEnum, StrEnum
@@ -173,9 +174,7 @@ class Manifest(BaseModel):
     def describe(self) -> str:
         """One line for people: trials per split, outcomes, failures replaced."""
         counts = self.counts()
-        outcomes: dict[str, int] = {}
-        for entry in self.trials:
-            outcomes[entry.outcome.value] = outcomes.get(entry.outcome.value, 0) + 1
+        outcomes = Counter(e.outcome.value for e in self.trials)
         seen = ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items())) or "none"
         filled = {(e.split, e.slot) for e in self.trials}
         open_slots = sum((f.split, f.slot) not in filled for f in self.failures)
