@@ -158,16 +158,11 @@ def _shown(value: object) -> str:
 def _open_manifest(
     root: Path, task: Task, seed: int, counts: Mapping[Split, int], overrides: dict[str, Any]
 ) -> Manifest:
-    """The folder's manifest if it has one (checked to be the same request), else a new one."""
+    """The folder's manifest if it has one (checked to be the same request), else a new one;
+    either asks for `counts` (n_train, n_test, n_sweep)."""
+    asked = {f"n_{split}": counts.get(split, 0) for split in Split}
     if not (root / MANIFEST_FILE).exists():
-        return Manifest(
-            task=task,
-            seed=seed,
-            n_train=counts.get(Split.TRAIN, 0),
-            n_test=counts.get(Split.TEST, 0),
-            n_sweep=counts.get(Split.SWEEP, 0),
-            overrides=overrides,
-        )
+        return Manifest(task=task, seed=seed, overrides=overrides, **asked)
     manifest = load_manifest(root)
     # the other command's folder before its fields, which no option of this one sets (a
     # sweep setting's speed); a split not asked for must be empty, else its trials are lost
@@ -200,10 +195,7 @@ def _open_manifest(
                 "ask for at least as many or use another folder",
                 path=root,
             )
-    manifest.n_train = counts.get(Split.TRAIN, 0)
-    manifest.n_test = counts.get(Split.TEST, 0)
-    manifest.n_sweep = counts.get(Split.SWEEP, 0)
-    return manifest
+    return manifest.model_copy(update=asked)
 
 
 def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[Job]:
