@@ -139,6 +139,28 @@ def _given_counts(splits: Mapping[Split | str, int]) -> dict[Split, int]:
     return counts
 
 
+def _checked_overrides(task: Task, overrides: Mapping[str, Any] | None) -> dict[str, Any]:
+    """`overrides` as a dict, if every trial can have them: no seed or task (each trial's
+    own), a valid spec, recorded at `STEP_HZ`. A bad one stops here, before a manifest
+    records it."""
+    overrides = dict(overrides or {})
+    if fixed_per_trial := sorted({"seed", "task"} & overrides.keys()):
+        raise DatasetError(
+            f"overrides fix spec fields for every trial, not {fixed_per_trial[0]}: each "
+            "trial's seed is drawn from `seed`, and the task is generate's own argument"
+        )
+    try:
+        fixed = TrialSpec.model_validate({"task": task, **overrides})
+    except ValidationError as err:
+        raise DatasetError(f"invalid {first_problem(err)}") from None
+    if fixed.sim.record_hz != STEP_HZ:  # no model could train on it
+        raise DatasetError(
+            f"sim.record_hz {fixed.sim.record_hz}: a dataset is recorded at {STEP_HZ} Hz, "
+            "the rate every model reads"
+        )
+    return overrides
+
+
 def _whole(value: object) -> int | None:
     """`value` as an int if it is a whole number type (numpy's too), else None."""
     try:
@@ -284,21 +306,7 @@ def generate(
         raise DatasetError(f"--workers must be a whole number (0: all cores), not {workers!r}")
     counts = _split_counts(trials, test_fraction) if splits is None else _given_counts(splits)
     workers = workers or os.cpu_count() or 1
-    overrides = dict(overrides or {})
-    if fixed_per_trial := sorted({"seed", "task"} & overrides.keys()):
-        raise DatasetError(
-            f"overrides fix spec fields for every trial, not {fixed_per_trial[0]}: each "
-            "trial's seed is drawn from `seed`, and the task is generate's own argument"
-        )
-    try:  # a bad override stops here, before a manifest records it
-        fixed = TrialSpec.model_validate({"task": task, **overrides})
-    except ValidationError as err:
-        raise DatasetError(f"invalid {first_problem(err)}") from None
-    if fixed.sim.record_hz != STEP_HZ:  # no model could train on it
-        raise DatasetError(
-            f"sim.record_hz {fixed.sim.record_hz}: a dataset is recorded at {STEP_HZ} Hz, "
-            "the rate every model reads"
-        )
+    overrides = _checked_overrides(task, overrides)
     with _named_as_given(root, given):  # the folder's errors, every one of them
         _check_folder(root)
         check_executor(executor)
