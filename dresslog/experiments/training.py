@@ -20,7 +20,9 @@ from dresslog.model.files import (
     ModelCard,
     Normalisation,
     check_model_folder,
+    save_model,
 )
+from dresslog.model.numpy_lstm import NumpyEstimator
 from dresslog.model.options import VAL_FRACTION, LrSchedule, check_options, held_out
 from dresslog.plots import plot_training
 
@@ -76,7 +78,6 @@ def train_dataset(
                 "the model can only learn to estimate none",
                 "generate longer trials (--duration)",
             )
-        from dresslog.model.files import save_model
         from dresslog.model.train import make_card, train  # torch once the data checks out
 
         weights, history = train(
@@ -102,8 +103,6 @@ def train_dataset(
         metrics: dict[str, float] = {}
         test = arrays.rows(Split.TEST)
         if len(test):
-            from dresslog.model.numpy_lstm import NumpyEstimator
-
             scores = evaluate(
                 NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test)
             )
