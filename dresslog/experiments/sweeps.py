@@ -107,7 +107,7 @@ def parse_rotation(text: str) -> tuple[str, float]:
 def parse_speed(text: str | float) -> float:
     """'0.2' -> 0.2 (m/s); a number by its shortest repr, so float32 0.2 is 0.2 too."""
     try:
-        return float(text if isinstance(text, str) else str(text))
+        return float(str(text))
     except ValueError:
         raise DatasetError(f"speed {text!r} is not a number in m/s, e.g. 0.2") from None
 
