@@ -15,11 +15,12 @@ from .common import error_line, reports_errors
 @click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder.",
               show_default="bundled, for the trial's task")  # fmt: skip
 @click.option("-o", "--output", "--out", "output", type=click.Path(path_type=Path),
-              help="Rerun recording to write (.rrd); with several trials, the folder for "
-              "each TRIAL.rrd.", show_default="TRIAL.rrd, beside the trial")  # fmt: skip
+              help="Rerun recording to write (.rrd), or the folder for each TRIAL.rrd (with "
+              "several trials, or an existing folder).",
+              show_default="TRIAL.rrd, beside the trial")  # fmt: skip
 @click.option("--mcap-out", type=click.Path(path_type=Path),
-              help="Also write the trial with the estimate (.mcap); with several trials, "
-              "the folder for each TRIAL.mcap.")  # fmt: skip
+              help="Also write the trial with the estimate (.mcap), or the folder for each "
+              "TRIAL.mcap (with several trials, or an existing folder).")  # fmt: skip
 @click.option("--timings", is_flag=True, help="Print the time of each stage.")
 @reports_errors
 def infer(

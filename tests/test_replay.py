@@ -665,6 +665,24 @@ def test_infer_on_several_trials_writes_each_into_the_folders_given(day: Path) -
     assert CliRunner().invoke(main, args).exit_code == 0
 
 
+def test_one_trial_goes_into_an_existing_folder_as_cp_takes_one(day: Path) -> None:
+    """`infer day1/*.mcap -o out` matching one trial, or `infer t.mcap -o out/`: an existing
+    folder holds TRIAL.rrd (and its copy), where it was refused as 'is a folder'; the trial's
+    own folder for its copy is still refused, as it would overwrite the trial."""
+    gown, out = day / "gown.mcap", day.parent / "out"
+    out.mkdir()
+    result = CliRunner().invoke(main, ["infer", str(gown), "-o", str(out), "--mcap-out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert f" -> {out / 'gown.rrd'}, {out / 'gown.mcap'}; RMSE " in result.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["gown.mcap", "gown.rrd"]
+    result = CliRunner().invoke(main, ["infer", str(gown), "--mcap-out", str(day)])
+    assert result.exit_code == 2
+    assert result.stderr.splitlines()[-1] == (
+        f"Error: {gown}: would overwrite gown.mcap, the file being read; give another folder"
+    )
+    assert sorted(p.name for p in day.iterdir()) == ["gown.mcap", "shorts.mcap"]
+
+
 def test_a_bad_trial_among_good_ones_leaves_nothing_of_it_in_the_folders(day: Path) -> None:
     (junk := day / "notes.mcap").write_text("not a recording\n")
     out = day.parent / "out"

@@ -80,12 +80,13 @@ def default_rrd(trial: Path) -> Path:
 def outputs_in(folder: str | Path, trials: Sequence[Path], suffix: str) -> list[Path]:
     """Each trial's output in `folder`, named after it (`a/t.mcap` -> `folder/t.rrd`).
 
-    Checked before any trial, as no trial could go there: a folder named as a recording
-    (`out.rrd`, a slip for one trial's file), a file where it goes, two trials of one name,
-    or an output that is its trial (the trial's own folder given for its `.mcap` copy).
+    Checked before any trial, as no trial could go there: a folder to make named as a
+    recording (`out.rrd`, a slip for one trial's file), a file where it goes, two trials of
+    one name, or an output that is its trial (the trial's own folder for its `.mcap` copy).
     """
     folder = Path(folder)
-    if (misnamed := named_as_recording(folder, "with several trials, the output")) is not None:
+    misnamed = named_as_recording(folder, "with several trials, the output")
+    if misnamed is not None and not folder.is_dir():
         raise TrialWriteError(misnamed, path=folder)
     check_output_folder(folder, "the trials' outputs")
     named: dict[Path, Path] = {}  # output -> the trial it is of
@@ -102,10 +103,11 @@ def outputs_in(folder: str | Path, trials: Sequence[Path], suffix: str) -> list[
 
 
 def _outputs(named: str | Path | None, trials: list[Path], suffix: str) -> list[Path | None]:
-    """Each trial's output: the file `named` for one trial, in the folder `named` for several."""
+    """Each trial's output: in the folder `named` for several trials or where it is one (as
+    `cp` takes a folder), else the file `named`."""
     if named is None:
         return [None] * len(trials)
-    if len(trials) == 1:
+    if len(trials) == 1 and not Path(named).is_dir():
         return [Path(named)]
     return [*outputs_in(named, trials, suffix)]
 
@@ -121,8 +123,8 @@ def replay_files(
     """Replay each trial into its `.rrd`, and with `mcap` into a copy of it with the estimate.
 
     With one trial `rrd` and `mcap` name the files (the recording TRIAL.rrd beside the
-    trial by default); with several they name folders, made if missing, for each
-    TRIAL.rrd and TRIAL.mcap, and one that cannot hold every trial's output (see
+    trial by default) or existing folders; with several they name folders, made if
+    missing, for each TRIAL.rrd and TRIAL.mcap, and one that cannot hold every output (see
     `outputs_in`) raises `TrialWriteError` before any trial. A trial's `DresslogError` or
     `OSError` is its failure and the next trial runs; `on_trial` hears each outcome as it
     comes. A given `model` that does not load fails the batch before any trial when there
