@@ -69,11 +69,8 @@ def record(
         result, metrics = record_live(
             spec, output, model=model, overwrite=overwrite, connect=connect
         )
-        if metrics.rmse is not None:
-            ratio = f", ratio {metrics.ratio:.3f}" if metrics.ratio is not None else ""
-            click.echo(
-                f"estimate RMSE {metrics.rmse:.4g} N (all-zero {metrics.zero_rmse:.4g} N{ratio})"
-            )
+        if scores := metrics.scores():
+            click.echo(f"estimate {scores}")
     else:
         result = record_trial(spec, output, overwrite=overwrite, progress=True)
     click.echo(result.summary())

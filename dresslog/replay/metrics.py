@@ -44,6 +44,14 @@ class TrialMetrics:
             return None
         return self.rmse / self.zero_rmse
 
+    def scores(self) -> str | None:
+        """The RMSE beside the all-zero estimate's and their ratio, as `infer` and
+        `record --live` print them; None without ground truth."""
+        if self.rmse is None:
+            return None
+        ratio = f", ratio {self.ratio:.3f}" if self.ratio is not None else ""
+        return f"RMSE {self.rmse:.4g} N (all-zero estimate {self.zero_rmse:.4g} N{ratio})"
+
 
 class MetricsSink:
     """Accumulates squared errors so that the trial RMSE is exact at any step."""

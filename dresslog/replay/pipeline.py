@@ -54,9 +54,8 @@ class InferenceReport:
         line = f"{self.trial}: {self.steps} steps, {self.task.value}, {model}"
         if self.outputs:
             line += " -> " + ", ".join(str(p) for p in self.outputs)
-        if m.rmse is not None:
-            line += f"; RMSE {m.rmse:.4g} N (all-zero estimate {m.zero_rmse:.4g} N"
-            line += f", ratio {m.ratio:.3f})" if m.ratio is not None else ")"
+        if scores := m.scores():
+            line += f"; {scores}"
         if m.peak_total == 0:
             line += "; no force estimated on the limb"
         elif m.peak_total is not None:
