@@ -16,6 +16,8 @@ from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
 
+SAMPLES = Path(__file__).resolve().parents[1] / "samples"
+
 
 @pytest.mark.parametrize("task", list(Task))
 def test_every_stream_round_trips(make_trial, task: Task) -> None:
@@ -404,6 +406,35 @@ def test_a_reader_opened_again_reads_the_file_as_it_is_now(tmp_path: Path) -> No
             writer.write_twist([0, 10_000_000], np.full((2, 6), value))
         with reader:
             assert (reader.measurements.phi == value).all()
+
+
+def test_a_reader_whose_open_failed_serves_nothing(tmp_path: Path) -> None:
+    """Reopened on a file since replaced by a bad one, it had served the old file's metadata
+    (and a first open that failed on the metadata, an AssertionError): it is not open."""
+    import shutil
+
+    from dresslog.errors import TrialFormatError
+
+    path = tmp_path / "t.mcap"
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_wrench([0, 10_000_000], np.ones((2, 6)))
+        writer.write_twist([0, 10_000_000], np.ones((2, 6)))
+    reader = TrialReader(path).open()
+    assert reader.metadata.task is Task.GOWN
+    shutil.copy(SAMPLES / "gown.mcap", path)
+    with path.open("r+b") as stream:  # the metadata record's JSON, made invalid in place
+        data = stream.read()
+        at = data.index(b'"format_version"')
+        stream.seek(at)
+        stream.write(b'"format_versio!"')
+    for _ in range(2):  # a reopen, and a first open of a fresh reader
+        with pytest.raises(TrialFormatError, match="metadata"):
+            reader.open()
+        with pytest.raises(TrialFormatError, match="reader is not open"):
+            reader.metadata  # noqa: B018
+        with pytest.raises(TrialFormatError, match="reader is not open"):
+            reader.measurements  # noqa: B018
+        reader = TrialReader(path)
 
 
 def test_metadata_json_schema_in_schemas_is_current() -> None:

@@ -116,6 +116,7 @@ class TrialReader:
         for name, member in vars(TrialReader).items():  # reopened: the file may be another
             if isinstance(member, cached_property):
                 self.__dict__.pop(name, None)
+        self._raw = self._metadata = None  # and an open that fails leaves nothing to read
         if not self.path.exists():
             raise TrialFormatError("no such file", path=self.path)
         if self.path.is_dir():
@@ -139,9 +140,13 @@ class TrialReader:
                 raise TrialFormatError(f"not an MCAP file; {CONVERT_HINT}", path=self.path)
             stream.seek(0)
             self._raw, metadata = self._scan(stream)
-        self._check_channels(metadata)
-        self._metadata = self._parse_metadata(metadata)
-        self._put_in_stamp_order()
+        try:
+            self._check_channels(metadata)
+            self._metadata = self._parse_metadata(metadata)
+            self._put_in_stamp_order()
+        except BaseException:
+            self.close()
+            raise
         return self
 
     def close(self) -> None:
