@@ -280,7 +280,12 @@ BAD = [
         ("out.rrd", "trial.mcap", "would overwrite trial.mcap, the file being read"),
         ("out.rrd", "out.rrd", "a trial is an MCAP file; name it .mcap"),
         ("out.rrd", "estimate.rrd", "a trial is an MCAP file; name it .mcap"),
-        ("out.rrd", "other.mcap", "exists and is not an earlier estimate copy (a recording?)"),
+        (
+            "out.rrd",
+            "other.mcap",
+            "exists and is not an earlier estimate copy (a recording?); "
+            "give --mcap-out another name (or folder), or delete it first",
+        ),
         ("out.txt", None, "a Rerun recording is named .rrd"),
     ],
 )

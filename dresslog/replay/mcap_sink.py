@@ -41,8 +41,8 @@ class McapSink:
         check_output(self.path, context.source_path, suffix=".mcap")
         if self.path.exists() and not _holds_an_estimate(self.path):
             raise TrialWriteError(
-                "exists and is not an earlier estimate copy (a recording?); give another "
-                "--mcap-out name, or delete it first",
+                "exists and is not an earlier estimate copy (a recording?); give --mcap-out "
+                "another name (or folder), or delete it first",
                 path=self.path,
             )
         self._trial = context.trial
