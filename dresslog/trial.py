@@ -15,6 +15,10 @@ from dresslog.spec import TrialMetadata
 
 #: The rate of the steps every model reads (Hz): trials are simulated and converted at it.
 STEP_HZ = 100
+#: A gripper slower than this (m/s) is still: the simulated trials draw the garment at
+#: 10-20 cm/s, and a robot at rest reads its pose's jitter, differentiated, as a little speed.
+#: `infer` counts the steps faster than it as moving, `convert` a log's still start by it.
+MOVING_SPEED = 0.02
 
 
 def median_rate(t_ns: np.ndarray) -> float:

@@ -15,6 +15,7 @@ from dresslog.convert import resample as rs
 from dresslog.convert.source import COMPONENTS, Source, SourceStream
 from dresslog.errors import ConversionError
 from dresslog.io import well_known as wk
+from dresslog.trial import MOVING_SPEED
 
 #: How far back a sample may be stamped, behind one logged before it, and still be
 #: put in its place: a transport's reordering, not a clock that jumped back.
@@ -163,11 +164,6 @@ def beyond_dressing(wrench: np.ndarray, twist: np.ndarray) -> str | None:
     )
 
 
-#: A gripper slower than this, m/s, is still: the simulated trials draw the garment at
-#: 10-20 cm/s, and an arm at rest reads its pose's jitter, differentiated, as a little
-#: speed. It is the speed `infer` calls moving (dresslog.model.inputs.MOVING, an engine's,
-#: which this layer does not import).
-STILL_SPEED = 0.02
 #: A still start this long, s, is the garment hanging at rest before the motion, not a
 #: pause as the gripper gets going; over it the mean force is the garment's weight.
 MIN_STILL_S = 0.2
@@ -179,8 +175,8 @@ UNTARED_FORCE = 0.5
 
 
 def _still_steps(twist: np.ndarray) -> int:
-    """How many steps the converted log begins with, the gripper slower than STILL_SPEED."""
-    moving = np.flatnonzero(np.linalg.norm(twist[:, :3], axis=1) >= STILL_SPEED)
+    """How many steps the converted log begins with, the gripper slower than MOVING_SPEED."""
+    moving = np.flatnonzero(np.linalg.norm(twist[:, :3], axis=1) >= MOVING_SPEED)
     return int(moving[0]) if len(moving) else len(twist)
 
 

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dresslog.trial import MOVING_SPEED
+
 #: The end effector's measurement per step: force (3), torque (3), velocity (3).
 PHI_DIM = 9
 #: phi's channels and their units, as a warning names them.
@@ -30,12 +32,11 @@ FAR_SHARE = 0.1
 FAR_STEPS = 50
 #: A channel that barely varied in training (a constant column) cannot say what is far.
 STILL_STD = 1e-6
-#: A moving step (over MOVING m/s) heads the training trials' way when its velocity is
+#: A moving step (over MOVING_SPEED) heads the training trials' way when its velocity is
 #: within 45 degrees of their mean velocity; a log is unfamiliar when under ALONG_SHARE of
 #: its moving steps do: 32 simulated trials the bundled models never saw have 70% at
 #: least, the sample trial with a return stroke appended 39%, a log in axes turned 90
 #: degrees none.
-MOVING = 0.02
 HEADING_COS = float(np.cos(np.radians(45)))
 ALONG_SHARE = 0.2
 #: What most often puts a channel far from the training data, by kind, or the gripper's
@@ -111,9 +112,9 @@ def _heading(velocity: np.ndarray, trained: np.ndarray) -> str | None:
     step by step, so a log that also returns the way it came is not taken for one.
     """
     speed = np.sqrt((velocity * velocity).sum(axis=1))
-    moving = speed > MOVING
+    moving = speed > MOVING_SPEED
     usual = float(np.linalg.norm(trained))
-    if moving.sum() < FAR_STEPS or usual < MOVING:
+    if moving.sum() < FAR_STEPS or usual < MOVING_SPEED:
         return None
     unit = velocity[moving] / speed[moving, None]
     along = float((unit @ (trained / usual) >= HEADING_COS).mean())
