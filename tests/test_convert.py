@@ -567,6 +567,24 @@ def test_a_ros2_bag_folder_whose_mcap_convert_cannot_read_names_that_file(
     assert len(result.output.splitlines()) == 1 and not (tmp_path / "out.mcap").exists()
 
 
+def test_an_mcap_in_a_ros2_bag_folder_that_metadata_does_not_list_is_left_alone(
+    tmp_path: Path,
+) -> None:
+    """rosbags reads the storage metadata.yaml lists, yet every MCAP in the folder was
+    checked: another tool's export saved beside the bag made convert refuse the bag."""
+    bag = write_bag(tmp_path / "log", standard_topics(1.0), "mcap")
+    alone = convert(bag, tmp_path / "alone.mcap", "gown")
+    _foreign_mcap(bag / "export.mcap", "", "jsonschema", "json")  # as Foxglove exports JSON
+    args = ["convert", str(bag), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    got, want = read_trial(tmp_path / "out.mcap"), read_trial(tmp_path / "alone.mcap")
+    assert len(got.wrench) == alone.steps and got.metadata.source == want.metadata.source
+    for name in ("wrench", "twist", "pose"):
+        np.testing.assert_array_equal(getattr(got, name).t_ns, getattr(want, name).t_ns)
+        np.testing.assert_array_equal(getattr(got, name).values, getattr(want, name).values)
+
+
 @pytest.mark.parametrize("name", ["noise.bag", "bag/metadata.yaml"])
 def test_a_bag_of_bytes_that_are_not_text_is_one_line(tmp_path: Path, name: str) -> None:
     """A .bag file (or a bag folder's metadata.yaml) of binary bytes where rosbags reads

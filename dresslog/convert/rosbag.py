@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any, Literal
 
 import numpy as np
@@ -289,6 +289,21 @@ def check_mcap(path: Path) -> None:
         )
 
 
+def _listed_storage(folder: Path) -> list[Path]:
+    """The storage files a ROS 2 bag folder's metadata.yaml lists, found as rosbags finds
+    them (by name, in the folder): another MCAP beside them is not the bag's. Empty when the
+    metadata cannot be read, which rosbags then reports. ruamel.yaml comes with rosbags."""
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        metadata = YAML(typ="safe").load((folder / "metadata.yaml").read_text())
+        names = metadata["rosbag2_bagfile_information"]["relative_file_paths"]
+        return [folder / PurePath(name).name for name in names]
+    except (YAMLError, OSError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
+        return []
+
+
 def read_bag(
     path: str | Path,
     *,
@@ -305,11 +320,11 @@ def read_bag(
     path = Path(path)
     if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
         check_mcap(path)
-    elif path.is_dir():  # a ROS 2 bag folder's MCAP storage, which rosbags reads as a file
-        for storage in sorted(path.iterdir()):
+    highlevel, rosbag1, rosbag2, typesys = _rosbags()
+    if path.is_dir():  # a ROS 2 bag folder's MCAP storage, which rosbags reads as a file
+        for storage in _listed_storage(path):
             if storage.suffix.lower() == ".mcap" and storage.is_file():
                 check_mcap(storage)
-    highlevel, rosbag1, rosbag2, typesys = _rosbags()
     # UnicodeDecodeError: bytes where rosbags reads text (a ROS 1 bag's first line, the YAML)
     errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError,
               UnicodeDecodeError)  # fmt: skip
