@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -660,6 +661,41 @@ def test_a_full_disk_is_named_for_the_trial_being_written(
     ):
         _steps(writer)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="a file size limit is POSIX's")
+@pytest.mark.parametrize("command", ["record", "convert"])
+def test_a_disk_that_refuses_every_byte_leaves_no_temporary(tmp_path: Path, command: str) -> None:
+    """A disk already full fails the finished trial's write and then, again, the flush of
+    the bytes still buffered as the temporary is closed: that second error escaped the
+    clean-up, so the temporary stayed and the line named no file. A file size limit of 0
+    refuses writes as a full disk does, even to root."""
+    import subprocess
+
+    (csv := tmp_path / "ft.csv").write_text(
+        "time,fx,fy,fz,tx,ty,tz,vx,vy,vz\n"
+        + "".join(f"{t / 100},0,0,0,0,0,0,0,0,0\n" for t in range(50))
+    )
+    out = tmp_path / "out" / "t.mcap"
+    args = {
+        "record": ["record", "--task", "gown", "--duration", "0.1"],
+        "convert": ["convert", str(csv), "--task", "gown"],
+    }[command]
+    code = (
+        "import resource, signal, sys, tempfile\n"
+        "tempfile.gettempdir()\n"  # found by writing a file, before the limit refuses it
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "hard = resource.getrlimit(resource.RLIMIT_FSIZE)[1]\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (0, hard))\n"
+        "from dresslog.cli.main import main\n"
+        "main(sys.argv[1:])"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, *args, "-o", str(out)], capture_output=True, text=True
+    )
+    assert done.returncode == 1, done.stderr
+    assert done.stderr == f"Error: {out}: cannot write it: File too large\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ft.csv"]  # nor the folder made
 
 
 def test_the_reader_and_writer_are_dresslog_ios_own_names_loaded_on_first_use() -> None:

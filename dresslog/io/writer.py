@@ -6,6 +6,7 @@ until then it is a hidden temporary beside it, removed if anything fails.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import struct
 from collections.abc import Sequence
@@ -157,7 +158,8 @@ class TrialWriter:
     def abort(self) -> None:
         """Drop everything written so far; nothing appears under the final name."""
         if self._stream is not None:
-            self._stream.close()
+            with contextlib.suppress(OSError):  # a full disk refuses its buffered bytes again
+                self._stream.close()
         self._writer = self._stream = None
         if self._tmp is not None:
             discard(self._tmp)
