@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
-from dresslog.errors import TrialFormatError
+from dresslog.errors import TrialFormatError, TrialWriteError
 from dresslog.io import well_known as wk
 from dresslog.io.reader import TrialReader, read_trial
 from dresslog.model import ModelCard, Normalisation, load_model, save_model
@@ -164,12 +164,32 @@ def test_an_output_that_fails_to_write_leaves_every_earlier_output_as_it_was(
     if failing == "second":
         sinks.reverse()
     trial = read_trial(trial_path)
-    with pytest.raises(OSError, match="No space left"):
+    with pytest.raises(TrialWriteError, match=r"e\.mcap: cannot write it: No space left"):
         Replay(load_model(model_path).estimator(), sinks).run(
             trial_context(trial, trial_path), trial_steps(trial)
         )
     outputs = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.name.startswith((".", "e."))}
     assert outputs == before  # both as they were, and no temporaries
+
+
+def test_a_full_disk_under_the_estimate_copy_is_one_line_naming_it(
+    gown, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Its OSError names no file: `infer --mcap-out` printed `No space left on device` alone,
+    as record and convert did before the trial writer named its output."""
+    from mcap.writer import Writer
+
+    def full_disk(self: Writer) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Writer, "finish", full_disk)
+    trial_path, model_path = gown
+    mcap, rrd = tmp_path / "e.mcap", tmp_path / "e.rrd"
+    args = ["infer", str(trial_path), "--model", str(model_path), "-o", str(rrd)]
+    result = CliRunner().invoke(main, [*args, "--mcap-out", str(mcap)])
+    assert result.exit_code == 1
+    assert result.output == f"Error: {mcap}: cannot write it: No space left on device\n"
+    assert not mcap.exists() and not rrd.exists()
 
 
 def test_infer_prints_rmse_and_writes_both_outputs(gown, tmp_path: Path) -> None:

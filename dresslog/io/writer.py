@@ -184,15 +184,16 @@ class TrialWriter:
                 self.close()
             except BaseException as err:  # finishing compresses the last chunk: Ctrl-C lands here
                 self.abort()
-                self._name_a_full_disk(err)
+                self.name_a_full_disk(err)
                 raise
         else:
             self.abort()
-            self._name_a_full_disk(exc)
+            self.name_a_full_disk(exc)
 
-    def _name_a_full_disk(self, err: BaseException | None) -> None:
+    def name_a_full_disk(self, err: BaseException | None) -> None:
         """A write the file system refused says so about the output: the OSError of a full
-        disk names no file, and the command printed `No space left on device` alone."""
+        disk names no file, and the command printed `No space left on device` alone. For a
+        caller that aborts the writer itself (`McapSink`), after `abort`."""
         if isinstance(err, OSError) and err.errno in _FULL and err.filename is None:
             raise TrialWriteError(f"cannot write it: {err.strerror}", path=self.path) from None
 

@@ -72,8 +72,9 @@ class McapSink:
                 )
             writer.finish()  # named by `commit`, beside the other outputs
             self._finished = writer
-        except BaseException:  # an interrupt while finishing included
+        except BaseException as err:  # an interrupt while finishing included
             writer.abort()
+            writer.name_a_full_disk(err)
             raise
 
     def commit(self) -> None:
