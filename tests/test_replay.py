@@ -764,6 +764,22 @@ def test_output_folders_that_cannot_hold_every_trial_are_a_usage_error(
     assert sorted(tmp.rglob("*")) == before
 
 
+@pytest.mark.parametrize("output", [[], ["-o", "out"]], ids=["beside", "folder"])
+def test_a_trial_given_twice_is_a_usage_error(day: Path, output: list[str]) -> None:
+    """Beside the trial it was replayed twice and counted twice in the mean; into a folder
+    it was told it and itself "would both be written" there, "into separate folders"."""
+    gown, shorts = day / "gown.mcap", day / "shorts.mcap"
+    out = [output[0], str(day.parent / output[1])] if output else []
+    for again, said in (
+        (gown, "given twice"),
+        (day / ".." / "day1" / "gown.mcap", f"is {gown}, given already"),
+    ):
+        result = CliRunner().invoke(main, ["infer", str(gown), str(shorts), str(again), *out])
+        assert result.exit_code == 2, result.output
+        assert result.stderr.splitlines()[-1] == f"Error: {again}: {said}; give each trial once"
+    assert sorted(p.name for p in day.parent.rglob("*")) == ["day1", "gown.mcap", "shorts.mcap"]
+
+
 def test_replay_files_takes_the_folders_from_python(gown, tmp_path: Path) -> None:
     from dresslog.errors import TrialWriteError
     from dresslog.replay.batch import replay_files

@@ -7,6 +7,7 @@ trials is scored without a dataset's manifest.
 
 from __future__ import annotations
 
+import os
 import statistics
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -102,6 +103,17 @@ def outputs_in(folder: str | Path, trials: Sequence[Path], suffix: str) -> list[
     return list(named)
 
 
+def _check_given_once(trials: Sequence[Path]) -> None:
+    """Refuse a trial given twice (a glob and its name, `t.mcap ./t.mcap`): it would be
+    replayed twice into one output and counted twice in the mean."""
+    seen: dict[str, Path] = {}
+    for trial in trials:
+        first = seen.setdefault(os.path.realpath(trial), trial)  # a loop: the reader says so
+        if first is not trial:
+            said = "given twice" if first == trial else f"is {first}, given already"
+            raise TrialWriteError(f"{said}; give each trial once", path=trial)
+
+
 def _outputs(named: str | Path | None, trials: list[Path], suffix: str) -> list[Path | None]:
     """Each trial's output: in the folder `named` for several trials or where it is one (as
     `cp` takes a folder), else the file `named`."""
@@ -132,6 +144,7 @@ def replay_files(
     still said first.
     """
     paths = [Path(t) for t in trials]
+    _check_given_once(paths)
     named = _outputs(rrd, paths, ".rrd")
     rrds = [out or default_rrd(t) for t, out in zip(paths, named, strict=True)]
     mcaps = _outputs(mcap, paths, ".mcap")
