@@ -543,6 +543,28 @@ def test_an_mcap_file_convert_cannot_read_is_named_for_what_it_is(
 
 
 @pytest.mark.parametrize(
+    ("content", "problem"),
+    [
+        (b"", "file is empty"),
+        (b"time,fx,fy,fz\n0,1,2,3\n", "not a ROS 1 bag (it does not begin as one)"),
+    ],
+    ids=["empty", "text"],
+)
+def test_a_bag_file_that_is_no_ros1_bag_is_named_for_what_it_is(
+    tmp_path: Path, content: bytes, problem: str
+) -> None:
+    """rosbags' "File magic is invalid." (or "seems to be empty.") came with the cure of a
+    bag cut short, `rosbag reindex`, which mends a bag's end, not its start."""
+    (path := tmp_path / "log.bag").write_bytes(content)
+    args = ["convert", str(path), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1, result.output
+    assert result.output.startswith(f"Error: {path}: {problem}; {READS}"), result.output
+    assert len(result.output.splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.bag"]
+
+
+@pytest.mark.parametrize(
     ("kind", "message"),
     [
         ("ros1", f"an MCAP file of profile 'ros1', not ROS 2's 'ros2'; {READS}"),
@@ -585,8 +607,14 @@ def test_an_mcap_in_a_ros2_bag_folder_that_metadata_does_not_list_is_left_alone(
         np.testing.assert_array_equal(getattr(got, name).values, getattr(want, name).values)
 
 
-@pytest.mark.parametrize("name", ["noise.bag", "bag/metadata.yaml"])
-def test_a_bag_of_bytes_that_are_not_text_is_one_line(tmp_path: Path, name: str) -> None:
+@pytest.mark.parametrize(
+    ("name", "said"),
+    [
+        ("noise.bag", "not a ROS 1 bag (it does not begin as one)"),
+        ("bag/metadata.yaml", "cannot read bag: 'utf-8' codec can't decode"),
+    ],
+)
+def test_a_bag_of_bytes_that_are_not_text_is_one_line(tmp_path: Path, name: str, said: str) -> None:
     """A .bag file (or a bag folder's metadata.yaml) of binary bytes where rosbags reads
     text had ended `convert` in a traceback of UnicodeDecodeError."""
     path = tmp_path / name
@@ -596,7 +624,7 @@ def test_a_bag_of_bytes_that_are_not_text_is_one_line(tmp_path: Path, name: str)
     args = ["convert", str(bag), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1 and len(result.output.splitlines()) == 1, result.output
-    assert result.output.startswith(f"Error: {bag}: cannot read bag: 'utf-8' codec can't decode")
+    assert result.output.startswith(f"Error: {bag}: {said}")
     assert not (tmp_path / "out.mcap").exists()
 
 

@@ -29,6 +29,8 @@ READS = (
     "convert reads ROS 1 bags, ROS 2 bags (a folder, or an MCAP file of profile 'ros2' "
     "with CDR messages) and CSV: export the wrench and the twist or pose as one of those"
 )
+#: How a ROS 1 bag begins (format 2.0, the only one rosbags reads).
+ROS1_MAGIC = b"#ROSBAG V2.0\n"
 #: Schema encodings rosbags reads in a ROS 2 MCAP file (another is a KeyError in it).
 ROS2_SCHEMA_ENCODINGS = frozenset({"ros2msg", "ros2idl", "omgidl", ""})
 OPTIONS = {"wrench": "--wrench-topic", "twist": "--twist-topic", "pose": "--pose-topic"}
@@ -224,6 +226,17 @@ def choose_topics(
     return chosen, notes
 
 
+def check_bag(path: Path) -> None:
+    """Refuse a .bag file that is not a ROS 1 bag, saying so: rosbags' "File magic is
+    invalid." came with the cure of a bag cut short, `rosbag reindex`, which mends only a
+    bag's end."""
+    with path.open("rb") as stream:
+        head = stream.read(len(ROS1_MAGIC))
+    if head != ROS1_MAGIC:
+        problem = "file is empty" if not head else "not a ROS 1 bag (it does not begin as one)"
+        raise ConversionError(f"{problem}; {READS}", path=path)
+
+
 def check_mcap(path: Path) -> None:
     """Refuse an MCAP file that rosbags cannot read as ROS 2, saying which kind it is: not
     MCAP, of another profile (ROS 1, none), with channels not in CDR (JSON, say), or cut
@@ -320,6 +333,8 @@ def read_bag(
     path = Path(path)
     if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
         check_mcap(path)
+    elif path.suffix.lower() == ".bag" and path.is_file():
+        check_bag(path)
     highlevel, rosbag1, rosbag2, typesys = _rosbags()
     if path.is_dir():  # a ROS 2 bag folder's MCAP storage, which rosbags reads as a file
         for storage in _listed_storage(path):
