@@ -608,6 +608,34 @@ def test_an_mcap_in_a_ros2_bag_folder_that_metadata_does_not_list_is_left_alone(
 
 
 @pytest.mark.parametrize(
+    ("layout", "name", "said"),
+    [
+        ("ros1", "LOG.BAG", "rosbags knows a bag by the lower-case .bag only; rename it LOG.bag"),
+        ("bare-mcap", "LOG.MCAP", "rosbags knows a bag by the lower-case .mcap only; rename it "
+         "LOG.mcap"),
+        ("sqlite3", "day1.bag", "rosbags reads a folder named .bag as a ROS 1 bag, not a ROS 2 "
+         "bag folder; rename it day1"),
+    ],
+)  # fmt: skip
+def test_a_bag_named_as_rosbags_would_misread_it_is_told_the_name_to_give(
+    bags: dict[str, Path], tmp_path: Path, layout: str, name: str, said: str
+) -> None:
+    """rosbags tells a bag's kind by its name, exactly: an upper-case suffix, or a ROS 2 bag
+    folder named .bag, was "Unrecognized storage format '.BAG'" or "Is a directory", with
+    the cure of a bag cut short."""
+    import shutil
+
+    bag = tmp_path / name
+    copy = shutil.copytree if bags[layout].is_dir() else shutil.copyfile
+    copy(bags[layout], bag)
+    args = ["convert", str(bag), "-o", str(tmp_path / "out.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1, result.output
+    assert result.output == f"Error: {bag}: {said}\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+
+@pytest.mark.parametrize(
     ("name", "said"),
     [
         ("noise.bag", "not a ROS 1 bag (it does not begin as one)"),

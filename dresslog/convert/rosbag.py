@@ -226,6 +226,25 @@ def choose_topics(
     return chosen, notes
 
 
+def check_name(path: Path) -> None:
+    """Refuse a name rosbags would misread: it tells a bag's kind by its suffix, exactly,
+    so `LOG.BAG` was "Unrecognized storage format" and a ROS 2 bag folder named `.bag`
+    "Is a directory", each with the cure of a bag cut short."""
+    suffix = path.suffix
+    if path.is_dir() and suffix == ".bag":
+        raise ConversionError(
+            "rosbags reads a folder named .bag as a ROS 1 bag, not a ROS 2 bag folder; "
+            f"rename it {path.with_suffix('').name}",
+            path=path,
+        )
+    if path.is_file() and suffix != suffix.lower():
+        raise ConversionError(
+            f"rosbags knows a bag by the lower-case {suffix.lower()} only; "
+            f"rename it {path.with_suffix(suffix.lower()).name}",
+            path=path,
+        )
+
+
 def check_bag(path: Path) -> None:
     """Refuse a .bag file that is not a ROS 1 bag, saying so: rosbags' "File magic is
     invalid." came with the cure of a bag cut short, `rosbag reindex`, which mends only a
@@ -331,6 +350,7 @@ def read_bag(
     for a sensor whose own clock is not the robot's.
     """
     path = Path(path)
+    check_name(path)
     if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
         check_mcap(path)
     elif path.suffix.lower() == ".bag" and path.is_file():
