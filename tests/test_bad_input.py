@@ -310,6 +310,12 @@ def big_endian(tmp: Path, good: Path) -> Path:
     return _with_steps(tmp / "big.mcap", {wk.WRENCH: (WRENCH[0], wrench)}, metadata=True)
 
 
+def link_to_nothing(tmp: Path, good: Path) -> Path:
+    """`ls` lists it, so "no such file" misled."""
+    (path := tmp / "linked.mcap").symlink_to(tmp / "moved" / "trial.mcap")
+    return path
+
+
 def a_pipe(tmp: Path, good: Path) -> Path:
     os.mkfifo(path := tmp / "pipe.mcap")
     return path
@@ -345,6 +351,7 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (from_a_newer_dresslog, r"newer dresslog \(trial format 2; this one reads 1\); upgrade"),
     (metadata_without_the_trial, "`dresslog` metadata record has no `trial` entry"),
     (a_pipe, "not a regular file"),
+    (link_to_nothing, "is a symbolic link to .*moved/trial.mcap, which does not exist; mend the"),
     (big_endian, "channel /ee/wrench: message 0 is not plain little-endian CDR"),
 ]
 

@@ -594,6 +594,35 @@ def test_a_working_folder_whose_name_is_not_utf8(tmp_path: Path, monkeypatch) ->
     assert described.exit_code == 0 and "tr\\\\xffial.mcap" in described.output
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="symbolic links need privileges there")
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["convert", "{link}", "-o", "{tmp}/t.mcap", "--task", "gown"],
+        ["convert", "{csv}", "--motion", "{link}", "-o", "{tmp}/t.mcap", "--task", "gown"],
+        ["view", "{link}", "--save", "{tmp}/t.rrd"],
+        ["infer", str(SAMPLE), "--model", "{link}", "-o", "{tmp}/t.rrd"],
+        ["train", "{link}", "-o", "{tmp}/model"],
+        ["eval", "{link}", "{tmp}"],
+    ],
+    ids=["convert", "motion", "view", "model", "train", "eval"],
+)
+def test_an_input_that_is_a_link_to_nothing_says_where_it_leads(
+    tmp_path: Path, args: list[str]
+) -> None:
+    """It was "no such file" (or model or dataset folder), of a name `ls` lists."""
+    (csv := tmp_path / "ft.csv").write_text("time,fx,fy,fz,tx,ty,tz\n0,0,0,0,0,0,0\n")
+    (link := tmp_path / "link").symlink_to(tmp_path / "moved")
+    given = [a.format(tmp=tmp_path, link=link, csv=csv) for a in args]
+    result = CliRunner().invoke(main, given)
+    assert result.exit_code == 1, result.output
+    assert result.output == (
+        f"Error: {link}: is a symbolic link to {tmp_path / 'moved'}, which does not exist; "
+        "mend the link\n"
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ft.csv", "link"]
+
+
 def test_an_output_that_is_a_link_to_nothing_is_an_existing_name(tmp_path: Path) -> None:
     """Refused up front; it used to pass, and the finished trial was dropped at the end."""
     (dangling := tmp_path / "t.mcap").symlink_to(tmp_path / "elsewhere.mcap")

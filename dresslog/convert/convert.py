@@ -35,7 +35,7 @@ from dresslog.convert.checks import (
 )
 from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError, DresslogWarning
-from dresslog.io.files import check_output, printable
+from dresslog.io.files import check_output, no_such, printable
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata, task_of
 
@@ -79,7 +79,7 @@ def load(
     """Read an external log of any supported kind, chosen by what `path` is."""
     path, motion = Path(path), None if motion is None else Path(motion)
     if not path.exists():
-        raise ConversionError("no such file or folder", path=path)
+        raise ConversionError(no_such(path, "file or folder"), path=path)
     suffix = path.suffix.lower()
     is_csv = suffix in CSV_SUFFIXES and path.is_file()
     given: dict[str, object] = {"--motion": motion, "--column": columns, "--time-unit": time_unit}
@@ -94,6 +94,8 @@ def load(
 
         if motion is not None and not motion.is_file():  # as the log itself is told
             problem = "is a folder" if motion.is_dir() else "no such file"
+            if not motion.is_dir() and motion.is_symlink():  # where it leads says enough
+                raise ConversionError(no_such(motion), path=motion)
             raise ConversionError(f"{problem}; --motion takes a CSV file", path=motion)
         return read_csv(path, motion=motion, columns=columns, time_unit=time_unit)
     if path.is_dir() and not (path / "metadata.yaml").is_file():

@@ -29,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, m
 
 from dresslog import __version__
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
-from dresslog.io.files import atomic_path, sha256_file
+from dresslog.io.files import atomic_path, no_such, sha256_file
 from dresslog.spec import RECORDED, Outcome, Task, TrialSpec
 
 MANIFEST_FILE = "manifest.json"
@@ -230,7 +230,7 @@ def load_manifest(root: str | Path) -> Manifest:
             hint = f"give its dataset, {dataset}"
         raise DatasetError(f"is a file; a dataset is a folder: {hint}", path=root)
     if not root.is_dir():
-        raise DatasetError("no such dataset folder", path=root)
+        raise DatasetError(no_such(root, "dataset folder"), path=root)
     if not path.is_file():
         from dresslog.model.files import CARD_FILE  # lazily: only for these hints
 

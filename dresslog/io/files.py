@@ -118,6 +118,22 @@ def _not_a_folder(folder: Path) -> str:
     return f"{folder} is not a folder"
 
 
+def no_such(path: str | Path, what: str = "file") -> str:
+    """Why `path`, an input that is not there, cannot be read: `no such file`, or, for a
+    symbolic link to nothing, where it leads (`ls` lists the link, so that misled)."""
+    path = Path(path)
+    if not path.is_symlink():
+        return f"no such {what}"
+    try:
+        path.stat()
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            return "is a symbolic link that leads round in a loop; remove it"
+    return (
+        f"is a symbolic link to {printable(path.readlink())}, which does not exist; mend the link"
+    )
+
+
 def make_folders(path: str | Path) -> list[Path]:
     """Make the missing folders above `path` (`-o runs/day1/trial.mcap`), as `train` and
     `generate` do; called just before its temporary is created, so a failed check makes none.

@@ -26,6 +26,7 @@ from zstandard import ZstdError
 from dresslog.errors import TrialFormatError, first_problem
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
+from dresslog.io.files import no_such
 from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
@@ -118,7 +119,7 @@ class TrialReader:
                 self.__dict__.pop(name, None)
         self._raw = self._metadata = None  # and an open that fails leaves nothing to read
         if not self.path.exists():
-            raise TrialFormatError("no such file", path=self.path)
+            raise TrialFormatError(no_such(self.path), path=self.path)
         if self.path.is_dir():
             raise TrialFormatError(f"is a folder, not an MCAP file; {_folder_hint(self.path)}",
                                    path=self.path)  # fmt: skip

@@ -55,6 +55,7 @@ from dresslog.io.files import (
     check_writable,
     is_temporary,
     named_as_recording,
+    no_such,
     printable,
     sha256_file,
     temporary_path,
@@ -354,7 +355,7 @@ def load_model(path: str | Path) -> LoadedModel:
 
     path = Path(path)
     if not path.exists():
-        raise ModelError("no such model folder", path=path)
+        raise ModelError(no_such(path, "model folder"), path=path)
     if not path.is_dir():
         hint = f": give {path.parent}" if path.name in (CARD_FILE, WEIGHTS_FILE) else ""
         raise ModelError(

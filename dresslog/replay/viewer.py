@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from urllib.parse import quote, urlsplit
 
 from dresslog.errors import DresslogError, TrialWriteError
-from dresslog.io.files import atomic_path, check_output
+from dresslog.io.files import atomic_path, check_output, no_such
 from dresslog.io.reader import MAGIC, RRD_MAGIC, TrialReader
 from dresslog.replay.pipeline import InferenceReport, replay_file
 from dresslog.spec import Task
@@ -172,7 +172,7 @@ def check_rrd(path: str | Path) -> None:
     """A Rerun recording by its first bytes, or a one-line error (before a viewer chokes on it)."""
     path = Path(path)
     if not path.is_file():
-        raise DresslogError("no such file", path=path)
+        raise DresslogError(no_such(path), path=path)
     if not _starts_with(path, RRD_MAGIC):
         raise DresslogError("not a Rerun recording (.rrd)", path=path)
 
