@@ -651,7 +651,7 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
             1,
             "--sensor-rotation: a rotation quaternion is 4 finite",
         ),
-        (["--tare", "10"], 1, "tare of 10.0 s is longer than the log"),
+        (["--tare", "10"], 1, "tare of 10.0 s is longer than the log (1.98 s); give a shorter"),
         (["--tare", "1e-10"], 1, "tare of 1e-10 s is shorter than one 0.01 s step"),
         (["--column", "fq=Fx (N)"], 1, "unknown column role 'fq'"),
         (["--tare", "-1"], 2, "Invalid value for '--tare': -1.0 is not in the range x>=0"),

@@ -396,8 +396,12 @@ def _resample_all(
         pose = rs.interpolate_pose(source.pose.t_ns, source.pose.values, grid)
         processing["pose"] = "linear interpolation, quaternions normalised"
     if tare_s > 0:
-        if (grid[-1] - grid[0]) / 1e9 < tare_s:
-            raise ConversionError(f"tare of {tare_s} s is longer than the log", path=source.path)
+        if (span_s := (grid[-1] - grid[0]) / 1e9) < tare_s:
+            raise ConversionError(
+                f"tare of {tare_s} s is longer than the log ({span_s:.2f} s); give a shorter "
+                "--tare, the seconds the garment hangs still at its start",
+                path=source.path,
+            )
         step_s = (grid[1] - grid[0]) / 1e9
         if tare_s < step_s:  # its window would hold no sample to average
             raise ConversionError(
