@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import click
+from click.core import ParameterSource
 
 from dresslog.dataset.generate import MAX_TRIALS
 
@@ -67,8 +68,11 @@ def sweep(
     from dresslog.experiments import default_sweep_folder
     from dresslog.experiments import sweep as run_sweep
 
-    if not speeds and not rotations:
-        raise click.UsageError("give --speeds, --rotations or both")
+    if not speeds and not rotations:  # `--speeds "$SPEEDS"` of an empty variable says so
+        ctx = click.get_current_context()
+        empty = [f"--{name} is empty; " for name in ("speeds", "rotations")
+                 if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE]  # fmt: skip
+        raise click.UsageError(f"{''.join(empty[:1])}give --speeds, --rotations or both")
     out = out or str(default_sweep_folder(model))
     report = run_sweep(
         model, out, speeds=speeds, rotations=rotations, n=sequences,

@@ -869,8 +869,11 @@ def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
         # malformed values are usage errors, as record's --rotation q 5 is; they were exit 1
         (["--speeds", "0.2,fast"], 2, "Invalid value for '--speeds': speed 'fast' is not a"),
         (["--rotations", "q:5"], 2, "Invalid value for '--rotations': rotation 'q:5' is not"),
+        # a script's `--speeds "$SPEEDS"` of an empty variable: it was told to give --speeds
+        (["--speeds", ""], 2, "Error: --speeds is empty; give --speeds, --rotations or both"),
+        (["--rotations", " , "], 2, "Error: --rotations is empty; give --speeds, --rotations"),
     ],
-)
+)  # fmt: skip
 def test_sweep_without_a_setting_or_with_a_bad_speed_is_refused(
     model: Path, tmp_path: Path, options: list[str], code: int, message: str
 ) -> None:
