@@ -30,7 +30,7 @@ HELP = {
     "view": "Open a trial or .rrd in the Rerun viewer.",
     "generate": "Simulate many trials in parallel into a dataset folder.",
     "train": "Train a force-map LSTM on a dataset.",
-    "eval": "Evaluate a model on a dataset's test split.",
+    "eval": "Evaluate a model on a dataset's test (or training) split.",
     "sweep": "Generalisation sweeps over speed and limb rotation.",
 }
 

@@ -31,7 +31,7 @@ from dresslog.experiments import (
 )
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
-from dresslog.model.files import ModelCard, load_model, save_model
+from dresslog.model.files import EpochRecord, Hyperparameters, ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_lines
 from dresslog.spec import Task
@@ -609,6 +609,22 @@ def test_eval_refuses_a_tampered_model(data: Path, tmp_path: Path) -> None:
     weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
     code, output = invoke("eval", path, data)
     assert code == 1 and "does not match the sha256" in output
+
+
+def test_info_counts_one_epoch_in_the_singular(tmp_path: Path) -> None:
+    """A model trained for one epoch (a smoke test's) read `1 epochs` twice."""
+    path = _fake_model(tmp_path / "gown", "gown")
+    card = load_model(path).card.model_copy(
+        update={
+            "hyperparameters": Hyperparameters(epochs=1),
+            "history": [EpochRecord(epoch=1, train_loss=0.5, seconds=2.0)],
+        }
+    )
+    weights = load_model(path).weights
+    save_model(path, weights, card, overwrite=True)
+    code, output = invoke("info", path)
+    assert code == 0, output
+    assert "training  1 epoch, batch 16" in output and "history   1 epoch in 2 s" in output
 
 
 @pytest.mark.slow

@@ -16,6 +16,11 @@ from pathlib import Path
 from dresslog.model.files import ModelCard
 
 
+def _count(n: int, noun: str) -> str:
+    """`1 epoch`, `2 epochs`: a one-epoch test model's card read `1 epochs`."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def format_card(path: Path, card: ModelCard, verified: bool) -> str:
     """The human-readable form printed by `dresslog info` for a model folder."""
     hp, data = card.hyperparameters, card.data
@@ -35,8 +40,8 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
         f"  task      {card.task.value}, {card.n_points} limb points",
         f"  network   {card.layers}x{card.hidden} LSTM on {card.input_dim}-D input"
         + (f"; {', '.join(extras)}" if extras else ""),
-        f"  training  {hp.epochs} epochs, batch {hp.batch_size}, {hp.optimizer} lr {hp.lr:g} "
-        f"({hp.lr_schedule}), seed {hp.seed}",
+        f"  training  {_count(hp.epochs, 'epoch')}, batch {hp.batch_size}, {hp.optimizer} "
+        f"lr {hp.lr:g} ({hp.lr_schedule}), seed {hp.seed}",
         f"  data      {data.n_train} training + {data.n_val} validation sequences"
         + (f" from {data.description}" if data.description else "")
         + (f", manifest {data.manifest_sha256[:12]}" if data.manifest_sha256 else ""),
@@ -47,8 +52,8 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
         val = "" if last.val_loss is None else f", validation {last.val_loss:.4g}"
         seconds = sum(e.seconds for e in card.history)
         lines.append(
-            f"  history   {len(card.history)} epochs in {seconds:.0f} s; last: training loss "
-            f"{last.train_loss:.4g}{val}; kept epoch {kept:g}"
+            f"  history   {_count(len(card.history), 'epoch')} in {seconds:.0f} s; last: "
+            f"training loss {last.train_loss:.4g}{val}; kept epoch {kept:g}"
         )
     test = {k.removeprefix("test_"): v for k, v in card.metrics.items() if k.startswith("test_")}
     other = {k: v for k, v in card.metrics.items() if not k.startswith("test_")}
