@@ -14,20 +14,21 @@ from .common import error_line, reports_errors
                 type=click.Path(path_type=Path))  # fmt: skip
 @click.option("--model", "-m", type=click.Path(path_type=Path), help="Model folder.",
               show_default="bundled, for the trial's task")  # fmt: skip
-@click.option("-o", "--output", "--out", "output", type=click.Path(path_type=Path),
+@click.option("-o", "--output", "--out", "output", type=click.Path(),
               help="Rerun recording to write (.rrd), or the folder for each TRIAL.rrd (with "
-              "several trials, or an existing folder).",
+              "several trials, an existing folder, or one ending in /).",
               show_default="TRIAL.rrd, beside the trial")  # fmt: skip
-@click.option("--mcap-out", type=click.Path(path_type=Path),
-              help="Also write the trial with the estimate (.mcap), or the folder for each "
-              "TRIAL.mcap (with several trials, or an existing folder).")  # fmt: skip
+@click.option("--mcap-out", type=click.Path(),
+              help="Also write the trial with the estimate (.mcap), or the folder for "
+              "each TRIAL.mcap (with several trials, an existing folder, or one ending "
+              "in /).")  # fmt: skip
 @click.option("--timings", is_flag=True, help="Print the time of each stage.")
 @reports_errors
 def infer(
     trials: tuple[Path, ...],
     model: Path | None,
-    output: Path | None,
-    mcap_out: Path | None,
+    output: str | None,  # str, not Path: `out/` names a folder by its trailing /
+    mcap_out: str | None,
     timings: bool,
 ) -> None:
     """Stream each TRIAL step by step through the force-map LSTM and write a Rerun recording.

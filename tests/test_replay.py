@@ -708,6 +708,21 @@ def test_one_trial_goes_into_an_existing_folder_as_cp_takes_one(day: Path) -> No
     assert sorted(p.name for p in day.iterdir()) == ["gown.mcap", "shorts.mcap"]
 
 
+def test_one_trial_goes_into_a_folder_to_make_named_with_a_trailing_slash(day: Path) -> None:
+    """`infer t.mcap -o out/` with no `out` yet: the / says a folder, as for rsync; it was
+    refused as a recording not named .rrd. A .rrd name with a / is still refused."""
+    gown, out = day / "gown.mcap", day.parent / "out"
+    args = ["infer", str(gown), "-o", f"{out}/", "--mcap-out", f"{out / 'est'}/"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in out.iterdir()) == ["est", "gown.rrd"]
+    assert [p.name for p in (out / "est").iterdir()] == ["gown.mcap"]
+    result = CliRunner().invoke(main, ["infer", str(gown), "-o", f"{day.parent / 'x.rrd'}/"])
+    assert result.exit_code == 2
+    assert "an output ending in / is a folder, not a .rrd recording" in result.stderr
+    assert not (day.parent / "x.rrd").exists()
+
+
 def test_a_bad_trial_among_good_ones_leaves_nothing_of_it_in_the_folders(day: Path) -> None:
     (junk := day / "notes.mcap").write_text("not a recording\n")
     out = day.parent / "out"

@@ -86,7 +86,8 @@ def outputs_in(folder: str | Path, trials: Sequence[Path], suffix: str) -> list[
     one name, or an output that is its trial (the trial's own folder for its `.mcap` copy).
     """
     folder = Path(folder)
-    misnamed = named_as_recording(folder, "with several trials, the output")
+    said = "with several trials, the output" if len(trials) > 1 else "an output ending in /"
+    misnamed = named_as_recording(folder, said)
     if misnamed is not None and not folder.is_dir():
         raise TrialWriteError(misnamed, path=folder)
     check_output_folder(folder, "the trials' outputs")
@@ -115,11 +116,13 @@ def _check_given_once(trials: Sequence[Path]) -> None:
 
 
 def _outputs(named: str | Path | None, trials: list[Path], suffix: str) -> list[Path | None]:
-    """Each trial's output: in the folder `named` for several trials or where it is one (as
-    `cp` takes a folder), else the file `named`."""
+    """Each trial's output: in the folder `named` for several trials, where it is one (as
+    `cp` takes a folder) or ends in `/`, else the file `named`."""
     if named is None:
         return [None] * len(trials)
-    if len(trials) == 1 and not Path(named).is_dir():
+    # `-o out/`: a trailing separator names a folder (made if missing), as it does for rsync
+    folder = isinstance(named, str) and named.endswith(("/", os.sep))
+    if len(trials) == 1 and not folder and not Path(named).is_dir():
         return [Path(named)]
     return [*outputs_in(named, trials, suffix)]
 
