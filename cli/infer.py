@@ -42,7 +42,10 @@ def infer(
 
     def show(outcome: InferenceReport | TrialFailure) -> None:  # as each trial is done
         if isinstance(outcome, TrialFailure):
-            click.echo(f"Error: {error_line(outcome.error)}", err=True)
+            line = error_line(outcome.error)
+            if len(trials) > 1 and not line.startswith(f"{outcome.trial}: "):  # the model's
+                line = f"{outcome.trial}: {line}"  # error, say: which trial it failed
+            click.echo(f"Error: {line}", err=True)
             return
         click.echo(outcome.summary())
         if timings:

@@ -653,12 +653,14 @@ def test_a_bad_trial_among_good_ones_is_said_and_the_others_are_done(day: Path) 
 
 
 def test_a_model_for_the_other_task_fails_those_trials_alone(day: Path) -> None:
+    """Each failure's line begins with its trial: the model's error named only the model."""
     gown, shorts = day / "gown.mcap", day / "shorts.mcap"
     model = SAMPLES / "models" / "gown"
     result = CliRunner().invoke(main, ["infer", str(shorts), str(gown), "--model", str(model)])
     assert result.exit_code == 1, result.output
     assert result.stderr.splitlines() == [
-        f"Error: {model}: model is for gown but the trial is shorts; leave out --model to use "
+        f"Error: {shorts}: {model}: model is for gown but the trial is shorts; leave out "
+        "--model to use "
         f"the bundled one ({SAMPLES / 'models' / 'shorts'})",
         "Error: 1 of 2 trials failed",
     ]
