@@ -167,6 +167,40 @@ def test_a_slot_failing_every_seed_stops_generation_with_one_line(tmp_path: Path
     assert len(failures) == 2 and failures[0].spec.seed != failures[1].spec.seed
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="a file size limit is POSIX's")
+@pytest.mark.parametrize(
+    ("limit", "named"), [(0, "manifest.json: File too large"), (16_000, "train/000000.mcap")]
+)
+def test_a_full_disk_stops_generation_at_once_naming_the_file(
+    tmp_path: Path, limit: int, named: str
+) -> None:
+    """A trial the disk refused was a trial failure: each slot was simulated and retried
+    with 5 seeds before generation gave up, and the manifest's write named no file. A file
+    size limit refuses writes as a full disk does (the workers inherit it)."""
+    code = (
+        "import resource, signal, sys, tempfile\n"
+        "tempfile.gettempdir()\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "hard = resource.getrlimit(resource.RLIMIT_FSIZE)[1]\n"
+        f"resource.setrlimit(resource.RLIMIT_FSIZE, ({limit}, hard))\n"
+        "from dresslog.cli.main import main\n"
+        "if __name__ == '__main__':\n"
+        "    main(sys.argv[1:])"
+    )
+    out = tmp_path / "data"
+    args = ["generate", "--task", "gown", "--trials", "3", "--test-fraction", "0", "-q"]
+    args += ["--duration", "1", "--workers", "1", "-o", str(out)]
+    done = subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.splitlines()[-1].startswith(f"Error: {out / named}")
+    if limit:  # the manifest, written before, lists no failure: the trial was not retried
+        manifest = json.loads((out / "manifest.json").read_text())
+        assert manifest["trials"] == [] and manifest["failures"] == []
+    assert not [p for p in out.rglob(".*") if p.name != ".generate.lock"]  # no temporaries
+
+
 def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
     generate("gown", 2, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
     with pytest.raises(DatasetError, match="task gown, not shorts"):

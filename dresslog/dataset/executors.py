@@ -131,7 +131,9 @@ def run_job(job: Job) -> Entry:
     """Simulate and record one trial; an unstable simulation becomes a failed entry.
 
     Runs in a worker. Only `DresslogError`s count as trial failures; any other
-    exception is a bug and propagates, stopping the generation.
+    exception is a bug and propagates, stopping the generation, as does a write the disk
+    refused (full, read-only): every trial after it would fail alike, each after its
+    simulation, and be retried with fresh seeds to no end.
     """
     if _Worker.interrupted:
         raise KeyboardInterrupt
@@ -143,6 +145,8 @@ def run_job(job: Job) -> Entry:
         result = resolve(job.recorder)(job.spec, path, overwrite=True)
     except DresslogError as err:
         path.unlink(missing_ok=True)
+        if isinstance(err.__cause__, OSError):  # the disk's, not the trial's
+            raise
         reason = err.message if isinstance(err, SimulationError) else str(err)
         return Entry(
             **base,

@@ -335,8 +335,8 @@ def _named_as_given(root: Path, given: Path) -> Iterator[None]:
     try:
         yield
     except DresslogError as err:
-        if err.path == root:
-            err.path = given
+        if err.path is not None and err.path.is_relative_to(root):  # a trial's file too
+            err.path = given / err.path.relative_to(root)
         raise
     except OSError as err:  # a full disk, a read-only folder: the file inside it
         if isinstance(err.filename, str) and Path(err.filename).is_relative_to(root):

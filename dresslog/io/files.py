@@ -290,9 +290,11 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         yield tmp
         tmp.replace(path)
-    except BaseException:
+    except BaseException as err:
         discard(tmp)
         remove_folders(made)
+        if isinstance(err, OSError) and err.filename is None:  # a full disk's names no file
+            err.filename = str(path)
         raise
 
 

@@ -195,7 +195,7 @@ class TrialWriter:
         disk names no file, and the command printed `No space left on device` alone. For a
         caller that aborts the writer itself (`McapSink`), after `abort`."""
         if isinstance(err, OSError) and err.errno in _FULL and err.filename is None:
-            raise TrialWriteError(f"cannot write it: {err.strerror}", path=self.path) from None
+            raise TrialWriteError(f"cannot write it: {err.strerror}", path=self.path) from err
 
     # -- channels --------------------------------------------------------------
     def _channel(self, topic: str) -> int:
