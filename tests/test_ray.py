@@ -13,6 +13,8 @@ import pytest
 ray = pytest.importorskip("ray", reason="Ray is an optional extra: pip install 'dresslog[ray]'")
 
 from dresslog.dataset import generate, load_manifest  # noqa: E402
+from dresslog.errors import TrialWriteError  # noqa: E402
+from dresslog.spec import TrialSpec  # noqa: E402
 
 #: One trial per split is all a comparison with the process pool needs; that leaves `train`
 #: fewer than it takes, which `generate` warns of, beside the point here.
@@ -77,3 +79,23 @@ def test_ray_generation_matches_the_process_pool(local_ray, tmp_path: Path) -> N
     local = generate("gown", 2, tmp_path / "local", progress=False, **options)
     assert on_ray.content_hash() == local.content_hash()  # same seeds, same bytes
     assert ray.is_initialized()  # a cluster the caller started is left running
+
+
+def full_disk_record(spec: TrialSpec, path: Path, overwrite: bool) -> None:
+    """A recorder whose write the disk refuses, as `TrialWriter` reports a full disk."""
+    try:
+        raise OSError(28, "No space left on device")
+    except OSError as err:
+        raise TrialWriteError("cannot write it: No space left on device", path=path) from err
+
+
+@pytest.mark.slow
+def test_a_full_disk_on_ray_is_our_one_line_not_rays_traceback(local_ray, tmp_path: Path) -> None:
+    """Ray raises a task's error wrapped, its str the task's traceback: the CLI printed that."""
+    with pytest.raises(TrialWriteError) as caught:
+        generate("gown", 2, tmp_path, executor="ray", workers=1, test_fraction=0,
+                 recorder="tests.test_ray:full_disk_record", progress=False)  # fmt: skip
+    file = caught.value.path  # whichever of the two trials Ray finished first
+    assert file is not None and file.parent == tmp_path / "train"
+    assert str(caught.value) == f"{file}: cannot write it: No space left on device"
+    assert load_manifest(tmp_path).failures == []  # not retried with other seeds

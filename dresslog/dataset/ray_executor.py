@@ -14,7 +14,7 @@ from typing import Any
 
 from dresslog.dataset.executors import Job, run_job
 from dresslog.dataset.manifest import Entry
-from dresslog.errors import DatasetError
+from dresslog.errors import DatasetError, DresslogError
 
 INSTALL_HINT = "pip install 'dresslog[ray]'"
 
@@ -50,7 +50,12 @@ class RayExecutor:
 
     def done(self, timeout: float) -> list[Entry]:
         ready, self._refs = self._ray.wait(self._refs, num_returns=1, timeout=timeout)
-        return list(self._ray.get(ready))
+        try:
+            return list(self._ray.get(ready))
+        except self._ray.exceptions.RayTaskError as err:  # a full disk, say: its own line,
+            if isinstance(err.cause, DresslogError):  # not Ray's of the task's traceback
+                raise err.cause from None
+            raise
 
     def pending(self) -> int:
         return len(self._refs)
