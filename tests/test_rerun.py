@@ -66,6 +66,28 @@ def view_names(rrd: Path) -> set[str]:
     return names
 
 
+def view_queries(rrd: Path) -> list[list[str]]:
+    """Each view's contents (its entity queries) in the recording's default blueprint."""
+    reader = rc.RrdReader(rrd)
+    queries = []
+    for chunk in reader.store(store=reader.blueprints()[0]).stream():
+        batch = chunk.to_record_batch()
+        if "ViewContents:query" in batch.schema.names:
+            queries += batch.column("ViewContents:query").to_pylist()
+    return queries
+
+
+def colour_key(rrd: Path) -> tuple[np.ndarray, list[str]]:
+    """The force maps' colour key: its swatches' RGB and its labels, as logged."""
+    logged = {}
+    for chunk in rc.RrdReader(rrd).store().stream():
+        if chunk.entity_path.lstrip("/") in (bp.LEGEND, bp.LEGEND_LABELS):
+            logged[chunk.entity_path.lstrip("/")] = chunk.to_record_batch()
+    rgba = np.array(logged[bp.LEGEND].column("Points3D:colors").to_pylist()[-1], np.uint32)
+    rgb = np.stack([(rgba >> shift) & 255 for shift in (24, 16, 8)], axis=1)
+    return rgb, logged[bp.LEGEND_LABELS].column("Points3D:labels").to_pylist()[-1]
+
+
 def time_panel(rrd: Path) -> dict[str, object]:
     """The time panel's settings in the recording's default blueprint, by field name."""
     reader = rc.RrdReader(rrd)
@@ -128,6 +150,24 @@ def test_a_recording_opens_playing_from_its_first_step_in_real_time(inferred) ->
     assert panel["play_state"] == rrb.components.PlayState.Playing.value
     assert panel["playback_speed"] == 1.0
     assert "loop_mode" not in panel  # off: once through, then it stops at the last step
+
+
+def test_each_force_map_has_its_colour_key_in_the_trials_scale(inferred) -> None:
+    """Under the limb in both maps: grey for no force, then the ramp to the top of the scale
+    the note gives, each swatch the colour a limb point of that force gets."""
+    from dresslog.replay.colors import color_scale, heat_colors
+
+    trial, _, rrd = inferred
+    vmax = color_scale(read_trial(trial).force_map.forces)  # fitted to the truth
+    assert f"dark to bright = 0 to {vmax:.3g} N and over" in spec_text(rrd)
+    rgb, labels = colour_key(rrd)
+    assert labels[0] == "0 N" and labels[-1] == f"{vmax:.3g} N +"
+    middle = [float(label) for label in labels[2:-1]]
+    assert middle == pytest.approx([vmax / 4, vmax / 2, 3 * vmax / 4], rel=0.05)
+    forces = np.array([0.0, 1e-6 * vmax, *middle, vmax])
+    np.testing.assert_array_equal(rgb, heat_colors(forces, vmax))
+    maps = [q for q in view_queries(rrd) if any(bp.ESTIMATE in e or bp.TRUTH in e for e in q)]
+    assert len(maps) == 2 and all(f"+ /{bp.LEGEND}/**" in q for q in maps)
 
 
 def _bearings(camera, points: np.ndarray) -> np.ndarray:
@@ -443,6 +483,7 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     # a fixed colour scale, not one stretched to a weak estimate; the limb said to be nominal
     text = spec_text(rrd)
     assert "the task's nominal limb" in text and "0 to 0.5 N and over." in text
+    assert colour_key(rrd)[1][-1] == "0.5 N +"
 
 
 def test_a_trial_with_no_force_on_the_limb_gets_the_fixed_colour_scale(tmp_path: Path) -> None:

@@ -42,6 +42,10 @@ TOTAL_TRUTH = "plots/total_force/truth"
 TOTAL_ESTIMATE = "plots/total_force/estimate"
 RMSE = "plots/rmse"
 SPEC = "trial/spec"
+#: The colour key under the limb in each force map: no force, then the ramp to the scale's
+#: top; its labels apart, in white, as a point's label takes the point's colour.
+LEGEND = "world/legend"
+LEGEND_LABELS = "world/legend/labels"
 
 #: The force value behind each limb point's colour, logged beside it (AnyValues).
 FORCE_FIELD = "force_newtons"
@@ -69,6 +73,16 @@ def eye(points: np.ndarray, alone: bool = False) -> rrb.EyeControls3D:
     distance = (0.9, 1.2) if alone else (0.5, 1.7)
     position = center + np.array([0.07, -1.0, 0.24]) * distance[not is_long(points)] * size
     return rrb.EyeControls3D(position=position, look_target=center, eye_up=[0, 0, 1])
+
+
+def legend_positions(points: np.ndarray, count: int) -> np.ndarray:
+    """Where the colour key's `count` swatches go: in a row just under the limb, as wide as
+    it, facing the camera (which looks along +y); near enough for the leg's low view."""
+    low, high = points.min(axis=0), points.max(axis=0)
+    x = np.linspace(low[0], high[0], count)
+    y = np.full(count, (low[1] + high[1]) / 2)
+    z = np.full(count, low[2] - 0.15 * (high[2] - low[2]))
+    return np.stack([x, y, z], axis=1)
 
 
 def _maps(has_truth: bool, has_estimate: bool) -> list[tuple[str, str]]:
@@ -101,7 +115,7 @@ def _map_views(maps: list[tuple[str, str]], camera: Any) -> list[rrb.Spatial3DVi
         rrb.Spatial3DView(
             name=name,
             origin=WORLD,
-            contents=[f"+ /{root}/**", f"+ /{EE}/**", f"+ /{EE_PATH}"],
+            contents=[f"+ /{root}/**", f"+ /{EE}/**", f"+ /{EE_PATH}", f"+ /{LEGEND}/**"],
             background=[250, 250, 252],
             eye_controls=camera,
             defaults=[grey],

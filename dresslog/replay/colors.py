@@ -47,3 +47,16 @@ def color_scale(forces: np.ndarray | None, quantile: float = 0.995) -> float | N
     if not positive.size:
         return None
     return float(max(np.quantile(positive, quantile), 1e-6))
+
+
+def legend(vmax: float) -> tuple[np.ndarray, list[str]]:
+    """The colour key of a map: colours and their labels, from no force to `vmax` (N).
+
+    Grey for no force, the faintest force, then quarters of `vmax` (each the force its
+    label gives, so its colour is that force's) up to `vmax`, whose colour every stronger
+    force shares.
+    """
+    quarters = [float(f"{q * vmax:.2g}") for q in (0.25, 0.5, 0.75)]
+    forces = np.array([0.0, 1e-6 * vmax, *quarters, vmax])
+    labels = ["0 N", "> 0", *(f"{q:g}" for q in quarters), f"{vmax:.3g} N +"]
+    return heat_colors(forces, vmax), labels

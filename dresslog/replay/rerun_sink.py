@@ -28,7 +28,7 @@ from dresslog.io.files import (
     temporary_path,
 )
 from dresslog.replay import blueprint as bp
-from dresslog.replay.colors import color_scale, heat_colors
+from dresslog.replay.colors import color_scale, heat_colors, legend
 from dresslog.replay.metrics import MetricsSink
 from dresslog.spec import Task, task_of
 from dresslog.trial import contact_magnitudes, contact_vectors
@@ -48,6 +48,8 @@ def application_id(task: Task | str) -> str:
 
 
 POINT_RADIUS = 0.01
+LEGEND_RADIUS = 0.015
+LABEL_COLOR = [255, 255, 255]
 #: Contact arrows grow with force but saturate: ARROW_MAX m long, half of it at ARROW_HALF N.
 ARROW_MAX = 0.08
 ARROW_HALF = 0.5
@@ -212,7 +214,7 @@ class RerunSink:
         return f"{name}-{uuid.uuid4().hex[:8]}"
 
     def _send_static(self) -> None:
-        """Limb points, the garment's and the series' styles and the spec, once."""
+        """Limb points and their colour key, the garment's and series' styles, the spec, once."""
         import rerun as rr
 
         rec, ctx = self.recording, self.context
@@ -227,6 +229,14 @@ class RerunSink:
             ):
                 if present:
                     rec.log(path, rr.Points3D(pts, radii=POINT_RADIUS), static=True)
+            if self.vmax is not None:
+                swatches, labels = legend(self.vmax)
+                at = bp.legend_positions(pts, len(labels))
+                key = rr.Points3D(at, radii=LEGEND_RADIUS, colors=swatches)
+                rec.log(bp.LEGEND, key, static=True)
+                below = at - [0, 0, 2.5 * LEGEND_RADIUS]
+                text = rr.Points3D(below, radii=1e-4, colors=[LABEL_COLOR], labels=labels)
+                rec.log(bp.LEGEND_LABELS, text, static=True)
         if self._edges is not None:
             style = rr.LineStrips3D.from_fields(radii=GARMENT_LINE_RADIUS, colors=GARMENT_COLOR)
             rec.log(bp.GARMENT, style, static=True)
