@@ -486,6 +486,53 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     assert colour_key(rrd)[1][-1] == "0.5 N +"
 
 
+def _camera(rrd: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The force map's camera in the recording's default blueprint: position, look target."""
+    reader = rc.RrdReader(rrd)
+    eye = {}
+    for chunk in reader.store(store=reader.blueprints()[0]).stream():
+        batch = chunk.to_record_batch()
+        for name in ("position", "look_target"):
+            if f"EyeControls3D:{name}" in batch.schema.names:
+                eye[name] = np.array(batch.column(f"EyeControls3D:{name}").to_pylist()[-1][0])
+    return eye["position"], eye["look_target"]
+
+
+def test_a_converted_arm_logs_map_shows_the_gripper_from_its_first_step(tmp_path: Path) -> None:
+    """The robot sample's gripper hangs still 1 s at 0.62 m beyond the elbow, then nears the
+    hand: the map alone (no ground truth) had it 43 degrees off its axis, beyond the 39 of
+    its half width, for 1.5 s. The camera moves aside; the arm keeps its size."""
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+    from dresslog.replay.pipeline import replay_file
+    from dresslog.spec import TrialMetadata
+
+    start = np.array([0.62, 0.0, 0.1])
+    t_ns = np.arange(15, dtype=np.int64) * 10_000_000
+    pose = np.tile([*start, 0.0, 0.0, 0.0, 1.0], (15, 1))
+    pose[:, 0] -= np.linspace(0, 0.05, 15)
+    log = tmp_path / "robot.mcap"
+    with TrialWriter(log, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_wrench(t_ns, np.zeros((15, 6)))
+        writer.write_twist(t_ns, np.zeros((15, 6)))
+        writer.write_pose(t_ns, pose)
+    rrd = tmp_path / "robot.rrd"
+    replay_file(log, model=save_random_model(tmp_path), rrd=rrd)
+    position, target = _camera(rrd)
+    arm = limb_points(build_limb(Task.GOWN)).points
+
+    def bearings(points: np.ndarray) -> np.ndarray:
+        ahead = (target - position) / np.linalg.norm(target - position)
+        right = np.cross(ahead, [0, 0, 1]) / np.linalg.norm(np.cross(ahead, [0, 0, 1]))
+        rays = points - position
+        return np.degrees(np.arctan2(rays @ right, rays @ ahead))
+
+    half_width = np.degrees(np.arctan(np.tan(np.radians(27.5)) * 1.58))
+    assert np.abs(bearings(np.vstack([arm, start]))).max() < half_width
+    seen = bearings(arm)
+    assert seen.max() - seen.min() > 44  # as wide as it was, 45 degrees
+
+
 def test_a_trial_with_no_force_on_the_limb_gets_the_fixed_colour_scale(tmp_path: Path) -> None:
     """A trial cut short before the garment reaches the limb has no force to fit a scale
     to: it gets a converted log's 0.5 N, not color_scale's 1 N placeholder, which the

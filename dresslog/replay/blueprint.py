@@ -57,22 +57,61 @@ def is_long(points: np.ndarray) -> bool:
     return bool(extent[0] > 1.5 * extent[2])
 
 
-def eye(points: np.ndarray, alone: bool = False) -> rrb.EyeControls3D:
+#: A map view alone in a 1920x1080 window is this much wider than tall; the viewer's
+#: camera is 55 degrees tall.
+ALONE_ASPECT = 1.58
+HALF_HEIGHT = np.radians(27.5)
+
+
+def eye(
+    points: np.ndarray, alone: bool = False, start: np.ndarray | None = None
+) -> rrb.EyeControls3D:
     """A camera in front of the limb (looking along +y, z up) that frames all of it.
 
     Far enough that the limb fits its view: half the window wide for an arm, whose two
     maps sit side by side; a wide, low view for a leg, whose maps are stacked; the
     whole of the maps' area when one map is `alone` (no ground truth, or no model).
+    Given the gripper's `start`, a map `alone` moves aside (and back if it must) until
+    the gripper is in view from the first step too: a converted arm log's had it off its
+    edge for the first 1.5 s. Two maps side by side have no width to spare for it.
     """
     import rerun.blueprint as rrb
 
     low, high = points.min(axis=0), points.max(axis=0)
     center = (low + high) / 2
     size = float(np.max(high - low))
+    arm = not is_long(points)
     # from the limb, in limb sizes: (leg, arm), with one view or with two
     distance = (0.9, 1.2) if alone else (0.5, 1.7)
-    position = center + np.array([0.07, -1.0, 0.24]) * distance[not is_long(points)] * size
+    position = center + np.array([0.07, -1.0, 0.24]) * distance[arm] * size
+    if start is not None and alone:
+        # within 90% of the view's half width, as the tangent of the angle off its axis
+        limit = 0.9 * np.tan(HALF_HEIGHT) * ALONE_ASPECT
+        framed = np.vstack([points, np.reshape(start, (1, 3))])
+        position, center = _fit_sideways(framed, position, center, limit)
     return rrb.EyeControls3D(position=position, look_target=center, eye_up=[0, 0, 1])
+
+
+def _fit_sideways(
+    points: np.ndarray, position: np.ndarray, target: np.ndarray, limit: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Move a camera sideways (and back) until `points` lie within `limit` of its axis
+    (tangents, left and right), centred between them."""
+    for _ in range(50):
+        ahead = (target - position) / np.linalg.norm(target - position)
+        right = np.cross(ahead, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        rays = points - position
+        tangent = (rays @ right) / (rays @ ahead)
+        lo, hi = float(tangent.min()), float(tangent.max())
+        if lo >= -limit and hi <= limit:
+            break
+        depth = float((target - position) @ ahead)
+        shift = right * (hi + lo) / 2 * depth
+        position, target = position + shift, target + shift
+        if hi - lo > 2 * limit:
+            position = target + (position - target) * (hi - lo) / (2 * limit)
+    return position, target
 
 
 def legend_positions(points: np.ndarray, count: int) -> np.ndarray:
@@ -141,6 +180,7 @@ def default_blueprint(
     has_truth: bool = True,
     *,
     live: bool = False,
+    gripper_start: np.ndarray | None = None,
 ) -> rrb.Blueprint:
     """Force maps with the 9-D signal beside them; total force, RMSE and spec along the bottom.
 
@@ -150,14 +190,15 @@ def default_blueprint(
     third had labelled the sample's 14 N range "0" only). A recording plays once from its
     first step at the trial's own speed (left to itself, a viewer reading it from a
     stream, as `view --web`'s browser does, opens it at its last step); a `live` view
-    keeps following the newest step.
+    keeps following the newest step. A map alone keeps where the gripper starts in view
+    too, where that is known (a recording's, not a live view's).
     """
     import rerun.blueprint as rrb
 
     maps = _maps(has_truth, has_estimate)
     camera, stacked = None, False
     if limb_points is not None and len(limb_points):
-        camera = eye(limb_points, alone=len(maps) == 1)
+        camera = eye(limb_points, alone=len(maps) == 1, start=gripper_start)
         stacked = is_long(limb_points)
     views = _map_views(maps, camera)
     comparison = [

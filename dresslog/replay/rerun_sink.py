@@ -200,11 +200,18 @@ class RerunSink:
         return FIXED_VMAX if self.path is None else None
 
     def blueprint(self) -> Any:
-        """The default layout, its camera framed on this trial's limb."""
+        """The default layout, its camera framed on this trial's limb and gripper's start."""
         ctx = self.context
         assert ctx is not None
         points = None if ctx.limb_points is None else ctx.limb_points.points
-        return bp.default_blueprint(ctx.has_estimate, points, ctx.has_truth, live=self.path is None)
+        poses = _present(self._buf.pose)[1]  # a file's: every step's, as it closes
+        return bp.default_blueprint(
+            ctx.has_estimate,
+            points,
+            ctx.has_truth,
+            live=self.path is None,
+            gripper_start=None if poses is None or self.path is None else poses[0, :3],
+        )
 
     # -- logging -----------------------------------------------------------------
     def _recording_id(self) -> str:
