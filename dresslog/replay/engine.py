@@ -157,13 +157,23 @@ class Replay:
             sink.abort()
         self._opened = []
 
-    def run(self, context: TrialContext, steps: Iterable[Step]) -> list[StepResult]:
-        """start, push every step, finish; `timings` holds the seconds spent in each part."""
+    def run(
+        self, context: TrialContext, steps: Iterable[Step], *, keep: bool = True
+    ) -> list[StepResult]:
+        """start, push every step, finish; `timings` holds the seconds spent in each part.
+
+        Returns every step's result, or none with `keep=False`: a long log's whole
+        estimate is the sinks' to keep or write as it comes (half a GB for 30 minutes).
+        """
         clock = time.perf_counter
         t0 = clock()
         self.start(context)
+        results: list[StepResult] = []
         try:
-            results = [self.push(step) for step in steps]
+            for step in steps:
+                result = self.push(step)
+                if keep:
+                    results.append(result)
         except BaseException:
             self.abort()
             raise

@@ -145,7 +145,7 @@ def replay_file(
     if mcap is not None:
         all_sinks.append(McapSink(mcap))
     replay = Replay(estimator, all_sinks)
-    replay.run(context, trial_steps(trial))
+    replay.run(context, trial_steps(trial), keep=False)
     timings.update(replay.timings)
     return InferenceReport(
         trial=Path(trial_path),

@@ -2,9 +2,12 @@
 
 Steps are buffered and sent column-wise (`send_columns`, one call per entity
 per flush), never one log call per step per entity: a 700-step trial is a few
-dozen calls. A file sink flushes once at the end, so the colour scale can fit
-the whole trial, and writes under a temporary name that is renamed only when
-complete; a live sink flushes every few steps with a fixed colour scale.
+dozen calls. A file sink writes under a temporary name that is renamed only when
+complete, with the colour scale fitted to the trial's ground truth; it flushes
+every `FILE_FLUSH_STEPS` when it knows that scale from the start (a recorded
+trial, or a converted log without truth), so a half-hour log is never held in
+memory whole, and otherwise once at the end. A live sink flushes every few steps
+with a fixed colour scale.
 Rerun is imported lazily: `import dresslog.replay` stays cheap.
 """
 
@@ -68,6 +71,9 @@ FIXED_VMAX = 0.5
 #: Stamps from here on (ns; September 2001) are wall-clock times, not times since a
 #: start: a converted log that has them gets a `timestamp` timeline too.
 EPOCH_STAMPS = 10**18
+#: Steps a file sink sends at once (10 s at 100 Hz) when its colour scale is known from
+#: the start: a 30-minute log held whole until the end peaked at 3.5 GB.
+FILE_FLUSH_STEPS = 1000
 
 
 @dataclass
@@ -103,6 +109,7 @@ class RerunSink:
         self.path = None if path is None else Path(path)
         self.recording = recording
         self.flush_every = flush_every if recording is not None else None
+        self._flush_file: int | None = None  # a file's, once its colour scale is known
         self.vmax = self._initial_vmax()
         self._metrics = MetricsSink()
         self.context: TrialContext | None = None
@@ -121,8 +128,13 @@ class RerunSink:
         self._path_so_far = []
         self._first_ns: int | None = None
         self._metrics.open(context)
+        self._flush_file = None
         if self.path is not None:
             check_output(self.path, context.source_path, suffix=".rrd")
+            if (vmax := _known_vmax(context)) is not None:  # else fitted as it closes
+                self.vmax = vmax
+                self._start_file()
+                self._flush_file = FILE_FLUSH_STEPS
         else:
             assert self.recording is not None
             self.recording.send_blueprint(self.blueprint())
@@ -142,7 +154,7 @@ class RerunSink:
         b.contacts.append(s.contacts)
         b.garment.append(s.garment)
         self._metrics.write(result)
-        if self.flush_every and len(b) >= self.flush_every:
+        if (every := self.flush_every or self._flush_file) and len(b) >= every:
             self.flush()
 
     def close(self) -> None:
@@ -153,22 +165,17 @@ class RerunSink:
                 self._send_spec()  # now with the trial's RMSE
                 self.recording.flush()
             return
-        import rerun as rr
-
-        self._made = make_folders(self.path)
-        self._tmp = temporary_path(self.path)
-        assert self.context is not None
-        rec = rr.RecordingStream(
-            application_id(self.context.metadata.task), recording_id=self._recording_id()
-        )
-        self.recording = rec
         try:
-            rec.save(self._tmp, default_blueprint=self.blueprint())
-            if self.vmax is None:  # calibrated on the truth, so a poor estimate cannot rescale it
+            if self.recording is None:  # not streamed: the scale fits the truth just seen
+                # calibrated on the truth, so a poor estimate cannot rescale it
                 fitted = color_scale(_present(self._buf.truth)[1])
                 self.vmax = FIXED_VMAX if fitted is None else fitted
+                self._start_file()
+            rec = self.recording
+            assert rec is not None
             self._send_static()
             self.flush()
+            self._send_path()
             rec.flush()
             rec.disconnect()
         except RuntimeError as err:  # Rerun's own I/O errors (disk full, permissions)
@@ -179,6 +186,23 @@ class RerunSink:
             raise
         finally:
             self.recording = None
+
+    def _start_file(self) -> None:
+        """The file's recording stream, saving to a temporary name beside the output."""
+        import rerun as rr
+
+        assert self.path is not None and self.context is not None
+        self._made = make_folders(self.path)
+        self._tmp = temporary_path(self.path)
+        rec = rr.RecordingStream(
+            application_id(self.context.metadata.task), recording_id=self._recording_id()
+        )
+        self.recording = rec
+        try:
+            rec.save(self._tmp, default_blueprint=self.blueprint())
+        except RuntimeError as err:
+            self.abort()
+            raise TrialWriteError(f"could not write the recording: {err}", path=self.path) from None
 
     def commit(self) -> None:
         if self.path is not None and self._tmp is not None:
@@ -389,8 +413,16 @@ class RerunSink:
             self.recording.log(bp.EE, rr.TransformAxes3D(0.08), static=True)
         send(bp.EE, mask, rr.Transform3D.columns(translation=pose[:, :3], quaternion=pose[:, 3:7]))
         self._path_so_far.append(pose[:, :3])
+        if self.path is None:  # a live view's path grows as it flushes; a file's is sent once
+            self._send_path()
+
+    def _send_path(self) -> None:
+        """The gripper's path so far as one static line."""
+        import rerun as rr
+
+        if not self._path_so_far or self.recording is None:
+            return
         path = np.concatenate(self._path_so_far)
-        assert self.recording is not None
         self.recording.log(
             bp.EE_PATH, rr.LineStrips3D([path], colors=[60, 60, 60], radii=0.002), static=True
         )
@@ -425,6 +457,20 @@ class RerunSink:
                 colors=np.tile(np.array([ARROW_COLOR], np.uint8), (len(allc), 1)),
             ).partition(counts),
         )
+
+
+def _known_vmax(context: TrialContext) -> float | None:
+    """A file's colour scale before its first step, where the trial says it: fitted to
+    the ground truth of its steps (as a file sink fits it at the end), or fixed without
+    truth; None where only the steps will tell (no recorded trial)."""
+    if not context.has_truth:
+        return FIXED_VMAX
+    trial = context.trial
+    if trial is None or trial.force_map is None:
+        return None
+    maps = trial.force_map  # the steps' truth: the maps stamped at a step (`trial_steps`)
+    fitted = color_scale(maps.forces[np.isin(maps.t_ns, trial.measurements.t_ns)])
+    return FIXED_VMAX if fitted is None else fitted
 
 
 def _present(items: Sequence[np.ndarray | float | None]) -> tuple[np.ndarray, np.ndarray | None]:
