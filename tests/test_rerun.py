@@ -464,7 +464,7 @@ def _converted_log(tmp_path: Path, steps: int = 15) -> Path:
 def test_a_long_log_is_recorded_in_memory_that_does_not_grow_with_its_length(
     tmp_path: Path,
 ) -> None:
-    """A 30-minute log held whole until the recording closed took 3.5 GB: the steps go
+    """A 30-minute log held whole until the outputs closed took 3.5 GB: the steps go
     out as they come, so four times the steps take about the memory of one part."""
     import tracemalloc
 
@@ -474,13 +474,16 @@ def test_a_long_log_is_recorded_in_memory_that_does_not_grow_with_its_length(
     peaks = []
     for steps in (1000, 4000):
         log = _converted_log(tmp_path, steps)
+        rrd, copy = tmp_path / f"{steps}.rrd", tmp_path / f"estimate-{steps}.mcap"
         tracemalloc.start()
         try:
-            replay_file(log, model=model, rrd=tmp_path / f"{steps}.rrd")
+            replay_file(log, model=model, rrd=rrd, mcap=copy)
             peaks.append(tracemalloc.get_traced_memory()[1])
         finally:
             tracemalloc.stop()
-        assert len(column(temporal(tmp_path / f"{steps}.rrd")[bp.ESTIMATE_LIMB], bp.STEP)) == steps
+        assert len(column(temporal(rrd)[bp.ESTIMATE_LIMB], bp.STEP)) == steps
+        estimate = read_trial(copy).estimate
+        assert estimate is not None and len(estimate.t_ns) == steps
     assert peaks[1] < 1.5 * peaks[0], [f"{p / 1e6:.1f} MB" for p in peaks]
 
 

@@ -2,11 +2,14 @@
 
 The copy is written through `TrialWriter` from the decoded trial, so it is a
 well-formed dresslog file (same metadata, every stream, new estimate channel
-replacing any old one) and appears under its name only when complete.
+replacing any old one) and appears under its name only when complete. The trial
+is copied as the replay opens and the estimate written every `FLUSH_STEPS`, so a
+long log's estimate is never held whole.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -22,14 +25,17 @@ from dresslog.trial import LimbPoints, Trial
 if TYPE_CHECKING:
     from dresslog.replay.engine import StepResult, TrialContext
 
+#: Estimates written at once (10 s at 100 Hz): a 30-minute log's, held to the end and
+#: encoded at once, took over a GB.
+FLUSH_STEPS = 1000
+
 
 class McapSink:
-    """Buffer the estimates; on close write the trial and the estimate channel in bulk."""
+    """Copy the trial as it opens; write the estimates in blocks as they come."""
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self._trial: Trial | None = None
-        self._limb: LimbPoints | None = None
+        self._writer: TrialWriter | None = None  # the copy being written, until `close`
         self._t_ns: list[int] = []
         self._forces: list[np.ndarray] = []
         self._contact: list[np.ndarray] = []
@@ -45,9 +51,10 @@ class McapSink:
                 "another name (or folder), or delete it first",
                 path=self.path,
             )
-        self._trial = context.trial
-        self._limb = context.limb_points
+        trial, limb = context.trial, context.limb_points
         self._t_ns, self._forces, self._contact = [], [], []
+        self._writer = TrialWriter(self.path, trial.metadata, overwrite=True)
+        self._writing(lambda writer: copy_trial(writer.open(), trial, limb))
 
     def write(self, result: StepResult) -> None:
         if result.estimate is None or result.contact is None:
@@ -55,25 +62,38 @@ class McapSink:
         self._t_ns.append(result.step.t_ns)
         self._forces.append(result.estimate)
         self._contact.append(result.contact)
+        if len(self._t_ns) >= FLUSH_STEPS:
+            self._writing(self._flush)
 
     def close(self) -> None:
-        trial = self._trial
-        assert trial is not None
-        writer = TrialWriter(self.path, trial.metadata, overwrite=True)
-        try:
-            writer.open()
-            copy_trial(writer, trial, self._limb)
-            if self._t_ns:
-                writer.write_force_map(
-                    np.asarray(self._t_ns, dtype=np.int64),
-                    np.stack(self._forces),
-                    np.stack(self._contact),
-                    estimate=True,
-                )
+        def finish(writer: TrialWriter) -> None:
+            self._flush(writer)
             writer.finish()  # named by `commit`, beside the other outputs
-            self._finished = writer
+
+        self._writing(finish)
+        self._finished, self._writer = self._writer, None
+
+    def _flush(self, writer: TrialWriter) -> None:
+        """The estimates received since the last block, to the copy."""
+        if self._t_ns:
+            t_ns, forces, contact = self._t_ns, self._forces, self._contact
+            self._t_ns, self._forces, self._contact = [], [], []
+            writer.write_force_map(
+                np.asarray(t_ns, dtype=np.int64),
+                np.stack(forces),
+                np.stack(contact),
+                estimate=True,
+            )
+
+    def _writing(self, work: Callable[[TrialWriter], object]) -> None:
+        """Do `work` on the open copy; if it fails, nothing of the copy is left."""
+        writer = self._writer
+        assert writer is not None
+        try:
+            work(writer)
         except BaseException as err:  # an interrupt while finishing included
             writer.abort()
+            self._writer = None
             writer.name_a_full_disk(err)
             raise
 
@@ -83,11 +103,12 @@ class McapSink:
             self._finished = None
 
     def abort(self) -> None:
-        """Drop the finished copy not yet named, and the folders made for it; `close`
-        removes a half-written one itself."""
-        if self._finished is not None:
-            self._finished.abort()
-        self._finished = None
+        """Drop the copy, half-written or finished and not yet named, and the folders
+        made for it."""
+        for writer in (self._writer, self._finished):
+            if writer is not None:
+                writer.abort()
+        self._writer = self._finished = None
 
 
 def _holds_an_estimate(path: Path) -> bool:
