@@ -53,7 +53,9 @@ def infer(
             click.echo("  " + ", ".join(f"{k} {v * 1e3:.0f} ms" for k, v in times))
 
     try:  # -o and --mcap-out name a file; with several trials, a folder
-        batch = replay_files(trials, model=model, rrd=output, mcap=mcap_out, on_trial=show)
+        batch = replay_files(
+            trials, model=model, rrd=output, mcap=mcap_out, on_trial=show, progress=True
+        )
     except TrialWriteError as err:  # only the folders, refused before any trial
         raise click.UsageError(error_line(err)) from None
     if len(trials) > 1:

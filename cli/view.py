@@ -33,6 +33,6 @@ def view(path: Path, model: Path | None, web: bool, save: Path | None, port: int
     if save is not None:
         if web:
             raise click.UsageError("--save writes a file and opens no viewer; drop --web")
-        click.echo(save_rrd(path, save, model=model))
+        click.echo(save_rrd(path, save, model=model, progress=True))
         return
-    view_file(path, model=model, web=web, web_port=port, echo=click.echo)
+    view_file(path, model=model, web=web, web_port=port, echo=click.echo, progress=True)

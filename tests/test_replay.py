@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import io
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -859,3 +861,20 @@ def test_the_batch_mean_leaves_out_trials_without_ground_truth_and_says_so() -> 
     assert BatchReport([log, log]).summary() == (
         "2 trials replayed, none with ground truth: no RMSE to average"
     )
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_infer_shows_the_steps_replayed_on_a_terminal(make_trial, tmp_path, monkeypatch) -> None:
+    """A 30-minute log takes a minute to replay: a progress bar says how far it is."""
+    from dresslog.replay.batch import replay_files
+
+    trial, _ = make_trial(Task.GOWN, STEPS)
+    model = save_random_model(tmp_path)
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    batch = replay_files([trial], model=model, rrd=tmp_path / "t.rrd", progress=True)
+    assert batch.reports and f"{trial.name}:   0%|          | 0/{STEPS} [" in terminal.getvalue()

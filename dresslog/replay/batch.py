@@ -134,6 +134,7 @@ def replay_files(
     rrd: str | Path | None = None,
     mcap: str | Path | None = None,
     on_trial: Callable[[InferenceReport | TrialFailure], None] | None = None,
+    progress: bool = False,
 ) -> BatchReport:
     """Replay each trial into its `.rrd`, and with `mcap` into a copy of it with the estimate.
 
@@ -144,7 +145,8 @@ def replay_files(
     `OSError` is its failure and the next trial runs; `on_trial` hears each outcome as it
     comes. A given `model` that does not load fails the batch before any trial when there
     are several (it would fail each alike); with one trial, what is wrong with the trial is
-    still said first.
+    still said first. `progress` draws each trial's steps on a progress bar when stderr is
+    a terminal.
     """
     paths = [Path(t) for t in trials]
     _check_given_once(paths)
@@ -158,7 +160,9 @@ def replay_files(
     for trial, out, copy in zip(paths, rrds, mcaps, strict=True):
         outcome: InferenceReport | TrialFailure
         try:
-            outcome = replay_file(trial, model=model, rrd=out, mcap=copy, models=models)
+            outcome = replay_file(
+                trial, model=model, rrd=out, mcap=copy, models=models, progress=progress
+            )
             batch.reports.append(outcome)
         except (DresslogError, OSError) as err:
             outcome = TrialFailure(trial, err)

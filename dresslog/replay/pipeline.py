@@ -11,6 +11,7 @@ import time
 import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from dresslog.errors import DresslogWarning, TrialFormatError
 from dresslog.io import well_known as wk
@@ -18,7 +19,14 @@ from dresslog.io.files import check_output
 from dresslog.io.reader import read_trial
 from dresslog.model.bundled import resolve_model
 from dresslog.model.files import LoadedModel
-from dresslog.replay.engine import Replay, Sink, trial_context, trial_steps
+from dresslog.replay.engine import (
+    Replay,
+    Sink,
+    StepResult,
+    TrialContext,
+    trial_context,
+    trial_steps,
+)
 from dresslog.replay.mcap_sink import McapSink
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.replay.rerun_sink import RerunSink
@@ -84,6 +92,37 @@ def step_rate_problem(trial: Trial, path: Path) -> TrialFormatError | None:
     return None
 
 
+class ProgressBar:
+    """A sink drawing the replayed steps on a progress bar (on a terminal only), gone when
+    done: a 7 s trial takes a second, a 30-minute log a minute with nothing else to show."""
+
+    def __init__(self) -> None:
+        self._bar: Any = None
+
+    def open(self, context: TrialContext) -> None:
+        from tqdm import tqdm
+
+        trial, path = context.trial, context.source_path
+        total = len(trial.measurements) if trial is not None else None
+        # disable=None: no bar when stderr is not a terminal (a log file, a test)
+        name = path.name if path is not None else None
+        self._bar = tqdm(total=total, unit="step", desc=name, disable=None, leave=False)
+
+    def write(self, result: StepResult) -> None:
+        self._bar.update()
+
+    def close(self) -> None:
+        self.abort()
+
+    def commit(self) -> None:
+        pass
+
+    def abort(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
 def replay_file(
     trial_path: str | Path,
     *,
@@ -93,8 +132,11 @@ def replay_file(
     mcap: str | Path | None = None,
     sinks: tuple[Sink, ...] = (),
     models: dict[Path, LoadedModel] | None = None,
+    progress: bool = False,
 ) -> InferenceReport:
     """Stream a trial file step by step through a model into .rrd / MCAP / extra sinks.
+
+    `progress` draws the steps on a progress bar when stderr is a terminal.
 
     With `require_model=False` and no model given or bundled, a trial with ground
     truth is replayed with it alone (what `dresslog view` shows without a model), as
@@ -139,7 +181,7 @@ def replay_file(
     timings["load_model"] = clock() - t0
 
     metrics = MetricsSink()
-    all_sinks: list[Sink] = [metrics, *sinks]
+    all_sinks: list[Sink] = [metrics, *sinks, *([ProgressBar()] if progress else [])]
     if rrd is not None:
         all_sinks.append(RerunSink(rrd))
     if mcap is not None:

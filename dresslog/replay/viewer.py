@@ -121,8 +121,11 @@ def no_display(instead: str, path: Path | None = None) -> DresslogError:
     )
 
 
-def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = None) -> str:
-    """Write what `view` would show to `out`; returns a one-line description."""
+def save_rrd(
+    path: str | Path, out: str | Path, *, model: str | Path | None = None, progress: bool = False
+) -> str:
+    """Write what `view` would show to `out`; returns a one-line description. `progress`
+    draws the replayed steps on a progress bar when stderr is a terminal."""
     path, out = Path(path), Path(out)
     check_output(out, suffix=".rrd")
     if is_rrd(path, model):
@@ -134,7 +137,7 @@ def save_rrd(path: str | Path, out: str | Path, *, model: str | Path | None = No
             raise TrialWriteError(f"could not copy: {err.strerror}", path=out) from None
         return f"{path} -> {out}"
     report: InferenceReport = replay_file(
-        path, model=model, require_model=model is not None, rrd=out
+        path, model=model, require_model=model is not None, rrd=out, progress=progress
     )
     return report.summary()
 
@@ -352,8 +355,11 @@ def view_file(
     web: bool = False,
     web_port: int | None = None,
     echo: Callable[[str], None] = print,
+    progress: bool = False,
 ) -> None:
     """Open `path` (MCAP trial or .rrd) in the viewer; blocks until it is closed.
+
+    `progress` draws a trial's replayed steps on a progress bar when stderr is a terminal.
 
     Without `web_port` the web viewer takes 9090, or a free port if that one is in use
     (a second `view --web`); its data port is always a free one. Ctrl-C, SIGTERM or
@@ -380,7 +386,7 @@ def view_file(
         if not recording:  # a recording is served as it is: no folder for it
             tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="dresslog-view-"))
             rrd = Path(tmp) / f"{path.stem}.rrd"
-            echo(save_rrd(path, rrd, model=model))
+            echo(save_rrd(path, rrd, model=model, progress=progress))
         web_port = web_port or _free_port(9090)
         grpc_port = _free_port()
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
