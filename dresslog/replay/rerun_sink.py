@@ -228,14 +228,25 @@ class RerunSink:
         ctx = self.context
         assert ctx is not None
         points = None if ctx.limb_points is None else ctx.limb_points.points
-        poses = _present(self._buf.pose)[1]  # a file's: every step's, as it closes
         return bp.default_blueprint(
             ctx.has_estimate,
             points,
             ctx.has_truth,
             live=self.path is None,
-            gripper_start=None if poses is None or self.path is None else poses[0, :3],
+            gripper_start=self._gripper_start(),
         )
+
+    def _gripper_start(self) -> np.ndarray | None:
+        """Where a file's gripper starts: from its trial, as a streamed file's layout is
+        sent before any step, else from the steps; a live view's camera does without."""
+        ctx = self.context
+        if self.path is None or ctx is None:
+            return None
+        trial = ctx.trial
+        if trial is not None and trial.pose is not None and len(trial.pose):
+            return np.asarray(trial.pose.values[0, :3])
+        poses = _present(self._buf.pose)[1]
+        return None if poses is None else poses[0, :3]
 
     # -- logging -----------------------------------------------------------------
     def _recording_id(self) -> str:
