@@ -8,7 +8,9 @@ Public API
 ``plot_training(path, card)``: training and validation loss per epoch from a model card's
     ``history``, log scale, the kept epoch marked when ``keep_best`` chose it (``dresslog
     train`` writes it beside the model as ``training.png``).
-``plot_sweep`` and ``plot_training`` write atomically and import matplotlib (Agg, no
+``training_figure(card)``: the same as a matplotlib Figure, to show in a notebook or read
+    back.
+``plot_sweep`` and ``plot_training`` write atomically; all import matplotlib (Agg, no
 display) only when called.
 """
 
@@ -42,12 +44,17 @@ def _save(fig: Any, path: str | Path) -> None:
     _pyplot().close(fig)
 
 
-def plot_training(path: str | Path, card: ModelCard) -> None:
-    """The learning curve: is the model still improving, over-fitting, or done?"""
+def training_figure(card: ModelCard) -> Any:
+    """The learning curve as a matplotlib Figure: is the model still improving, over-fitting,
+    or done? ``plot_training`` saves it."""
     plt = _pyplot()
+    from matplotlib.ticker import MaxNLocator
+
     epochs = [e.epoch for e in card.history]
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(epochs, [e.train_loss for e in card.history], "o-", ms=3, label="training")
+    # without a validation split the legend says why there is no second line
+    train_label = "training" if card.data.n_val else "training (no validation split)"
+    ax.plot(epochs, [e.train_loss for e in card.history], "o-", ms=3, label=train_label)
     scored = [e for e in card.history if e.val_loss is not None]
     if scored:
         ax.plot(
@@ -57,15 +64,26 @@ def plot_training(path: str | Path, card: ModelCard) -> None:
     if kept is not None:
         ax.axvline(kept, color="gray", ls="--", label=f"kept (epoch {kept:g})")
     ax.set_yscale("log")
+    if len(epochs) <= 10:  # one tick per epoch: one epoch alone got 0.96, 0.98, ...
+        ax.set_xticks(epochs)
+    else:
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True, steps=[1, 2, 5, 10]))
     ax.set_xlabel("epoch")
     ax.set_ylabel("loss (MSE of force and contact map)")
     hp = card.hyperparameters
+    held = f", {card.data.n_val} validation" if card.data.n_val else ""
     ax.set_title(
-        f"{card.task.value}: {card.data.n_train} sequences, {card.layers}x{card.hidden} LSTM, "
-        f"lr {hp.lr:g} {hp.lr_schedule}"
+        f"Learning curve: {card.task.value}, {card.layers}x{card.hidden} LSTM, "
+        f"lr {hp.lr:g} {hp.lr_schedule}\n{card.data.n_train} training sequences{held}",
+        fontsize="medium",
     )
     ax.legend()
-    _save(fig, path)
+    return fig
+
+
+def plot_training(path: str | Path, card: ModelCard) -> None:
+    """Write the learning curve (``training_figure``) as a PNG."""
+    _save(training_figure(card), path)
 
 
 def sweep_lines(report: SweepReport, kind: str) -> dict[str, tuple[list[float], ...]]:

@@ -15,6 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import matplotlib.image
+import matplotlib.pyplot
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -33,7 +34,7 @@ from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.files import EpochRecord, Hyperparameters, ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
-from dresslog.plots import plot_sweep, sweep_lines
+from dresslog.plots import plot_sweep, sweep_lines, training_figure
 from dresslog.spec import Task
 from tests.conftest import SAMPLES, prints_warnings
 
@@ -770,6 +771,47 @@ def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -
     assert sweep_lines(report, "speed") == {"": ([0.2], [0.02], [0.02])}
     plot_sweep(tmp_path / "sweep.png", report)
     assert matplotlib.image.imread(tmp_path / "sweep.png").std() > 0.05
+
+
+def _card(epochs: int, n_val: int, kept: int | None = None) -> ModelCard:
+    card = load_model(SAMPLES / "models" / "gown").card
+    history = [
+        e.model_copy(update={"val_loss": e.val_loss if n_val else None})
+        for e in card.history[:epochs]
+    ]
+    metrics = {**card.metrics, "kept_epoch": kept} if kept else {}
+    return card.model_copy(
+        update={
+            "history": history,
+            "data": card.data.model_copy(update={"n_val": n_val}),
+            "metrics": metrics,
+        }
+    )
+
+
+def test_learning_curve_ticks_whole_epochs_and_says_when_nothing_was_validated() -> None:
+    """One epoch got ticks at 0.96, 0.98, ... and three at 1.25, 1.5, ...; without a
+    validation split the plot showed one line with no word of the other."""
+    one = training_figure(_card(1, 0))
+    (ax,) = one.axes
+    assert list(ax.get_xticks()) == [1]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["training (no validation split)"]
+    assert (
+        ax.get_title()
+        == "Learning curve: gown, 3x100 LSTM, lr 0.001 cosine\n2700 training sequences"
+    )
+    (ax,) = training_figure(_card(3, 300, kept=2)).axes
+    assert list(ax.get_xticks()) == [1, 2, 3]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "training",
+        "validation",
+        "kept (epoch 2)",
+    ]
+    assert ax.get_title().endswith("\n2700 training sequences, 300 validation")
+    (ax,) = training_figure(_card(60, 300, kept=43)).axes
+    ticks = ax.get_xticks()
+    assert all(t == int(t) for t in ticks) and 4 <= len(ticks) <= 10, ticks
+    matplotlib.pyplot.close("all")
 
 
 def test_the_sweep_table_csv_and_json_give_each_settings_ratio_to_all_zero(
