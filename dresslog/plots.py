@@ -3,13 +3,15 @@
 Public API
 ----------
 ``plot_sweep(path, report)``: RMSE against speed and against limb rotation, each with the
-    all-zero estimate of the same sequences and the in-range line (``dresslog sweep``).
+    all-zero estimate of the same sequences, the in-range line, the training speeds shaded,
+    a right-hand scale in x in-range and the paper's x in-range where ``PAPER_SWEEP`` has
+    it for a setting swept (``dresslog sweep``).
 ``sweep_lines(report, kind)``: the points ``plot_sweep`` joins, per axis.
 ``plot_training(path, card)``: training and validation loss per epoch from a model card's
     ``history``, log scale, the kept epoch marked when ``keep_best`` chose it (``dresslog
     train`` writes it beside the model as ``training.png``).
-``training_figure(card)``: the same as a matplotlib Figure, to show in a notebook or read
-    back.
+``sweep_figure(report)``, ``training_figure(card)``: the same as matplotlib Figures, to
+    show in a notebook or read back.
 ``plot_sweep`` and ``plot_training`` write atomically; all import matplotlib (Agg, no
 display) only when called.
 """
@@ -21,7 +23,20 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from dresslog.io.files import atomic_path
-from dresslog.spec import PAPER_AXES
+from dresslog.sim.specs import SPEED_RANGE
+from dresslog.spec import PAPER_AXES, Task
+
+#: The paper's RMSE over its in-range RMSE where the README's sweep table quotes one, by
+#: (kind, our axis, value): the gown's at 20 cm/s, forearm -15 deg about its Y (our z) and
+#: about its Z (our y); the shorts' at 30 cm/s.
+PAPER_SWEEP: dict[str, dict[tuple[str, str, float], float]] = {
+    "gown": {
+        ("speed", "", 0.20): 4.4,
+        ("rotation", "z", -15.0): 1.65,
+        ("rotation", "y", -15.0): 0.82,
+    },
+    "shorts": {("speed", "", 0.30): 3.6},
+}
 
 if TYPE_CHECKING:
     from dresslog.experiments.sweeps import SweepReport
@@ -103,26 +118,67 @@ def sweep_lines(report: SweepReport, kind: str) -> dict[str, tuple[list[float], 
     return lines
 
 
-def plot_sweep(path: str | Path, report: SweepReport) -> None:
-    """Fig. 12 (RMSE against speed) and Fig. 13 (against rotation, one line per axis)."""
+def sweep_figure(report: SweepReport) -> Any:
+    """Fig. 12 (RMSE against speed) and Fig. 13 (against rotation, one line per axis) as a
+    matplotlib Figure; ``plot_sweep`` saves it."""
     plt = _pyplot()
     kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
-    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 4.4), squeeze=False)
+    fig, axes = plt.subplots(1, len(kinds), figsize=(5.5 * len(kinds), 4.6), squeeze=False)
+    base = report.baseline_rmse
+    paper = PAPER_SWEEP.get(report.task, {})
     for ax, kind in zip(axes[0], kinds, strict=True):
         lines = sweep_lines(report, kind)
+        if kind == "speed" and report.task in SPEED_RANGE:
+            low, high = SPEED_RANGE[Task(report.task)]
+            ax.axvspan(low, high, color="gray", alpha=0.12, lw=0, label="training speeds")
+        colours = {}
         for axis, (values, rmse, zero) in lines.items():
-            label = f"about {axis} (paper's {PAPER_AXES[axis]})" if axis else "model"
-            (drawn,) = ax.plot(values, rmse, "o-", label=label)
+            (drawn,) = ax.plot(values, rmse, "o-", label=_name(axis))
+            colours[axis] = drawn.get_color()
             # the all-zero estimate of the same sequences: how much force there was to find
-            zero_label = f"{label}, all-zero" if axis else "all-zero estimate"
-            ax.plot(values, zero, "x:", color=drawn.get_color(), label=zero_label)
-        ax.axhline(report.baseline_rmse, color="gray", ls="--", label="in-range")
+            zero_label = f"{_name(axis)}, all-zero" if axis else "all-zero estimate"
+            ax.plot(values, zero, "x:", color=colours[axis], label=zero_label)
+        ax.axhline(base, color="gray", ls="--", label="in-range")
+        # the paper's x in-range at the settings swept here, on the right-hand scale
+        for (k, axis, value), ratio in paper.items():
+            if k == kind and value in _swept(lines, axis) and base > 0:
+                ax.plot(value, ratio * base, "*", ms=12, mec="black", color=colours[axis],
+                        label=_paper_name(axis))  # fmt: skip
+        if base > 0:
+            right = ax.secondary_yaxis("right", functions=(lambda y: y / base, lambda r: r * base))
+            right.set_ylabel("x in-range RMSE")
         swept = sorted({v for values, *_ in lines.values() for v in values})
+        if kind == "speed" and report.task in SPEED_RANGE:  # the span's ends named too
+            swept = sorted({*swept, *SPEED_RANGE[Task(report.task)]})
         if len(swept) <= 8:  # ticks at the settings: one speed alone got a crowd of them
             ax.set_xticks(swept)
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
         ax.set_ylabel("RMSE (N)")
-        ax.set_title(f"{report.task}, {report.n} sequences per setting")
+        ax.set_title(f"against {'speed (Fig. 12)' if kind == 'speed' else 'rotation (Fig. 13)'}")
         # below the axes: inside, it hides the lines it names
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize="small")
-    _save(fig, path)
+    name = Path(report.model).name
+    model = name if name == report.task else f"{name} ({report.task})"
+    fig.suptitle(f"Generalisation sweep of model {model}, {report.n} sequences per setting")
+    return fig
+
+
+def _name(axis: str) -> str:
+    """A sweep line's name in the legend: the model's, or its rotation axis's."""
+    return f"about {axis} (paper's {PAPER_AXES[axis]})" if axis else "model"
+
+
+def _paper_name(axis: str) -> str:
+    """The legend's name for the paper's x in-range at a setting."""
+    return f"about {axis}, the paper (x in-range)" if axis else "the paper (x in-range)"
+
+
+def _swept(lines: dict[str, tuple[list[float], ...]], axis: str) -> set[float]:
+    """The values measured (not gaps) on one axis's line."""
+    values, rmse, _ = lines.get(axis, ([], [], []))
+    return {v for v, r in zip(values, rmse, strict=True) if not math.isnan(r)}
+
+
+def plot_sweep(path: str | Path, report: SweepReport) -> None:
+    """Write the sweep's figure (``sweep_figure``) as a PNG."""
+    _save(sweep_figure(report), path)

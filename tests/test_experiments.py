@@ -34,7 +34,7 @@ from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.files import EpochRecord, Hyperparameters, ModelCard, load_model, save_model
 from dresslog.model.numpy_lstm import expected_shapes
-from dresslog.plots import plot_sweep, sweep_lines, training_figure
+from dresslog.plots import plot_sweep, sweep_figure, sweep_lines, training_figure
 from dresslog.spec import Task
 from tests.conftest import SAMPLES, prints_warnings
 
@@ -771,6 +771,43 @@ def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -
     assert sweep_lines(report, "speed") == {"": ([0.2], [0.02], [0.02])}
     plot_sweep(tmp_path / "sweep.png", report)
     assert matplotlib.image.imread(tmp_path / "sweep.png").std() > 0.05
+
+
+def test_sweep_plot_names_its_model_and_marks_the_training_speeds_and_the_papers_figure() -> None:
+    """Both panels were titled "gown, 8 sequences per setting", the model unnamed; nothing
+    showed which speeds were in training nor where the paper's model went (4.4x in-range
+    at 20 cm/s), which the README's table sets beside ours."""
+    settings = [
+        replace(s, scores=Scores(8, 0.01, 0.02, 0.5, 0.8, 0.6, 0.3, 0.4))
+        for s in sweep_settings(Task.GOWN, [0.2], ["z:-15", "y:-15"])
+    ]
+    report = SweepReport("gown", "runs/models/gown-big", 8, 0.005, settings)
+    fig = sweep_figure(report)
+    speed, rotation = fig.axes[:2]
+    assert fig.get_suptitle() == (
+        "Generalisation sweep of model gown-big (gown), 8 sequences per setting"
+    )
+    assert [speed.get_title(), rotation.get_title()] == [
+        "against speed (Fig. 12)",
+        "against rotation (Fig. 13)",
+    ]
+    (span,) = speed.patches  # 0.10-0.15 m/s, the gown's training speeds
+    assert np.allclose([span.get_x(), span.get_x() + span.get_width()], [0.10, 0.15])
+    assert list(speed.get_xticks()) == [0.10, 0.15, 0.2]  # a lone speed beside them
+    papers = {
+        line.get_label(): (list(line.get_xdata()), list(line.get_ydata()))
+        for ax in (speed, rotation)
+        for line in ax.get_lines()
+        if "the paper" in str(line.get_label())
+    }
+    assert papers == {
+        "the paper (x in-range)": ([0.2], [pytest.approx(4.4 * 0.005)]),
+        "about z, the paper (x in-range)": ([-15.0], [pytest.approx(1.65 * 0.005)]),
+        "about y, the paper (x in-range)": ([-15.0], [pytest.approx(0.82 * 0.005)]),
+    }
+    right = [a.get_ylabel() for ax in (speed, rotation) for a in ax.child_axes]
+    assert right == ["x in-range RMSE"] * 2  # a scale in x in-range beside each panel
+    matplotlib.pyplot.close(fig)
 
 
 def _card(epochs: int, n_val: int, kept: int | None = None) -> ModelCard:
