@@ -1,11 +1,11 @@
 """`dresslog convert INPUT -o trial.mcap --task gown|shorts [topics, CSV columns, tare, rotate,
-translate]`."""
+translate, window]`."""
 
 from __future__ import annotations
 
 import click
 
-from dresslog.convert.convert import MAX_SENSOR_OFFSET, MAX_TRANSLATE
+from dresslog.convert.convert import MAX_SENSOR_OFFSET, MAX_TRANSLATE, window_mistake
 
 from .common import reports_errors
 from .options import FINITE, FiniteRange, task_option
@@ -52,6 +52,11 @@ from .options import FINITE, FiniteRange, task_option
 @click.option("--tare", "tare_s", type=FiniteRange(min=0), default=0.0, metavar="SECONDS",
               show_default=True,
               help="Subtract the mean wrench of the first SECONDS, s; 0: no tare.")  # fmt: skip
+@click.option("--start", "start_s", type=FiniteRange(min=0), default=0.0, metavar="SECONDS",
+              show_default=True, help="Keep the steps from SECONDS (from the first step every "
+              "stream covers), e.g. one trial of a session.")  # fmt: skip
+@click.option("--end", "end_s", type=FiniteRange(min=0), metavar="SECONDS",
+              show_default="the log's end", help="Keep the steps before SECONDS.")  # fmt: skip
 @click.option("--overwrite", is_flag=True, help="Replace OUTPUT if it exists.")
 @reports_errors
 def convert(source: str, output: str, columns: tuple[str, ...], **options: object) -> None:
@@ -66,6 +71,10 @@ def convert(source: str, output: str, columns: tuple[str, ...], **options: objec
             f"--{mount[0].replace('_', '-')} places a sensor on the gripper: use it with "
             "--wrench-frame pose (a sensor fixed in the world is turned with --rotate)"
         )
+    if options["end_s"] is not None and (
+        message := window_mistake(options["start_s"], options["end_s"])  # type: ignore[arg-type]
+    ):
+        raise click.UsageError(message)
     mapping: dict[str, str] = {}
     for role, name in (c.split("=", 1) for c in columns):
         if mapping.setdefault(role, name) != name:  # else the last would win unsaid

@@ -16,6 +16,7 @@ from dresslog.convert.csv import role_of
 from dresslog.convert.units import value_scale
 from dresslog.errors import ConversionError
 from dresslog.io.reader import TrialReader, read_trial
+from dresslog.io.summary import format_summary, summarize
 from tests.conftest import SAMPLES, prints_warnings
 from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
 
@@ -656,6 +657,18 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
         (["--column", "fq=Fx (N)"], 1, "unknown column role 'fq'"),
         (["--tare", "-1"], 2, "Invalid value for '--tare': -1.0 is not in the range x>=0"),
         (["--column", "fx"], 2, "Invalid value for '--column': 'fx' is not ROLE=HEADER"),
+        (
+            ["--end", "5"],
+            1,
+            "--end 5 s is past the log's end: every stream covers 0-1.99 s of it; give --end "
+            "1.99 or less",
+        ),
+        (["--start", "1.98"], 1, "--start 1.98 s leaves less than two steps of the log"),
+        (["--start", "1", "--tare", "1.5"], 1, "tare of 1.5 s is longer than the window (0.98 s)"),
+        (["--start", "1", "--end", "0.5"], 2, "--start 1 s is not before --end 0.5 s; give a"),
+        (["--start", "1", "--end", "1.01"], 2, "holds less than two 100 Hz steps; give a window"),
+        (["--start", "-1"], 2, "Invalid value for '--start': -1.0 is not in the range x>=0"),
+        (["--end", "nan"], 2, "Invalid value for '--end': nan is not in the range x>=0"),
     ],
     ids=[
         "rotate",
@@ -665,6 +678,13 @@ def test_times_read_in_too_large_a_unit_point_to_time_unit(tmp_path: Path) -> No
         "unknown-role",
         "negative-tare",
         "column-without-header",
+        "end-past-the-log",
+        "start-at-the-end",
+        "tare-longer-than-the-window",
+        "start-after-end",
+        "window-of-one-step",
+        "negative-start",
+        "nan-end",
     ],
 )
 def test_bad_convert_options_are_one_line_or_usage_and_write_nothing(
@@ -712,6 +732,64 @@ def test_a_log_spanning_more_than_a_trial_is_refused_not_gridded(tmp_path: Path)
     with pytest.raises(ConversionError, match=r"the log spans 1\.7e\+09 s .* more than the 3600 s"):
         convert(path, tmp_path / "t.mcap", "gown")
     assert list(tmp_path.iterdir()) == [path]
+
+
+def test_a_window_converts_as_the_log_cut_to_it_beforehand(tmp_path: Path) -> None:
+    """--start 1 --end 3 of a 4 s log is the trial of its 1-3 s, times from 0."""
+    t = np.arange(4000) / 1000.0
+    whole = _with_velocity(tmp_path / "whole.csv", t)
+    cut = _with_velocity(tmp_path / "cut.csv", t[(t >= 1.0) & (t <= 3.001)])  # a bin spare
+    report = convert(whole, tmp_path / "w.mcap", "gown", start_s=1, end_s=3)
+    convert(cut, tmp_path / "c.mcap", "gown")
+    assert (report.steps, report.duration_s) == (200, 2.0)
+    assert report.source["processing"]["window_s"] == [1.0, 3.0]
+    summary = format_summary(summarize(tmp_path / "w.mcap"))
+    assert "    kept    1-3 s of the time every stream covers" in summary.splitlines()
+    with TrialReader(tmp_path / "w.mcap") as window, TrialReader(tmp_path / "c.mcap") as part:
+        assert window.wrench.t_ns[0] == 0
+        np.testing.assert_array_equal(window.wrench.t_ns, part.wrench.t_ns)
+        np.testing.assert_allclose(window.wrench.values, part.wrench.values, atol=1e-9)
+        np.testing.assert_allclose(window.twist.values, part.twist.values, atol=1e-9)
+
+
+def test_the_tare_is_taken_from_the_windows_start(tmp_path: Path) -> None:
+    """The garment hangs still at the start of the dressing, not of the session."""
+    t = np.arange(4000) / 1000.0
+    velocity = np.where((t >= 1.0) & (t < 1.6), 0.0, 0.2)  # still for 0.6 s from 1 s
+    names = ["time", "fx", "fy", "fz", "tx", "ty", "tz", "vx", "vy", "vz"]
+    source = write_csv(tmp_path / "s.csv", names, [t, *wrench(t).T, 0 * t, velocity, 0 * t])
+    with pytest.warns(ConversionWarning, match=r"start is 5\.86 N, .* --tare 0\.6 \(the"):
+        convert(source, tmp_path / "raw.mcap", "gown", start_s=1, end_s=3)
+    convert(source, tmp_path / "tared.mcap", "gown", start_s=1, end_s=3, tare_s=0.5)
+    raw, tared = read_trial(tmp_path / "raw.mcap"), read_trial(tmp_path / "tared.mcap")
+    offset = raw.wrench.values[:50].mean(axis=0)  # the window's first 0.5 s
+    np.testing.assert_allclose(tared.wrench.values, raw.wrench.values - offset, atol=1e-5)
+
+
+def test_a_log_over_the_cap_converts_a_window_and_its_error_names_start_and_end(
+    tmp_path: Path,
+) -> None:
+    """'convert it in parts of an hour or less' gave no way to; a gap past the window is
+    not the trial's, so not warned about."""
+    t = np.r_[np.arange(3000) / 1000.0, 7260.0]  # 3 s, then one sample 2 h later
+    path = _with_velocity(tmp_path / "session.csv", t)
+    args = ["convert", str(path), "-o", str(tmp_path / "t.mcap"), "--task", "gown"]
+    whole = CliRunner().invoke(main, args)
+    assert whole.exit_code == 1
+    assert whole.output.startswith(f"Error: {path}: the log spans 7260 s (2 h 1 min) (")
+    assert "trial may last: give --start and --end to convert an hour or less of it" in (
+        whole.output
+    )
+    assert len(whole.output.splitlines()) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        window = CliRunner().invoke(main, [*args, "--start", "0.5", "--end", "2.5"])
+    assert window.exit_code == 0, window.output
+    assert f"{tmp_path / 't.mcap'}: 200 steps (2.00 s at 100 Hz)" in window.output
+    with pytest.raises(ConversionError, match=r"--start 0.5 s leaves 7259 s \(2 h 1 min\) of"):
+        convert(path, tmp_path / "u.mcap", "gown", start_s=0.5)
+    with pytest.raises(ConversionError, match=r"--start 0 s to --end 7200 s is more than the"):
+        convert(path, tmp_path / "u.mcap", "gown", end_s=7200)
 
 
 def test_a_column_given_two_roles_is_refused(tmp_path: Path) -> None:

@@ -123,11 +123,13 @@ MAX_GAPS_LISTED = 5
 
 
 def _gap_warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
-    """One warning per gap (a file's gap once, though wrench and motion share it), then a sum."""
+    """One warning per gap the grid reaches into (a file's gap once, though wrench and
+    motion share it), then a sum."""
     gaps = {}
     for stream in source.streams:
         for at, length in rs.gaps(stream.t_ns, round(max_gap_s * 1e9)):
-            gaps[(stream.name, at)] = length
+            if at < grid[-1] and at + length > grid[0]:  # not in a part cut off
+                gaps[(stream.name, at)] = length
     found = [
         f"gap of {length / 1e9:.3f} s in {name} at {(at - grid[0]) / 1e9:.3f} s "
         f"(output time); bridged by interpolation"
@@ -218,9 +220,11 @@ def tare_mistake(wrench: np.ndarray, twist: np.ndarray, tare_s: float) -> str | 
     )
 
 
-def log_warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str]:
+def log_warnings(
+    source: Source, grid: np.ndarray, max_gap_s: float, *, windowed: bool = False
+) -> list[str]:
     """Gaps bridged, streams on different clocks (or header clocks that disagree), and time
-    cut off the wrench."""
+    cut off the wrench (by the other streams, not by a window asked for)."""
     found = _gap_warnings(source, grid, max_gap_s)
     if len({s.clock for s in source.streams}) > 1:
         clocks = ", ".join(f"{s.name} on its {s.clock} clock" for s in source.streams)
@@ -228,7 +232,7 @@ def log_warnings(source: Source, grid: np.ndarray, max_gap_s: float) -> list[str
     elif message := _clock_skew(source.streams):
         found.append(message)
     wrench_s = (source.wrench.t_ns[-1] - source.wrench.t_ns[0]) / 1e9
-    if (kept := (grid[-1] - grid[0]) / 1e9) < 0.9 * wrench_s:
+    if not windowed and (kept := (grid[-1] - grid[0]) / 1e9) < 0.9 * wrench_s:
         found.append(
             f"the trial covers {kept:.2f} s of the wrench's {wrench_s:.2f} s: only the time "
             "every stream covers"

@@ -121,9 +121,24 @@ def _span(stream: SourceStream) -> str:
     return f"{stream.name} {stream.t_ns[0] / 1e9:.3f}-{stream.t_ns[-1] / 1e9:.3f} s"
 
 
-def common_grid(source: Source, time_unit: str | None = None) -> np.ndarray:
+def _readable(seconds: float) -> str:
+    """A long span as a person reads it: `7260 s (2 h 1 min)`, `1.7e+09 s (19676 days)`."""
+    minutes = round(seconds / 60)
+    if minutes >= 48 * 60:
+        return f"{seconds:.3g} s ({minutes / 1440:.0f} days)"
+    return f"{seconds:.0f} s ({minutes // 60} h {minutes % 60} min)"
+
+
+def common_grid(
+    source: Source,
+    time_unit: str | None = None,
+    start_s: float = 0.0,
+    end_s: float | None = None,
+) -> np.ndarray:
     """The 100 Hz grid over the time every stream covers (an averaged wrench needs half a bin
-    spare); `time_unit`, a CSV's as given, to name in an error.
+    spare), or over its steps from `start_s` up to `end_s` (s from its first step, a
+    half-open window), before the duration cap is checked; `time_unit`, a CSV's as given,
+    to name in an error.
 
     An averaged wrench's bin edges fall midway between its samples: on a sample, a
     few microseconds of clock jitter would move it between bins and let vibration
@@ -137,12 +152,23 @@ def common_grid(source: Source, time_unit: str | None = None) -> np.ndarray:
         t = source.wrench.t_ns
         phase = int(t[0]) + half + int(np.median(np.diff(t))) // 2
         start += (phase - start) % rs.PERIOD_NS
+    windowed = start_s > 0 or end_s is not None
+    if windowed and stop - start >= rs.PERIOD_NS:  # else too short or apart: said below
+        start, stop = _window(source, start, stop, start_s, end_s)
     if (stop - start) / 1e9 > MAX_DURATION:  # else a grid of billions of steps, or junk
+        if windowed:  # --start alone: --end is checked against the cap before the log is read
+            raise ConversionError(
+                f"--start {start_s:g} s leaves {_readable((stop - start) / 1e9)} of the log, "
+                f"more than the {MAX_DURATION:g} s a trial may last: give --end too, an hour "
+                "or less after --start",
+                path=source.path,
+            )
         raise ConversionError(
-            f"the log spans {(stop - start) / 1e9:.3g} s "
+            f"the log spans {_readable((stop - start) / 1e9)} "
             f"({'; '.join(dict.fromkeys(map(_span, source.streams)))}), more than the "
-            f"{MAX_DURATION:g} s a trial may last: convert it in parts of an hour or less (or, "
-            "if it is short, look for a stamp of 0 among clock times, or two logs in one)",
+            f"{MAX_DURATION:g} s a trial may last: give --start and --end to convert an hour "
+            "or less of it (or, if it is short, look for a stamp of 0 among clock times, or "
+            "two logs in one)",
             path=source.path,
         )
     grid = rs.grid(start, stop)
@@ -174,6 +200,31 @@ def common_grid(source: Source, time_unit: str | None = None) -> np.ndarray:
             path=source.path,
         )
     return grid
+
+
+def _window(
+    source: Source, start: int, stop: int, start_s: float, end_s: float | None
+) -> tuple[int, int]:
+    """The first and last grid times of the steps from `start_s` up to `end_s` (s from the
+    grid's first step, `start`), which must lie within the grid, that is, up to `stop`."""
+    steps = (stop - start) // rs.PERIOD_NS + 1
+    span = f"every stream covers 0-{steps / rs.RATE_HZ:.2f} s of it"
+    past = steps / rs.RATE_HZ + 1  # beyond the log: refused, whatever it is (1e300 s)
+    first = -(-round(min(start_s, past) * 1e9) // rs.PERIOD_NS)  # steps at or after start_s
+    end = steps if end_s is None else -(-round(min(end_s, past) * 1e9) // rs.PERIOD_NS)
+    if end > steps:
+        raise ConversionError(
+            f"--end {end_s:g} s is past the log's end: {span}; give --end "
+            f"{steps / rs.RATE_HZ:.2f} or less",
+            path=source.path,
+        )
+    if end - first < 2:
+        raise ConversionError(
+            f"--start {start_s:g} s leaves less than two steps of the log: {span}; give "
+            f"--start {(steps - 2) / rs.RATE_HZ:.2f} or less",
+            path=source.path,
+        )
+    return start + first * rs.PERIOD_NS, start + (end - 1) * rs.PERIOD_NS
 
 
 def _resampling(t_ns: np.ndarray) -> str:
@@ -216,6 +267,8 @@ def convert(
     rotate: Quaternion | None = None,
     translate: tuple[float, float, float] | None = None,
     tare_s: float = 0.0,
+    start_s: float = 0.0,
+    end_s: float | None = None,
     max_gap_s: float = MAX_GAP_S,
     overwrite: bool = False,
 ) -> ConversionReport:
@@ -230,9 +283,13 @@ def convert(
     (force, torque, velocities, pose) into the model's frame, and `translate` (m) moves
     every pose in it, so that the gripper's path lies where the viewer draws the limb
     (the signal holds no position: the estimate is the same); `tare_s` subtracts the mean
-    wrench of the first seconds. Gaps longer than `max_gap_s` are bridged by
-    interpolation and reported as `ConversionWarning`s (and in the report), as are a tare
-    left out under a still garment's weight and one reaching into the motion.
+    wrench of the first seconds. `start_s` and `end_s` (s from the first step of the time
+    every stream covers; `end_s` None: to its end) keep the steps from one up to the
+    other, e.g. one trial of a long session: the duration cap, the tare and the checks
+    apply to them, and the output's times start at 0 at `start_s`. Gaps longer than
+    `max_gap_s` are bridged by interpolation and reported as `ConversionWarning`s (and in
+    the report), as are a tare left out under a still garment's weight and one reaching
+    into the motion.
     """
     started = time.perf_counter()
     path, output = Path(path), Path(output)
@@ -241,7 +298,7 @@ def convert(
     _check_arguments(
         path, motion, clock=clock, wrench_frame=wrench_frame, sensor_rotation=sensor_rotation,
         sensor_offset=sensor_offset, rotate=rotate, translate=translate, tare_s=tare_s,
-        max_gap_s=max_gap_s,
+        start_s=start_s, end_s=end_s, max_gap_s=max_gap_s,
     )  # fmt: skip
     source = load(
         path,
@@ -267,17 +324,23 @@ def convert(
     )
     for stream in source.streams:
         check_stream(stream, path)
-    grid = common_grid(source, time_unit)
+    grid = common_grid(source, time_unit, start_s, end_s)
+    windowed = start_s > 0 or end_s is not None
 
-    found = source.warnings + reordered + left_out + log_warnings(source, grid, max_gap_s)
+    found = source.warnings + reordered + left_out
+    found += log_warnings(source, grid, max_gap_s, windowed=windowed)
     if message := frames_differ(source, wrench_frame, rotate is not None):
         found.append(message)
     for message in found:
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
     wrench, twist, pose, processing = _resample_all(
-        source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset, translate
-    )
+        source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset, translate,
+        windowed=windowed,
+    )  # fmt: skip
+    if windowed:  # on the grid's steps: e.g. [10.0, 70.0]
+        first = -(-round(start_s * 1e9) // rs.PERIOD_NS)
+        processing["window_s"] = [first / rs.RATE_HZ, (first + len(grid)) / rs.RATE_HZ]
     for message in (beyond_dressing(wrench, twist), tare_mistake(wrench, twist, tare_s)):
         if message:
             warnings.warn(message, ConversionWarning, stacklevel=2)
@@ -313,6 +376,8 @@ def _check_arguments(
     rotate: Quaternion | None,
     translate: tuple[float, float, float] | None,
     tare_s: float,
+    start_s: float,
+    end_s: float | None,
     max_gap_s: float,
 ) -> None:
     """Refuse `convert`'s arguments that could not make a trial, before the log is read."""
@@ -351,12 +416,35 @@ def _check_arguments(
         )
     if not (_finite(tare_s, None) and tare_s >= 0):
         raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
+    for option, value in (("--start", start_s), ("--end", end_s)):
+        if value is not None and not (_finite(value, None) and value >= 0):
+            raise ConversionError(f"{option} {value} s: give a time of 0 s or more")
+    if end_s is not None and (message := window_mistake(start_s, end_s)):
+        raise ConversionError(message)
     if not (_finite(max_gap_s, None) and max_gap_s > 0):
         raise ConversionError(f"max_gap_s {max_gap_s}: give a duration above 0 s")
     if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
         raise ConversionError(
             f"clock {clock!r} / wrench frame {wrench_frame!r}: use header or log / world or pose"
         )
+
+
+def window_mistake(start_s: float, end_s: float) -> str | None:
+    """What is wrong with a window from `start_s` to `end_s` (finite, 0 or more) before the
+    log is read: not in order, shorter than two steps or longer than a trial may last."""
+    if start_s >= end_s:
+        return f"--start {start_s:g} s is not before --end {end_s:g} s; give a start before the end"
+    if end_s - start_s < 2 / rs.RATE_HZ:
+        return (
+            f"--start {start_s:g} s to --end {end_s:g} s holds less than two 100 Hz steps; give "
+            f"a window of {2 / rs.RATE_HZ:g} s or more"
+        )
+    if end_s - start_s > MAX_DURATION:
+        return (
+            f"--start {start_s:g} s to --end {end_s:g} s is more than the {MAX_DURATION:g} s a "
+            "trial may last; give an hour or less"
+        )
+    return None
 
 
 def _finite(value: object, count: int | None) -> bool:
@@ -378,6 +466,8 @@ def _resample_all(
     sensor_rotation: Quaternion | None = None,
     sensor_offset: tuple[float, float, float] | None = None,
     translate: tuple[float, float, float] | None = None,
+    *,
+    windowed: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
     """Wrench, twist and pose on the grid, tared, rotated and moved, and how each was made."""
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
@@ -398,8 +488,9 @@ def _resample_all(
     if tare_s > 0:
         if (span_s := (grid[-1] - grid[0]) / 1e9) < tare_s:
             raise ConversionError(
-                f"tare of {tare_s} s is longer than the log ({span_s:.2f} s); give a shorter "
-                "--tare, the seconds the garment hangs still at its start",
+                f"tare of {tare_s} s is longer than the {'window' if windowed else 'log'} "
+                f"({span_s:.2f} s); give a shorter --tare, the seconds the garment hangs still "
+                "at its start",
                 path=source.path,
             )
         step_s = (grid[1] - grid[0]) / 1e9

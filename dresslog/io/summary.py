@@ -115,6 +115,8 @@ def _source_lines(source: dict[str, object]) -> list[str]:
         for kind, how in processing.items()
         if isinstance(how, str) and kind in ("twist", "pose") and kind not in streams
     ]
+    if "window_s" in processing and isinstance(window := processing["window_s"], list):
+        lines.append(f"    kept    {window[0]:g}-{window[1]:g} s of the time every stream covers")
     if "tare_s" in processing:
         lines.append(f"    tared   over the first {processing['tare_s']} s")
     if "wrench_frame" in processing:
