@@ -202,6 +202,11 @@ def common_grid(
     return grid
 
 
+def _step_at(seconds: float) -> int:
+    """The first grid step at or after `seconds` from the grid's start."""
+    return -(-round(seconds * 1e9) // rs.PERIOD_NS)
+
+
 def _window(
     source: Source, start: int, stop: int, start_s: float, end_s: float | None
 ) -> tuple[int, int]:
@@ -210,8 +215,8 @@ def _window(
     steps = (stop - start) // rs.PERIOD_NS + 1
     span = f"every stream covers 0-{steps / rs.RATE_HZ:.2f} s of it"
     past = steps / rs.RATE_HZ + 1  # beyond the log: refused, whatever it is (1e300 s)
-    first = -(-round(min(start_s, past) * 1e9) // rs.PERIOD_NS)  # steps at or after start_s
-    end = steps if end_s is None else -(-round(min(end_s, past) * 1e9) // rs.PERIOD_NS)
+    first = _step_at(min(start_s, past))
+    end = steps if end_s is None else _step_at(min(end_s, past))
     if end > steps:
         raise ConversionError(
             f"--end {end_s:g} s is past the log's end: {span}; give --end "
@@ -339,7 +344,7 @@ def convert(
         windowed=windowed,
     )  # fmt: skip
     if windowed:  # on the grid's steps: e.g. [10.0, 70.0]
-        first = -(-round(start_s * 1e9) // rs.PERIOD_NS)
+        first = _step_at(start_s)
         processing["window_s"] = [first / rs.RATE_HZ, (first + len(grid)) / rs.RATE_HZ]
     for message in (beyond_dressing(wrench, twist), tare_mistake(wrench, twist, tare_s)):
         if message:

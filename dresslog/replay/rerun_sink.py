@@ -109,7 +109,6 @@ class RerunSink:
         self.path = None if path is None else Path(path)
         self.recording = recording
         self.flush_every = flush_every if recording is not None else None
-        self._flush_file: int | None = None  # a file's, once its colour scale is known
         self.vmax = self._initial_vmax()
         self._metrics = MetricsSink()
         self.context: TrialContext | None = None
@@ -128,13 +127,11 @@ class RerunSink:
         self._path_so_far = []
         self._first_ns: int | None = None
         self._metrics.open(context)
-        self._flush_file = None
         if self.path is not None:
             check_output(self.path, context.source_path, suffix=".rrd")
             if (vmax := _known_vmax(context)) is not None:  # else fitted as it closes
                 self.vmax = vmax
                 self._start_file()
-                self._flush_file = FILE_FLUSH_STEPS
         else:
             assert self.recording is not None
             self.recording.send_blueprint(self.blueprint())
@@ -154,8 +151,15 @@ class RerunSink:
         b.contacts.append(s.contacts)
         b.garment.append(s.garment)
         self._metrics.write(result)
-        if (every := self.flush_every or self._flush_file) and len(b) >= every:
+        if (every := self._flush_size()) and len(b) >= every:
             self.flush()
+
+    def _flush_size(self) -> int | None:
+        """Steps sent at once: a live view's every few; a file's every FILE_FLUSH_STEPS
+        once its recording has started (its colour scale known), else all as it closes."""
+        if self.path is None:
+            return self.flush_every
+        return FILE_FLUSH_STEPS if self.recording is not None else None
 
     def close(self) -> None:
         self._metrics.close()
@@ -168,8 +172,7 @@ class RerunSink:
         try:
             if self.recording is None:  # not streamed: the scale fits the truth just seen
                 # calibrated on the truth, so a poor estimate cannot rescale it
-                fitted = color_scale(_present(self._buf.truth)[1])
-                self.vmax = FIXED_VMAX if fitted is None else fitted
+                self.vmax = _fitted_vmax(_present(self._buf.truth)[1])
                 self._start_file()
             rec = self.recording
             assert rec is not None
@@ -480,7 +483,13 @@ def _known_vmax(context: TrialContext) -> float | None:
     if trial is None or trial.force_map is None:
         return None
     maps = trial.force_map  # the steps' truth: the maps stamped at a step (`trial_steps`)
-    fitted = color_scale(maps.forces[np.isin(maps.t_ns, trial.measurements.t_ns)])
+    return _fitted_vmax(maps.forces[np.isin(maps.t_ns, trial.measurements.t_ns)])
+
+
+def _fitted_vmax(truth: np.ndarray | None) -> float:
+    """The colour scale fitted to the ground truth, or a converted log's fixed one where
+    there is no force to fit."""
+    fitted = color_scale(truth)
     return FIXED_VMAX if fitted is None else fitted
 
 
