@@ -126,11 +126,11 @@ def sweep_figure(report: SweepReport) -> Any:
     fig, axes = plt.subplots(1, len(kinds), figsize=(5.5 * len(kinds), 4.6), squeeze=False)
     base = report.baseline_rmse
     paper = PAPER_SWEEP.get(report.task, {})
+    trained = SPEED_RANGE.get(Task(report.task))  # the training speeds, shaded and ticked
     for ax, kind in zip(axes[0], kinds, strict=True):
         lines = sweep_lines(report, kind)
-        if kind == "speed" and report.task in SPEED_RANGE:
-            low, high = SPEED_RANGE[Task(report.task)]
-            ax.axvspan(low, high, color="gray", alpha=0.12, lw=0, label="training speeds")
+        if kind == "speed" and trained:
+            ax.axvspan(*trained, color="gray", alpha=0.12, lw=0, label="training speeds")
         colours = {}
         for axis, (values, rmse, zero) in lines.items():
             (drawn,) = ax.plot(values, rmse, "o-", label=_name(axis))
@@ -148,8 +148,8 @@ def sweep_figure(report: SweepReport) -> Any:
             right = ax.secondary_yaxis("right", functions=(lambda y: y / base, lambda r: r * base))
             right.set_ylabel("x in-range RMSE")
         swept = sorted({v for values, *_ in lines.values() for v in values})
-        if kind == "speed" and report.task in SPEED_RANGE:  # the span's ends named too
-            swept = sorted({*swept, *SPEED_RANGE[Task(report.task)]})
+        if kind == "speed" and trained:  # the span's ends named too
+            swept = sorted({*swept, *trained})
         if len(swept) <= 8:  # ticks at the settings: one speed alone got a crowd of them
             ax.set_xticks(swept)
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
