@@ -454,7 +454,8 @@ def _converted_log(tmp_path: Path, steps: int = 15) -> Path:
 
     t_ns = np.arange(steps, dtype=np.int64) * 10_000_000
     log = tmp_path / f"converted-{steps}.mcap" if steps != 15 else tmp_path / "converted.mcap"
-    source = {"start_ns": LOG_START_NS}  # the log's own clock was the wall clock
+    # the log's own clock was the wall clock
+    source = {"file": "/robot/logs/ft.csv", "start_ns": LOG_START_NS}
     with TrialWriter(log, TrialMetadata(task=Task.GOWN, source=source)) as writer:
         writer.write_wrench(t_ns, np.random.default_rng(0).normal(size=(steps, 6)))
         writer.write_twist(t_ns, np.random.default_rng(1).normal(size=(steps, 6)))
@@ -509,6 +510,9 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     # a fixed colour scale, not one stretched to a weak estimate; the limb said to be nominal
     text = spec_text(rrd)
     assert "the task's nominal limb" in text and "0 to 0.5 N and over." in text
+    # what it was converted from; no outcome, spec or failure reason it cannot have
+    assert "trial from `converted.mcap`, converted from `ft.csv`." in text
+    assert not [word for word in ('"outcome"', '"spec"', '"failure_reason"', "null") if word in text]
     assert colour_key(rrd)[1][-1] == "0.5 N +"
 
 

@@ -33,7 +33,7 @@ from dresslog.io.files import (
 from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors, legend
 from dresslog.replay.metrics import MetricsSink
-from dresslog.spec import Task, task_of
+from dresslog.spec import Outcome, Task, task_of
 from dresslog.trial import contact_magnitudes, contact_vectors
 
 if TYPE_CHECKING:
@@ -312,9 +312,13 @@ class RerunSink:
         ctx = self.context
         assert ctx is not None
         md = ctx.metadata
+        origin = md.source.get("file")
         if ctx.source_path:
             what = f"**{md.task.value}** trial from `{printable(ctx.source_path.name)}`"
-            what += f", outcome {md.outcome.value}"
+            if origin:  # a robot's log: no simulation decided an outcome
+                what += f", converted from `{printable(Path(str(origin)).name)}`"
+            else:
+                what += f", outcome {md.outcome.value}"
         else:  # the outcome is decided as the simulation ends; `record` prints it
             what = f"**{md.task.value}** trial, live simulation"
         if md.spec is not None:
@@ -335,11 +339,11 @@ class RerunSink:
         shared = " (one scale for truth and estimate)" if ctx.has_truth and ctx.has_estimate else ""
         # the top colour holds every force over vmax, the busiest steps' peaks among them
         lines.append(f"Colour: grey = no force, dark to bright = 0 to {vmax} and over{shared}.")
-        # a live simulation's outcome is not known here: left out, not shown as unknown
-        hidden = {"software"} if ctx.source_path else {"software", "outcome"}
-        return (
-            "\n\n".join(lines) + f"\n\n```json\n{md.model_dump_json(indent=1, exclude=hidden)}\n```"
-        )
+        # an outcome not known (a live simulation's, a robot's log's) and fields a trial
+        # does not have (a log's spec, a success's failure reason) are left out, not shown
+        hidden = {"software"} if md.outcome != Outcome.UNKNOWN else {"software", "outcome"}
+        dump = md.model_dump_json(indent=1, exclude=hidden, exclude_none=True)
+        return "\n\n".join(lines) + f"\n\n```json\n{dump}\n```"
 
     def flush(self) -> None:
         """Send the buffered steps column-wise and empty the buffer."""
