@@ -152,6 +152,23 @@ def test_a_recording_opens_playing_from_its_first_step_in_real_time(inferred) ->
     assert "loop_mode" not in panel  # off: once through, then it stops at the last step
 
 
+def test_every_plots_legend_sits_top_left_where_a_trial_starting_from_rest_leaves_room(
+    inferred,
+) -> None:
+    """Bottom left, the viewer's default, hid the gripper's steady -x speed and each
+    total's zero line over the first 0.4 s."""
+    import rerun.blueprint as rrb
+
+    reader = rc.RrdReader(inferred[2])
+    corners = []
+    for chunk in reader.store(store=reader.blueprints()[0]).stream():
+        batch = chunk.to_record_batch()
+        if "PlotLegend:corner" in batch.schema.names:
+            corners += [row[0] for row in batch.column("PlotLegend:corner").to_pylist()]
+    # force, torque, velocity; total force, RMSE
+    assert corners == [rrb.components.Corner2D.LeftTop.value] * 5
+
+
 def test_each_force_map_has_its_colour_key_in_the_trials_scale(inferred) -> None:
     """Under the limb in both maps: grey for no force, then the ramp to the top of the scale
     the note gives, each swatch the colour a limb point of that force gets."""
@@ -512,7 +529,8 @@ def test_a_converted_log_is_drawn_on_the_tasks_nominal_limb(tmp_path: Path) -> N
     assert "the task's nominal limb" in text and "0 to 0.5 N and over." in text
     # what it was converted from; no outcome, spec or failure reason it cannot have
     assert "trial from `converted.mcap`, converted from `ft.csv`." in text
-    assert not [word for word in ('"outcome"', '"spec"', '"failure_reason"', "null") if word in text]
+    absent = ('"outcome"', '"spec"', '"failure_reason"', "null")
+    assert not [word for word in absent if word in text]
     assert colour_key(rrd)[1][-1] == "0.5 N +"
 
 

@@ -174,6 +174,15 @@ def _total_title(has_truth: bool, has_estimate: bool) -> str:
     return "Total limb force (N)"
 
 
+def _plot(name: str, origin: str) -> rrb.TimeSeriesView:
+    """A time series with its legend top left: a trial starts from rest, so its first
+    second sits at zero and the top left is empty (bottom left, the viewer's default,
+    hid the gripper's steady -x speed and the zero line of every total)."""
+    import rerun.blueprint as rrb
+
+    return rrb.TimeSeriesView(name=name, origin=origin, plot_legend=rrb.Corner2D.LeftTop)
+
+
 def default_blueprint(
     has_estimate: bool = True,
     limb_points: np.ndarray | None = None,
@@ -201,15 +210,13 @@ def default_blueprint(
         camera = eye(limb_points, alone=len(maps) == 1, start=gripper_start)
         stacked = is_long(limb_points)
     views = _map_views(maps, camera)
-    comparison = [
-        rrb.TimeSeriesView(name=_total_title(has_truth, has_estimate), origin=TOTAL_FORCE)
-    ]
+    comparison = [_plot(_total_title(has_truth, has_estimate), TOTAL_FORCE)]
     if has_truth and has_estimate:
-        comparison.append(rrb.TimeSeriesView(name="RMSE per step (N)", origin=RMSE))
+        comparison.append(_plot("RMSE per step (N)", RMSE))
     signal = rrb.Vertical(
-        rrb.TimeSeriesView(name="End-effector force (N)", origin=EE_FORCE),
-        rrb.TimeSeriesView(name="End-effector torque (N m)", origin=EE_TORQUE),
-        rrb.TimeSeriesView(name="End-effector velocity (m/s)", origin=EE_VELOCITY),
+        _plot("End-effector force (N)", EE_FORCE),
+        _plot("End-effector torque (N m)", EE_TORQUE),
+        _plot("End-effector velocity (m/s)", EE_VELOCITY),
         row_shares=[2, 1, 1],
     )
     return rrb.Blueprint(
