@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
-from dresslog.convert import ConversionWarning, convert
+from dresslog.convert import ConversionWarning, convert, csv_lines
 from dresslog.convert import resample as rs
 from dresslog.convert.csv import role_of
 from dresslog.convert.units import value_scale
@@ -530,6 +530,61 @@ def test_a_last_line_cut_off_mid_write_is_dropped_with_a_warning(
         f"Error: {inside}: line 51 is incomplete (3 of 10 fields); only a last line cut off "
         "mid-write is dropped, so mend or remove this one\n"
     )
+
+
+@pytest.mark.parametrize("style", ["ati", "rostopic"])
+def test_a_csv_read_a_chunk_at_a_time_gives_the_trial_read_whole(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, style: str
+) -> None:
+    """A log's text was held whole (30 minutes at 1 kHz peaked at 1.1 GB); read 7 lines at a
+    time, with blank and comment lines across a chunk's end and a cut last line followed by
+    chunks of nothing, its trial is the same to the byte, nanosecond stamps kept exact."""
+    path, motion = (ati_style(tmp_path), None) if style == "ati" else rostopic_style(tmp_path)
+    lines = path.read_text().splitlines(keepends=True)
+    lines[20:20] = ["\n", "# logger paused\n", "   \n"] * 4  # lines 21-32
+    path.write_text("".join([*lines, lines[-1][:12] + "\n", "\n" * 20]))  # cut off, then blank
+    trials = []
+    for chunk in (csv_lines.CHUNK_LINES, 7):
+        monkeypatch.setattr(csv_lines, "CHUNK_LINES", chunk)
+        out = tmp_path / f"{chunk}.mcap"
+        with pytest.warns(ConversionWarning, match=f"line {len(lines) + 1} is incomplete"):
+            convert(path, out, "gown", motion=motion)
+        trials.append(out.read_bytes())
+    assert trials[0] == trials[1]
+
+
+@pytest.mark.parametrize(
+    ("fault", "message"),
+    [
+        ("short", "line 1503 is incomplete (3 of 10 fields); only a last line cut off mid-write "
+         "is dropped, so mend or remove this one"),
+        ("empty", "column 'fy', line 1503: '' is not a number (empty cells and decimal commas "
+         "are not read)"),
+        ("nan", "column 'time', line 1503: time 'nan' is not a finite number; drop that row"),
+        ("empty above short", "line 2503 is incomplete (3 of 10 fields)"),
+    ],
+)  # fmt: skip
+def test_a_bad_line_past_the_first_chunk_is_named_by_its_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fault: str, message: str
+) -> None:
+    """Lines counted from the file's start, not the chunk's; and a short line further down is
+    named before a cell that is no number above it, as when the file was read whole."""
+    path = _with_velocity(tmp_path / "bad.csv", np.arange(3000) / 1000.0)
+    lines = path.read_text().splitlines(keepends=True)
+    cells = lines[1502].split(",")  # line 1503: in the fourth chunk of 500
+    if fault == "short":
+        lines[1502] = ",".join(cells[:3]) + "\n"
+    else:
+        cells[0 if fault == "nan" else 2] = "nan" if fault == "nan" else ""
+        lines[1502] = ",".join(cells)
+    if fault == "empty above short":
+        lines[2502] = ",".join(lines[2502].split(",")[:3]) + "\n"
+    path.write_text("".join(lines))
+    monkeypatch.setattr(csv_lines, "CHUNK_LINES", 500)
+    with pytest.raises(ConversionError) as raised:
+        convert(path, tmp_path / "t.mcap", "gown")
+    assert str(raised.value).startswith(f"{path}: {message}"), raised.value
+    assert not (tmp_path / "t.mcap").exists()
 
 
 @pytest.mark.parametrize(

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dresslog.convert.csv_lines import data_rows, is_number
+from dresslog.convert.csv_lines import Column, data_rows, is_number
 from dresslog.convert.source import Source, SourceStream
 from dresslog.convert.units import (
     NO_UNIT,
@@ -324,20 +324,17 @@ def _missing_hint(missing: list[str], names: list[str]) -> str:
 
 
 def _time_ns(
-    raw: np.ndarray, unit: str | None, name: str, header_line: int, path: Path
+    column: Column, unit: str | None, name: str, header_line: int, path: Path
 ) -> tuple[np.ndarray, str]:
-    """Integer nanoseconds from a time column read as text, and the unit used."""
-    try:
-        values: np.ndarray = raw.astype(np.int64)
-    except ValueError:
-        values = _numbers(raw, name, header_line, path)
-        if not np.isfinite(values).all():
-            row = int(np.argmin(np.isfinite(values)))
-            raise ConversionError(
-                f"column {name!r}, line {header_line + row + 2}: time {str(raw[row])!r} "
-                "is not a finite number; drop that row",
-                path=path,
-            ) from None
+    """Integer nanoseconds from a time column, and the unit used."""
+    values = _numbers(column, name, header_line, path)
+    if column.not_finite is not None:
+        row, cell = column.not_finite
+        raise ConversionError(
+            f"column {name!r}, line {header_line + row + 2}: time {cell!r} "
+            "is not a finite number; drop that row",
+            path=path,
+        )
     if unit is None:
         steps = np.diff(values)
         big = np.abs(values).max(initial=0) > 1e12
@@ -347,18 +344,16 @@ def _time_ns(
     return np.round(values.astype(np.float64) * UNITS[unit]).astype(np.int64), unit
 
 
-def _numbers(column: np.ndarray, name: str, header_line: int, path: Path) -> np.ndarray:
-    """A text column as floats, or an error naming the first cell that is not a number."""
-    column = np.char.strip(np.char.strip(column), '"')  # a logger that quotes every cell
-    try:
-        return column.astype(np.float64)
-    except ValueError:
-        row = next(i for i, cell in enumerate(column) if not is_number(cell))
+def _numbers(column: Column, name: str, header_line: int, path: Path) -> np.ndarray:
+    """A column's numbers, or an error naming the first cell that is not a number."""
+    if column.bad is not None:
+        row, cell = column.bad
         raise ConversionError(
-            f"column {name!r}, line {header_line + row + 2}: {str(column[row])!r} is not a "
+            f"column {name!r}, line {header_line + row + 2}: {cell!r} is not a "
             "number (empty cells and decimal commas are not read)",
             path=path,
-        ) from None
+        )
+    return column.values
 
 
 def _check_rate(t_ns: np.ndarray, unit: str, name: str, path: Path, *, header: bool) -> None:
@@ -401,10 +396,13 @@ def read_table(
         found["nanoseconds"] = nanos
         ignored = [n for n in ignored if n != names[nanos]]
     roles = sorted(found, key=found.__getitem__)
-    text, cut = data_rows(path, line, delimiter, [found[r] for r in roles], len(names))
-    if len(text) == 0:
+    usecols, exact = [found[r] for r in roles], {roles.index("time")}
+    if nanos is not None:
+        exact.add(roles.index("nanoseconds"))
+    read, cut = data_rows(path, line, delimiter, usecols, len(names), exact)
+    if len(read[0].values) == 0:
         raise ConversionError("CSV has a header but no rows", path=path)
-    data = dict(zip(roles, text.T, strict=True))
+    data = dict(zip(roles, read, strict=True))
     given = time_unit or _unit_in(names[found["time"]], path)
     time_name = names[found["time"]]
     t_ns, unit = _time_ns(

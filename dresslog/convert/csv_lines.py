@@ -1,21 +1,40 @@
-"""The data lines of a CSV: parsed fast when whole, a last line cut off mid-write dropped.
+"""The data lines of a CSV, parsed a chunk at a time; a last line cut off mid-write dropped.
 
-A logger killed mid-write leaves a last line with fewer fields than the one above,
-or a last number cut short (`1.2e`, `-`). That line alone is dropped, with a
-warning naming it; a short line anywhere else is refused by its line number,
-counted from 1 as an editor counts (numpy's own `row N` counts data rows).
+A long log's text is never held whole: `CHUNK_LINES` lines at a time are parsed by
+`np.loadtxt`, and only the used columns' numbers are kept. A logger killed mid-write
+leaves a last line with fewer fields than the one above, or a last number cut short
+(`1.2e`, `-`). That line alone is dropped, with a warning naming it; a short line
+anywhere else is refused by its line number, counted from 1 as an editor counts
+(numpy's own `row N` counts data rows).
 """
 
 from __future__ import annotations
 
 import itertools
 import warnings
+from collections.abc import Collection, Iterator
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 
 from dresslog.errors import ConversionError
+
+#: Lines parsed at a time: all of a long log's text that is held at once.
+CHUNK_LINES = 100_000
+
+
+@dataclass
+class Column:
+    """One used column's numbers, and its first cell that is not a number (`bad`), or, in
+    a time column, not finite (`not_finite`): (data row from 0, the cell), the first as
+    read without its spaces and quotes, the second as written. Float64, but int64 for a
+    time column of integers that float64 would round (nanoseconds since 1970)."""
+
+    values: np.ndarray
+    bad: tuple[int, str] | None = None
+    not_finite: tuple[int, str] | None = None
 
 
 def is_number(text: str) -> bool:
@@ -68,73 +87,173 @@ def _cut_off(rows: list[list[str]]) -> str | None:
     return None
 
 
-def _scan(
-    path: Path, header_line: int, delimiter: str | None, need: int
-) -> tuple[int, int, tuple[int, int] | None]:
-    """The number of the last data line, how many there are, and the first with fewer than
-    `need` cells (its number and cell count), if any; lines counted from 1, as editors do."""
-    last, count, short = header_line + 1, 0, None
-    with path.open(encoding="utf-8-sig", errors="replace") as stream:
-        for number, text in enumerate(stream, 1):
-            if number <= header_line + 1 or not (cells := _fields(text, delimiter)):
-                continue
-            last, count = number, count + 1
-            if short is None and len(cells) < need:
-                short = number, len(cells)
-    return last, count, short
+def _chunks(
+    stream: TextIO, header_line: int, delimiter: str | None
+) -> Iterator[tuple[int, list[str], int | None]]:
+    """The lines below the header, `CHUNK_LINES` at a time, each list with the number of
+    its first line and, in the last that holds data, the index of the file's last data
+    line (None in the others); lists of only blank or comment lines are passed over."""
+    lines = itertools.islice(stream, header_line + 1, None)
+    first, held = header_line + 2, None
+    while chunk := list(itertools.islice(lines, CHUNK_LINES)):
+        if any(_fields(text, delimiter) for text in reversed(chunk)):
+            if held is not None:
+                yield *held, None
+            held = first, chunk
+        first += len(chunk)
+    if held is not None:
+        number, chunk = held
+        last = next(i for i in reversed(range(len(chunk))) if _fields(chunk[i], delimiter))
+        yield number, chunk, last
+
+
+def _parsed(
+    lines: list[str],
+    number: int,
+    options: dict[str, Any],
+    exact: Collection[int],
+    width: int,
+    path: Path,
+) -> list[np.ndarray]:
+    """The used columns of `lines` (the first is line `number`): floats where every cell
+    reads as one, else the cells' text; text too in a time column (at `exact`) whose
+    floats do not give what its text does. Lines of only spaces or tabs are blank (numpy
+    reads one as a row of one empty cell)."""
+    rows = lines
+    with warnings.catch_warnings():  # "no data" (comments alone): the caller counts rows
+        warnings.simplefilter("ignore", UserWarning)
+        block = _floats(rows, options)
+        if block is None and len(rows := [text for text in lines if text.strip()]) < len(lines):
+            block = _floats(rows, options)
+        if block is not None:
+            columns = [np.ascontiguousarray(column) for column in block.T]
+            if redo := [i for i in exact if not _as_written(columns[i])]:
+                usecols = [options["usecols"][i] for i in redo]
+                text = np.loadtxt(rows, dtype=str, ndmin=2, **(options | {"usecols": usecols}))
+                for i, cells in zip(redo, text.T, strict=True):
+                    columns[i] = cells
+            return columns
+        try:
+            text = np.loadtxt(rows, dtype=str, ndmin=2, **options)
+        except (ValueError, IndexError) as err:
+            need = max(options["usecols"]) + 1
+            for index, line in enumerate(lines):
+                if 0 < len(cells := _fields(line, options["delimiter"])) < need:
+                    raise _incomplete(number + index, len(cells), width, path) from None
+            raise ConversionError(f"cannot parse CSV: {err}", path=path) from None
+    return list(text.T)
+
+
+def _floats(rows: list[str], options: dict[str, Any]) -> np.ndarray | None:
+    """The used columns of `rows` as floats in one pass, or None if a cell is no bare number."""
+    try:
+        return np.loadtxt(rows, dtype=np.float64, ndmin=2, **options)
+    except (ValueError, IndexError):
+        return None
+
+
+def _as_written(values: np.ndarray) -> bool:
+    """Whether a time column's floats give what its text does: all finite (else the first
+    is named as written), and below 2**53, where whole numbers read as integers are the
+    same numbers (nanoseconds since 1970 are not: read as text, they are kept as int64)."""
+    return bool(np.isfinite(values).all()) and float(np.abs(values).max(initial=0)) < 2**53
+
+
+def _incomplete(number: int, cells: int, width: int, path: Path) -> ConversionError:
+    return ConversionError(
+        f"line {number} is incomplete ({cells} of {width} fields); only a last line cut off "
+        "mid-write is dropped, so mend or remove this one",
+        path=path,
+    )
+
+
+def _as_floats(cells: np.ndarray) -> tuple[np.ndarray, tuple[int, str] | None]:
+    """Cells as floats, spaces and quotes around a number dropped (a logger that quotes
+    every cell); or NaN, with the first cell that is not a number and its index."""
+    if cells.dtype.kind == "f":
+        return cells, None
+    try:
+        return cells.astype(np.float64), None  # bare numbers: nothing to drop
+    except ValueError:
+        cells = np.char.strip(np.char.strip(cells), '"')
+    try:
+        return cells.astype(np.float64), None
+    except ValueError:
+        row = next(i for i, cell in enumerate(cells) if not is_number(cell))
+        return np.full(len(cells), np.nan), (row, str(cells[row]))
+
+
+class _Gathered:
+    """One column's numbers, chunk by chunk, and its first cells that are not numbers or,
+    if `exact` (a time column), not finite."""
+
+    def __init__(self, exact: bool) -> None:
+        self.exact = exact
+        self.parts: list[np.ndarray] = []
+        self.bad: tuple[int, str] | None = None
+        self.not_finite: tuple[int, str] | None = None
+
+    def add(self, cells: np.ndarray, row: int) -> None:
+        """The column's cells of one chunk, whose first is data row `row`."""
+        if self.exact and cells.dtype.kind == "U":  # whole numbers as text: integers, exact
+            try:
+                self.parts.append(cells.astype(np.int64))
+                return
+            except ValueError:
+                pass
+        values, bad = _as_floats(cells)
+        self.parts.append(values)
+        if bad is not None:
+            self.bad = self.bad or (row + bad[0], bad[1])
+        elif self.exact and self.not_finite is None and not np.isfinite(values).all():
+            index = int(np.argmin(np.isfinite(values)))
+            self.not_finite = row + index, str(cells[index])
+
+    def column(self) -> Column:
+        """The chunks as one column: int64 if each one was, else float64."""
+        kinds = {part.dtype for part in self.parts}
+        dtype = np.int64 if kinds == {np.dtype(np.int64)} else np.float64
+        values = np.concatenate(self.parts, dtype=dtype) if self.parts else np.empty(0)
+        self.parts.clear()
+        return Column(values, self.bad, self.not_finite)
 
 
 def data_rows(
-    path: str | Path, header_line: int, delimiter: str | None, usecols: list[int], width: int
-) -> tuple[np.ndarray, list[str]]:
-    """The used columns' cells as text, and a warning when a last line cut off is dropped.
+    path: str | Path,
+    header_line: int,
+    delimiter: str | None,
+    usecols: list[int],
+    width: int,
+    exact: Collection[int] = (),
+) -> tuple[list[Column], list[str]]:
+    """The used columns' numbers (those at `exact`, indices into `usecols`, kept exact as
+    int64 where whole), and a warning when a last line cut off is dropped.
 
-    A whole file is parsed by `np.loadtxt` from its path, the fast way; only one that
-    fails it, or whose last line is cut, is read again to find and name the line.
+    `CHUNK_LINES` lines at a time are parsed, so a long log's text is never held whole;
+    a cell that is not a number is kept to be named, not refused at once, so that a
+    short line further down is named first, as it is in a file read whole.
     """
     path = Path(path)
-    options: dict[str, Any] = {
-        "delimiter": delimiter, "usecols": usecols, "dtype": str, "ndmin": 2, "comments": "#",
-    }  # fmt: skip
+    options: dict[str, Any] = {"delimiter": delimiter, "usecols": usecols, "comments": "#"}
     cut = _cut_off(_last_rows(path, delimiter))
-    problem = ""
-    if cut is None:
-        try:
-            with warnings.catch_warnings():  # "no data": the caller says so in its own words
-                warnings.simplefilter("ignore", UserWarning)
-                rows = np.loadtxt(path, skiprows=header_line + 1, encoding="utf-8-sig", **options)
-        except (ValueError, IndexError) as err:
-            problem = f"cannot parse CSV: {err}"  # numpy's words, when no short line explains it
-        else:
-            return rows, []
-    last, count, short = _scan(path, header_line, delimiter, max(usecols) + 1)
-    if count == 0:  # the "last line" was the header: no rows, as the caller says
-        return np.empty((0, len(usecols)), dtype=str), []
-    if short is not None and (cut is None or short[0] != last or count == 1):
-        raise ConversionError(
-            f"line {short[0]} is incomplete ({short[1]} of {width} fields); only a last line "
-            "cut off mid-write is dropped, so mend or remove this one",
-            path=path,
-        )
-    if cut is None:
-        return _reparsed(path, header_line, None, options, problem), []
-    if count == 1:  # a lone line cut short leaves no log to keep
+    gathered = [_Gathered(i in exact) for i in range(len(usecols))]
+    rows, dropped = 0, None
+    with path.open(encoding="utf-8-sig", errors="replace") as stream:
+        for number, lines, last in _chunks(stream, header_line, delimiter):
+            if cut is not None and last is not None:
+                dropped = number + last, lines[last]
+                lines = lines[:last]  # what follows it is blank or comments
+            columns = _parsed(lines, number, options, exact, width, path)
+            for column, cells in zip(gathered, columns, strict=True):
+                column.add(cells, rows)
+            rows += len(columns[0])
+    if dropped is None:
+        return [column.column() for column in gathered], []
+    last, line = dropped
+    if rows == 0:  # a lone line cut short leaves no log to keep
+        if (count := len(_fields(line, delimiter))) < max(usecols) + 1:
+            raise _incomplete(last, count, width, path)
         raise ConversionError(f"line {last}, the only row, is incomplete ({cut})", path=path)
-    rows = _reparsed(path, header_line, last - 1, options)  # all but the last line
-    return rows, [
+    return [column.column() for column in gathered], [
         f"{path.name}: line {last} is incomplete ({cut}), as a log cut off mid-write; dropped"
     ]
-
-
-def _reparsed(
-    path: Path, header_line: int, stop: int | None, options: dict[str, Any], problem: str = ""
-) -> np.ndarray:
-    """The data lines up to line `stop` (all: None) parsed again, lines of only spaces or
-    tabs skipped as blank (numpy reads one as a row of one empty cell); `problem` is the
-    error to give if they still fail, else numpy's own words."""
-    with path.open(encoding="utf-8-sig", errors="replace") as stream:
-        lines = (t for t in itertools.islice(stream, header_line + 1, stop) if t.strip())
-        try:
-            return np.loadtxt(lines, **options)
-        except (ValueError, IndexError) as err:
-            raise ConversionError(problem or f"cannot parse CSV: {err}", path=path) from None
