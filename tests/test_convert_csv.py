@@ -556,19 +556,20 @@ def test_a_csv_read_a_chunk_at_a_time_gives_the_trial_read_whole(
 @pytest.mark.parametrize(
     ("fault", "message"),
     [
-        ("short", "line 1503 is incomplete (3 of 10 fields); only a last line cut off mid-write "
+        ("short", "line 1506 is incomplete (3 of 10 fields); only a last line cut off mid-write "
          "is dropped, so mend or remove this one"),
-        ("empty", "column 'fy', line 1503: '' is not a number (empty cells and decimal commas "
+        ("empty", "column 'fy', line 1506: '' is not a number (empty cells and decimal commas "
          "are not read)"),
-        ("nan", "column 'time', line 1503: time 'nan' is not a finite number; drop that row"),
-        ("empty above short", "line 2503 is incomplete (3 of 10 fields)"),
+        ("nan", "column 'time', line 1506: time 'nan' is not a finite number; drop that row"),
+        ("empty above short", "line 2506 is incomplete (3 of 10 fields)"),
     ],
 )  # fmt: skip
 def test_a_bad_line_past_the_first_chunk_is_named_by_its_line(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fault: str, message: str
 ) -> None:
-    """Lines counted from the file's start, not the chunk's; and a short line further down is
-    named before a cell that is no number above it, as when the file was read whole."""
+    """Lines counted from the file's start, not the chunk's, blank and comment lines among
+    them; and a short line further down is named before a cell that is no number above
+    it, as when the file was read whole."""
     path = _with_velocity(tmp_path / "bad.csv", np.arange(3000) / 1000.0)
     lines = path.read_text().splitlines(keepends=True)
     cells = lines[1502].split(",")  # line 1503: in the fourth chunk of 500
@@ -579,6 +580,7 @@ def test_a_bad_line_past_the_first_chunk_is_named_by_its_line(
         lines[1502] = ",".join(cells)
     if fault == "empty above short":
         lines[2502] = ",".join(lines[2502].split(",")[:3]) + "\n"
+    lines[100:100] = ["# logger paused\n", "\n", "   \n"]  # the bad lines move 3 down
     path.write_text("".join(lines))
     monkeypatch.setattr(csv_lines, "CHUNK_LINES", 500)
     with pytest.raises(ConversionError) as raised:

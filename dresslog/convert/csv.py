@@ -323,16 +323,13 @@ def _missing_hint(missing: list[str], names: list[str]) -> str:
     )
 
 
-def _time_ns(
-    column: Column, unit: str | None, name: str, header_line: int, path: Path
-) -> tuple[np.ndarray, str]:
+def _time_ns(column: Column, unit: str | None, name: str, path: Path) -> tuple[np.ndarray, str]:
     """Integer nanoseconds from a time column, and the unit used."""
-    values = _numbers(column, name, header_line, path)
+    values = _numbers(column, name, path)
     if column.not_finite is not None:
-        row, cell = column.not_finite
+        line, cell = column.not_finite
         raise ConversionError(
-            f"column {name!r}, line {header_line + row + 2}: time {cell!r} "
-            "is not a finite number; drop that row",
+            f"column {name!r}, line {line}: time {cell!r} is not a finite number; drop that row",
             path=path,
         )
     if unit is None:
@@ -344,12 +341,12 @@ def _time_ns(
     return np.round(values.astype(np.float64) * UNITS[unit]).astype(np.int64), unit
 
 
-def _numbers(column: Column, name: str, header_line: int, path: Path) -> np.ndarray:
+def _numbers(column: Column, name: str, path: Path) -> np.ndarray:
     """A column's numbers, or an error naming the first cell that is not a number."""
     if column.bad is not None:
-        row, cell = column.bad
+        line, cell = column.bad
         raise ConversionError(
-            f"column {name!r}, line {header_line + row + 2}: {cell!r} is not a "
+            f"column {name!r}, line {line}: {cell!r} is not a "
             "number (empty cells and decimal commas are not read)",
             path=path,
         )
@@ -405,15 +402,13 @@ def read_table(
     data = dict(zip(roles, read, strict=True))
     given = time_unit or _unit_in(names[found["time"]], path)
     time_name = names[found["time"]]
-    t_ns, unit = _time_ns(
-        data.pop("time"), "s" if nanos is not None else given, time_name, line, path
-    )
+    t_ns, unit = _time_ns(data.pop("time"), "s" if nanos is not None else given, time_name, path)
     if nanos is not None:
-        t_ns = t_ns + _time_ns(data.pop("nanoseconds"), "ns", names[nanos], line, path)[0]
+        t_ns = t_ns + _time_ns(data.pop("nanoseconds"), "ns", names[nanos], path)[0]
         unit = f"s + {names[nanos]!r} in ns"
     elif time_unit is None and not _ros_stamp(time_name):  # ROS tools write ns, always
         _check_rate(t_ns, unit, time_name, path, header=given is not None)
-    values = {role: _numbers(col, names[found[role]], line, path) for role, col in data.items()}
+    values = {role: _numbers(col, names[found[role]], path) for role, col in data.items()}
     notes = [f"{path.name}: time column {time_name!r} read as {unit}"]
     notes += _scale_to_si(values, {role: names[found[role]] for role in values}, path, line)
     if ignored:

@@ -28,7 +28,7 @@ CHUNK_LINES = 100_000
 @dataclass
 class Column:
     """One used column's numbers, and its first cell that is not a number (`bad`), or, in
-    a time column, not finite (`not_finite`): (data row from 0, the cell), the first as
+    a time column, not finite (`not_finite`): (its line, from 1, the cell), the first as
     read without its spaces and quotes, the second as written. Float64, but int64 for a
     time column of integers that float64 would round (nanoseconds since 1970)."""
 
@@ -247,13 +247,38 @@ def data_rows(
             for column, cells in zip(gathered, columns, strict=True):
                 column.add(cells, rows)
             rows += len(columns[0])
+    read = _numbered([column.column() for column in gathered], path, header_line, delimiter)
     if dropped is None:
-        return [column.column() for column in gathered], []
+        return read, []
     last, line = dropped
     if rows == 0:  # a lone line cut short leaves no log to keep
         if (count := len(_fields(line, delimiter))) < max(usecols) + 1:
             raise _incomplete(last, count, width, path)
         raise ConversionError(f"line {last}, the only row, is incomplete ({cut})", path=path)
-    return [column.column() for column in gathered], [
+    return read, [
         f"{path.name}: line {last} is incomplete ({cut}), as a log cut off mid-write; dropped"
     ]
+
+
+def _numbered(
+    columns: list[Column], path: Path, header_line: int, delimiter: str | None
+) -> list[Column]:
+    """`columns` with the data rows of their bad cells turned into line numbers, from 1
+    as an editor counts: blank and comment lines above a bad cell count too. The file
+    is read again only when a column has one."""
+    rows = {cell[0] for c in columns for cell in (c.bad, c.not_finite) if cell is not None}
+    if not rows:
+        return columns
+    lines: dict[int, int] = {}
+    with path.open(encoding="utf-8-sig", errors="replace") as stream:
+        data = (n for n, t in enumerate(stream, 1) if n > header_line + 1 and _fields(t, delimiter))
+        for row, number in enumerate(data):
+            if row in rows:
+                lines[row] = number
+            if len(lines) == len(rows):
+                break
+
+    def at_line(cell: tuple[int, str] | None) -> tuple[int, str] | None:
+        return None if cell is None else (lines[cell[0]], cell[1])
+
+    return [Column(c.values, at_line(c.bad), at_line(c.not_finite)) for c in columns]
