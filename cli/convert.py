@@ -22,6 +22,8 @@ from .options import FINITE, FiniteRange, task_option
               show_default="the only one")  # fmt: skip
 @click.option("--pose-topic", help="A bag's PoseStamped topic (velocity by differentiation if "
               "no twist).", show_default="the only one")  # fmt: skip
+@click.option("--pose-tf", metavar="PARENT:CHILD", help="A bag's pose from its /tf and "
+              "/tf_static instead: CHILD's in PARENT, e.g. base_link:tool0.")  # fmt: skip
 @click.option("--motion", type=click.Path(path_type=str),
               help="CSV with velocity or position, beside a force/torque CSV.")  # fmt: skip
 @click.option("--column", "columns", multiple=True, metavar="ROLE=HEADER",
@@ -65,6 +67,8 @@ def convert(source: str, output: str, columns: tuple[str, ...], **options: objec
 
     if bad := [c for c in columns if "=" not in c]:
         raise click.BadParameter(f"{bad[0]!r} is not ROLE=HEADER", param_hint="'--column'")
+    if options["pose_tf"] is not None and options["pose_topic"] is not None:
+        raise click.UsageError("--pose-tf and --pose-topic both give the pose: use one")
     mount = [o for o in ("sensor_rotation", "sensor_offset") if options[o] is not None]
     if mount and options["wrench_frame"] != "pose":  # the library says so too, for its callers
         raise click.UsageError(

@@ -72,7 +72,13 @@ def seconds_of(t_ns: np.ndarray) -> np.ndarray:
 def typestore(ros1: bool):
     from rosbags.typesys import Stores, get_typestore
 
-    return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if ros1:  # Noetic's store lacks tf2_msgs; a ROS 1 bag carries its definition
+        from rosbags.typesys import get_types_from_msg
+
+        text = "geometry_msgs/TransformStamped[] transforms"
+        store.register(get_types_from_msg(text, "tf2_msgs/msg/TFMessage"))
+    return store
 
 
 def _header(store, ros1: bool, t_ns: int, frame: str):
@@ -84,8 +90,13 @@ def _header(store, ros1: bool, t_ns: int, frame: str):
 
 
 def message(store, ros1: bool, kind: str, t_ns: int, values: Iterable[float], frame: str = "ft"):
-    """A rosbags message object of `kind` (wrench, twist, pose, string) for one sample."""
+    """A rosbags message object of `kind` (wrench, twist, pose, string, tf) for one sample;
+    a tf sample's values are its transforms, each (parent, child, x y z qx qy qz qw)."""
     types = store.types
+    if kind == "tf":
+        return types["tf2_msgs/msg/TFMessage"](
+            transforms=[transform(store, ros1, t_ns, *edge) for edge in values]
+        )
     v = [float(x) for x in values]
     if kind == "string":
         return types["std_msgs/msg/String"](data="unrelated")
@@ -103,11 +114,24 @@ def message(store, ros1: bool, kind: str, t_ns: int, values: Iterable[float], fr
     return types["geometry_msgs/msg/PoseStamped"](header=header, pose=body)
 
 
+def transform(store, ros1: bool, t_ns: int, parent: str, child: str, values: Iterable[float]):
+    """A TransformStamped placing `child` in `parent` at x y z, quaternion qx qy qz qw."""
+    types, v = store.types, [float(x) for x in values]
+    move = types["geometry_msgs/msg/Transform"](
+        translation=types["geometry_msgs/msg/Vector3"](*v[:3]),
+        rotation=types["geometry_msgs/msg/Quaternion"](*v[3:]),
+    )
+    return types["geometry_msgs/msg/TransformStamped"](
+        header=_header(store, ros1, t_ns, parent), child_frame_id=child, transform=move
+    )
+
+
 TYPES = {
     "wrench": "geometry_msgs/msg/WrenchStamped",
     "twist": "geometry_msgs/msg/TwistStamped",
     "pose": "geometry_msgs/msg/PoseStamped",
     "string": "std_msgs/msg/String",
+    "tf": "tf2_msgs/msg/TFMessage",
 }
 
 #: topic -> (kind, header stamps ns, values (T, D)); log times are the stamps, sorted.
@@ -165,3 +189,70 @@ def write_bag(
                 raw = serialize(message(store, ros1, kind, stamp, row, frame), TYPES[kind])
                 writer.write(connection, log_ns, raw)
     return path
+
+
+# -- a tf tree ------------------------------------------------------------------------------
+
+#: world -> base (static): the robot's base 0.5 m along x, 0.8 m up, turned a quarter about z
+BASE_IN_WORLD = (0.5, -0.2, 0.8, 0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4))
+#: link1 -> tool (static): the tool 0.1 m along link1's z, turned a quarter about x
+TOOL_IN_LINK1 = (0.0, 0.0, 0.1, np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4))
+
+
+def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    (ax, ay, az, aw), (bx, by, bz, bw) = np.moveaxis(a, -1, 0), np.moveaxis(b, -1, 0)
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz],
+                    axis=-1)  # fmt: skip
+
+
+def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """v (.., 3) turned by q (.., 4): the vector part of q v q*."""
+    q, v = np.broadcast_arrays(np.asarray(q, float), np.asarray(v, float)[..., [0, 1, 2, 2]])
+    pure = v * np.array([1.0, 1.0, 1.0, 0.0])
+    return quat_multiply(quat_multiply(q, pure), q * np.array([-1.0, -1.0, -1.0, 1.0]))[..., :3]
+
+
+def tool_in_world(t: np.ndarray) -> np.ndarray:
+    """(T, 7) the tool's pose in world: `pose` (the tool in base) seen through the base."""
+    base, tool = np.asarray(BASE_IN_WORLD), pose(t)
+    position = base[:3] + quat_rotate(base[3:], tool[:, :3])
+    return np.concatenate([position, quat_multiply(base[3:], tool[:, 3:])], axis=1)
+
+
+def tool_twist_in_world(t: np.ndarray) -> np.ndarray:
+    """(T, 6) `twist` seen through the base's turn."""
+    vel = twist(t)
+    turn = np.asarray(BASE_IN_WORLD)[3:]
+    return np.concatenate([quat_rotate(turn, vel[:, :3]), quat_rotate(turn, vel[:, 3:])], axis=1)
+
+
+def tf_topics(seconds: float = 3.0, base_on_tf_hz: float | None = None) -> Topics:
+    """1 kHz wrench and a robot_state_publisher's tf: 100 Hz /tf (base -> link1, moving so
+    that the tool in base follows `pose`, and base -> elbow) and /tf_static (world -> base,
+    link1 -> tool, world -> camera). `base_on_tf_hz`: world -> base on a tf topic of its
+    own at that rate instead, as a localisation node publishes it."""
+    tw, tf = times(1000, seconds), times(100, seconds, 0.002)
+    tool, fixed = pose(seconds_of(tf)), np.asarray(TOOL_IN_LINK1)
+    turn = quat_multiply(tool[:, 3:], fixed[3:] * np.array([-1.0, -1.0, -1.0, 1.0]))
+    link1 = np.concatenate([tool[:, :3] - quat_rotate(turn, fixed[:3]), turn], axis=1)
+    elbow = np.zeros((len(tf), 7))
+    elbow[:, 6] = 1.0
+    moving = [
+        (("base", "link1", row), ("base", "elbow", other))
+        for row, other in zip(link1, elbow, strict=True)
+    ]
+    static = [("world", "camera", (1.0, 0, 2.0, 0, 0, 0, 1.0)), ("link1", "tool", TOOL_IN_LINK1)]
+    if base_on_tf_hz is None:
+        static.append(("world", "base", BASE_IN_WORLD))
+    ts = times(1, 1.0, -0.5)  # latched: published once, before the rest
+    topics: Topics = {
+        "/ft_sensor/wrench": ("wrench", tw, wrench(seconds_of(tw))),
+        "/tf": ("tf", tf, moving),
+        "/tf_static": ("tf", ts, [static]),
+    }
+    if base_on_tf_hz is not None:
+        tb = times(base_on_tf_hz, seconds + 1.0, -0.5)
+        base = [[("world", "base", BASE_IN_WORLD)]] * len(tb)
+        topics["/localisation/tf"] = ("tf", tb, base)
+    return topics

@@ -26,7 +26,10 @@ from tests.convert_signals import (
     pose,
     seconds_of,
     standard_topics,
+    tf_topics,
     times,
+    tool_in_world,
+    tool_twist_in_world,
     twist,
     wrench,
     write_bag,
@@ -37,11 +40,13 @@ pytest.importorskip("rosbags")
 LAYOUTS = ["ros1", "sqlite3", "mcap", "bare-mcap"]
 
 
-def make_bag(tmp_path: Path, topics, layout: str) -> Path:
-    """A bag of `layout`; `bare-mcap` is the .mcap file inside a ROS 2 mcap bag folder."""
+def make_bag(tmp_path: Path, topics, layout: str, **options) -> Path:
+    """A bag of `layout`; `bare-mcap` is the .mcap file inside a ROS 2 mcap bag folder.
+    `options` go to `write_bag`."""
     if layout == "ros1":
-        return write_bag(tmp_path / "log.bag", topics, "ros1")
-    folder = write_bag(tmp_path / "log", topics, "mcap" if layout == "bare-mcap" else layout)
+        return write_bag(tmp_path / "log.bag", topics, "ros1", **options)
+    kind = "mcap" if layout == "bare-mcap" else layout
+    folder = write_bag(tmp_path / "log", topics, kind, **options)
     return next(folder.glob("*.mcap")) if layout == "bare-mcap" else folder
 
 
@@ -212,6 +217,100 @@ def test_a_stream_falling_back_to_log_times_is_warned_about(tmp_path: Path) -> N
     bag = write_bag(tmp_path / "log.bag", standard_topics(), "ros1", unstamped=["/arm/ee_pose"])
     with pytest.warns(ConversionWarning, match=r"streams on different clocks \(/ft_sensor/wrench"):
         convert(bag, tmp_path / "t.mcap", "gown")
+
+
+# -- the pose from tf ----------------------------------------------------------------------
+
+WORLD_WRENCH, BASE_WRENCH = {"/ft_sensor/wrench": "world"}, {"/ft_sensor/wrench": "base"}
+
+
+@pytest.mark.parametrize("layout", ["ros1", "mcap"])
+@pytest.mark.parametrize("parent", ["base", "world"])
+def test_a_bag_with_tf_instead_of_a_pose_topic_converts_to_the_tools_analytic_motion(
+    tmp_path: Path, layout: str, parent: str
+) -> None:
+    """world -> base (static) -> link1 (100 Hz /tf) -> tool (static): the tool's pose in
+    PARENT, and its velocity by differentiation, as a PoseStamped topic of it would give."""
+    bag = make_bag(tmp_path, tf_topics(), layout, frames={"/ft_sensor/wrench": parent})
+    out = tmp_path / "trial.mcap"
+    report = convert(bag, out, "gown", pose_tf=f"{parent}:tool")
+    with TrialReader(out) as reader:
+        wrench_out, twist_out, pose_out = reader.wrench, reader.twist, reader.pose
+    assert len(wrench_out) == report.steps > 290
+    t = seconds_of(wrench_out.t_ns + report.source["start_ns"])
+    want_pose = pose(t) if parent == "base" else tool_in_world(t)
+    want_twist = twist(t) if parent == "base" else tool_twist_in_world(t)
+    np.testing.assert_allclose(wrench_out.values, wrench(t, vibration=False), atol=5e-4)
+    assert pose_out is not None
+    np.testing.assert_allclose(pose_out.values, want_pose, atol=1e-4)
+    np.testing.assert_allclose(twist_out.values, want_twist, atol=2e-4)
+    stream = report.source["streams"]["pose"]
+    assert stream["topic"] == f"/tf {parent}->tool" and stream["rate_hz"] == 100.0
+    assert stream["type"] == "tf2_msgs/msg/TFMessage" and stream["frame_id"] == parent
+    assert "differentiated from pose" in report.source["processing"]["twist"]
+    lines = format_summary(summarize(out)).splitlines()
+    assert any(line.startswith(f"    pose    300 messages at 100 Hz (/tf {parent}->tool, header")
+               for line in lines), lines  # fmt: skip
+
+
+def test_a_tf_link_at_another_rate_is_interpolated_at_the_fastest_ones_stamps(
+    tmp_path: Path,
+) -> None:
+    bag = make_bag(tmp_path, tf_topics(base_on_tf_hz=25.0), "sqlite3", frames=WORLD_WRENCH)
+    report = convert(bag, tmp_path / "t.mcap", "gown", pose_tf="world:tool")
+    got = read_trial(tmp_path / "t.mcap")
+    t = seconds_of(got.pose.t_ns + report.source["start_ns"])
+    np.testing.assert_allclose(got.pose.values, tool_in_world(t), atol=1e-4)
+    assert report.source["streams"]["pose"]["rate_hz"] == 100.0
+
+
+def test_the_pose_from_tf_honours_the_bags_receive_times(tmp_path: Path) -> None:
+    topics = tf_topics(2.0)
+    lead = {"/tf": 300_000_000}
+    bag = write_bag(tmp_path / "log", topics, "mcap", stamp_lead_ns=lead, frames=BASE_WRENCH)
+    report = convert(bag, tmp_path / "t.mcap", "gown", pose_tf="base:tool", clock="log")
+    got = read_trial(tmp_path / "t.mcap")
+    assert report.source["streams"]["pose"]["clock"] == "log"
+    t = seconds_of(got.pose.t_ns + report.source["start_ns"])
+    np.testing.assert_allclose(got.pose.values, pose(t), atol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("pose_tf", "match"),
+    [
+        ("base/tool", r"--pose-tf 'base/tool': give PARENT:CHILD, .* e\.g\. base_link:tool0$"),
+        ("base:gripper", r"frame gripper is not in the bag's tf tree \(frames: base, camera, "
+                         r"elbow, link1, tool, world\)$"),
+        ("camera:tool", r"camera is not above tool in the tf tree: tool's chain reaches the "
+                        r"root world;"),
+        ("link1:tool", r"every transform from tool up to link1 is static, so the pose never "
+                       "moves"),
+    ],
+)  # fmt: skip
+def test_a_pose_tf_the_tree_cannot_give_is_refused_in_one_line(
+    tmp_path: Path, pose_tf: str, match: str
+) -> None:
+    bad(tmp_path, tf_topics(1.0), match, layout="mcap", pose_tf=pose_tf)
+
+
+def test_a_pose_tf_needs_a_bag_with_tf_and_no_pose_topic_beside_it(tmp_path: Path) -> None:
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    bad(tmp_path / "a", standard_topics(1.0), r"--pose-tf: no /tf in the bag \(no tf2_msgs/msg/"
+        r"TFMessage topic with messages; topics: /arm/ee_pose", pose_tf="base:tool")  # fmt: skip
+    bad(tmp_path / "b", tf_topics(1.0), "--pose-tf and --pose-topic both give the pose",
+        pose_tf="base:tool", pose_topic="/arm/ee_pose")  # fmt: skip
+    bag = make_bag(tmp_path, tf_topics(1.0), "ros1", frames=BASE_WRENCH)
+    args = ["convert", str(bag), "-o", str(tmp_path / "t.mcap"), "--task", "gown"]
+    result = CliRunner().invoke(main, [*args, "--pose-tf", "base:tool", "--pose-topic", "/x"])
+    assert result.exit_code == 2 and "--pose-tf and --pose-topic both give the pose" in (
+        result.output
+    )
+    (tmp_path / "x.csv").write_text("t,fx,fy,fz,tx,ty,tz,vx,vy,vz\n")
+    args[1] = str(tmp_path / "x.csv")
+    result = CliRunner().invoke(main, [*args, "--pose-tf", "base:tool"])
+    assert result.exit_code == 1 and "--pose-tf: applies to bags, not to a CSV" in result.output
+    result = CliRunner().invoke(main, [*args[:1], str(bag), *args[2:], "--pose-tf", "base:tool"])
+    assert result.exit_code == 0, result.output
 
 
 # -- bad input -----------------------------------------------------------------------------

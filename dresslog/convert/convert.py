@@ -71,6 +71,7 @@ def load(
     wrench_topic: str | None = None,
     twist_topic: str | None = None,
     pose_topic: str | None = None,
+    pose_tf: str | None = None,
     motion: str | Path | None = None,
     columns: Mapping[str, str] | None = None,
     time_unit: str | None = None,
@@ -85,7 +86,7 @@ def load(
     given: dict[str, object] = {"--motion": motion, "--column": columns, "--time-unit": time_unit}
     if is_csv:
         given = {"--wrench-topic": wrench_topic, "--twist-topic": twist_topic}
-        given |= {"--pose-topic": pose_topic, "--clock log": clock == "log"}
+        given |= {"--pose-topic": pose_topic, "--pose-tf": pose_tf, "--clock log": clock == "log"}
     if unused := [option for option, value in given.items() if value]:
         what = "bags, not to a CSV" if is_csv else "a CSV, not to a bag"
         raise ConversionError(f"{', '.join(unused)}: applies to {what}; leave it out", path=path)
@@ -113,7 +114,7 @@ def load(
 
     return read_bag(
         path, wrench_topic=wrench_topic, twist_topic=twist_topic, pose_topic=pose_topic,
-        clock=clock,
+        pose_tf=pose_tf, clock=clock,
     )  # fmt: skip
 
 
@@ -248,7 +249,7 @@ def _describe(stream: SourceStream, source: Source) -> dict[str, object]:
     if source.format == "csv":
         out["file"] = stream.name
     else:
-        out |= {"topic": stream.name, "type": MESSAGE_TYPES[stream.kind]}
+        out |= {"topic": stream.name, "type": stream.msgtype or MESSAGE_TYPES[stream.kind]}
     if stream.frame_id:
         out["frame_id"] = stream.frame_id
     return out
@@ -262,6 +263,7 @@ def convert(
     wrench_topic: str | None = None,
     twist_topic: str | None = None,
     pose_topic: str | None = None,
+    pose_tf: str | None = None,
     motion: str | Path | None = None,
     columns: Mapping[str, str] | None = None,
     time_unit: str | None = None,
@@ -279,6 +281,8 @@ def convert(
 ) -> ConversionReport:
     """Convert one external log into the trial `output` (100 Hz, times from 0, no ground truth).
 
+    `pose_tf` ("PARENT:CHILD", e.g. "base_link:tool0") takes a bag's pose from its /tf
+    and /tf_static, CHILD's in PARENT, where no PoseStamped topic holds it.
     `wrench_frame="pose"` says the sensor's axes turn with the gripper: each step's
     wrench is turned from the pose's orientation into its world axes (after the tare,
     which belongs to the sensor's own axes), first by `sensor_rotation` (x y z w; the
@@ -310,6 +314,7 @@ def convert(
         wrench_topic=wrench_topic,
         twist_topic=twist_topic,
         pose_topic=pose_topic,
+        pose_tf=pose_tf,
         motion=motion,
         columns=columns,
         time_unit=time_unit,

@@ -118,7 +118,7 @@ def interpolate_pose(t_ns: np.ndarray, pose: np.ndarray, grid_ns: np.ndarray) ->
     return np.concatenate([position, normalize(quat)], axis=1)
 
 
-def _multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product of quaternions (x y z w), row by row."""
     ax, ay, az, aw = np.moveaxis(a, -1, 0)
     bx, by, bz, bw = np.moveaxis(b, -1, 0)
@@ -150,7 +150,7 @@ def twist_from_pose(t_ns: np.ndarray, pose: np.ndarray) -> np.ndarray:
     linear = np.gradient(pose[:, :3], seconds, axis=0, edge_order=order)
     quat = continuous_quaternions(normalize(pose[:, 3:7]))
     dquat = np.gradient(quat, seconds, axis=0, edge_order=order)
-    angular = 2.0 * _multiply(dquat, _conjugate(quat))[:, :3]
+    angular = 2.0 * multiply(dquat, _conjugate(quat))[:, :3]
     return np.concatenate([linear, angular], axis=1)
 
 
@@ -199,7 +199,7 @@ def rotate_pose(pose: np.ndarray, quat: tuple[float, float, float, float]) -> np
     q = _scaled(quat)
     q /= np.linalg.norm(q)
     position = pose[:, :3] @ rotation_matrices(q).T
-    orientation = _multiply(np.broadcast_to(q, (len(pose), 4)), pose[:, 3:7])
+    orientation = multiply(np.broadcast_to(q, (len(pose), 4)), pose[:, 3:7])
     return np.concatenate([position, orientation], axis=1)
 
 

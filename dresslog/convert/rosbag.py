@@ -18,6 +18,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from dresslog.convert import tf
 from dresslog.convert.source import MESSAGE_TYPES, WIDTHS, Source, SourceStream
 from dresslog.errors import ConversionError
 from dresslog.io import cdr
@@ -163,23 +164,29 @@ def _ros1_messages(reader: Any, connections: list) -> dict[str, tuple[list[int],
 # -- topics --------------------------------------------------------------------------------
 
 
+def _listing(types: dict[str, str]) -> str:
+    return ", ".join(f"{t} ({m.split('/')[-1]})" for t, m in sorted(types.items())) or "none"
+
+
 def choose_topics(
     types: dict[str, str],
     wanted: dict[str, str | None],
     path: Path,
     empty: frozenset[str] = frozenset(),
+    pose_tf: bool = False,
 ) -> tuple[dict[str, str], list[str]]:
     """Topic per kind: the one asked for, or the only candidate; errors list the candidates.
 
     Wrench is required; velocity needs a twist or a pose (differentiated only when
     there is no twist, whether or not a pose topic was named). When a twist is found
-    and the pose is ambiguous, the pose is left out with a note.
+    and the pose is ambiguous, the pose is left out with a note. With `pose_tf` the pose
+    comes from tf, and no pose topic is chosen.
     """
     candidates = {  # a topic with no messages has nothing to convert: no rival
         kind: sorted(t for t, m in types.items() if m == msgtype and t not in empty)
         for kind, msgtype in MESSAGE_TYPES.items()
     }
-    listing = ", ".join(f"{t} ({m.split('/')[-1]})" for t, m in sorted(types.items())) or "none"
+    listing = _listing(types)
     chosen: dict[str, str] = {}
     notes: list[str] = []
     for kind, topic in wanted.items():
@@ -198,7 +205,7 @@ def choose_topics(
         chosen[kind] = topic
     for kind in ("wrench", "twist", "pose"):
         found = candidates[kind]
-        if kind in chosen or (not found and kind != "wrench"):
+        if kind in chosen or (not found and kind != "wrench") or (kind == "pose" and pose_tf):
             continue
         if len(found) == 1:
             chosen[kind] = found[0]
@@ -217,7 +224,7 @@ def choose_topics(
             notes.append(f"pose left out: {message}")
             continue
         raise ConversionError(message, path=path)
-    if "twist" not in chosen and "pose" not in chosen:
+    if "twist" not in chosen and "pose" not in chosen and not pose_tf:
         raise ConversionError(
             f"no TwistStamped or PoseStamped topic for the end-effector velocity "
             f"(topics: {listing}); the model needs force, torque and velocity",
@@ -342,14 +349,22 @@ def read_bag(
     wrench_topic: str | None = None,
     twist_topic: str | None = None,
     pose_topic: str | None = None,
+    pose_tf: str | None = None,
     clock: Literal["header", "log"] = "header",
 ) -> Source:
     """Read the needed topics of one bag (any format AnyReader opens) into a `Source`.
 
     Times are the messages' header stamps, or with `clock="log"` the bag's receive times:
-    for a sensor whose own clock is not the robot's.
+    for a sensor whose own clock is not the robot's. `pose_tf` ("PARENT:CHILD") builds the
+    pose of CHILD in PARENT from the bag's tf topics (`dresslog.convert.tf`) in place of
+    a PoseStamped topic.
     """
     path = Path(path)
+    if pose_tf is not None and pose_topic is not None:
+        raise ConversionError(
+            f"{tf.OPTION} and --pose-topic both give the pose; leave one out", path=path
+        )
+    frames = tf.parse_frames(pose_tf, path) if pose_tf is not None else None
     check_name(path)
     if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
         check_mcap(path)
@@ -375,8 +390,17 @@ def read_bag(
             for connection in reader.connections:
                 counts[connection.topic] += connection.msgcount
             empty = frozenset(t for t in types if not counts[t])
-            chosen, notes = choose_topics(types, wanted, path, empty)
-            topics = set(chosen.values())
+            chosen, notes = choose_topics(types, wanted, path, empty, pose_tf=frames is not None)
+            tf_topics = sorted(t for t, m in types.items() if m == tf.TF_TYPE and t not in empty)
+            if frames is not None and not tf_topics:
+                raise ConversionError(
+                    f"{tf.OPTION}: no /tf in the bag (no {tf.TF_TYPE} topic with messages; "
+                    f"topics: {_listing(types)})",
+                    path=path,
+                )
+            if frames is None:
+                tf_topics = []
+            topics = set(chosen.values()) | set(tf_topics)
             connections = [c for c in reader.connections if c.topic in topics]
             buckets = _ros1_messages(reader.readers[0], connections) if ros1 else None
             if buckets is None:  # rosbags' own per-message path
@@ -385,6 +409,16 @@ def read_bag(
                     times, payloads = buckets[connection.topic]
                     times.append(t_ns)
                     payloads.append(raw)
+            if frames is not None:  # deserialised while the reader is open
+                statics = {t for t in tf_topics if t.rsplit("/", 1)[-1] == "tf_static"}
+                transforms = (
+                    (topic in statics, log_ns, raw)
+                    for topic in tf_topics
+                    for log_ns, raw in zip(*buckets[topic], strict=True)
+                )
+                edges = tf.collect_edges(
+                    transforms, lambda raw: reader.deserialize(raw, tf.TF_TYPE)
+                )
     except errors as err:
         tools = {".bag": "rosbag reindex", ".mcap": "mcap recover"}  # else a ROS 2 bag folder
         tool = tools.get(path.suffix, "ros2 bag reindex") if path.is_file() else "ros2 bag reindex"
@@ -394,6 +428,8 @@ def read_bag(
             path=path,
         ) from None
     streams: dict[str, SourceStream] = {}
+    if frames is not None:
+        streams["pose"] = tf.pose_stream(edges, *frames, path, clock)
     for kind, topic in chosen.items():
         log_ns, payloads = buckets[topic]
         if not payloads:

@@ -37,6 +37,8 @@ class SourceStream:
     log_ns: np.ndarray | None = None
     #: False for a pose whose orientation the log lacks (filled in as the identity)
     has_orientation: bool = True
+    #: the message type read, where not the kind's own (a pose built from tf)
+    msgtype: str = ""
 
     def __len__(self) -> int:
         return len(self.t_ns)

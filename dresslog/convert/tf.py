@@ -1,0 +1,187 @@
+"""The gripper's pose from a bag's tf tree: `--pose-tf PARENT:CHILD`.
+
+A ROS robot rarely logs its gripper's pose as a PoseStamped topic: robot_state_publisher
+puts each link relative to its parent on `/tf` (tf2_msgs/msg/TFMessage, one
+TransformStamped per link, at the joint-state rate) and the fixed links on
+`/tf_static`. Here every transform of those topics is collected into edges child ->
+parent, the chain from CHILD up to PARENT is found and composed into CHILD's pose in
+PARENT, a `SourceStream` of kind "pose" as a PoseStamped topic would give.
+
+Static edges are constant (the last one published). The pose's times are the header
+stamps of the chain's dynamic edges: shared, as robot_state_publisher's are, or else
+those of the fastest edge within the time every dynamic edge covers, the others
+interpolated there (position linearly, orientation by normalised lerp; never
+extrapolated). TFMessages are deserialised one by one with rosbags (their length varies
+with the frames' names), unlike the fixed-layout topics read in bulk in `rosbag`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dresslog.convert import resample as rs
+from dresslog.convert.source import SourceStream
+from dresslog.errors import ConversionError
+
+TF_TYPE = "tf2_msgs/msg/TFMessage"
+OPTION = "--pose-tf"
+#: Frames listed in an error: enough to spot the gripper's, not a screenful.
+LISTED_FRAMES = 12
+
+
+@dataclass
+class Edge:
+    """Where `child` sits in `parent`: position + quaternion (T, 7) at header stamps `t_ns`."""
+
+    parent: str
+    child: str
+    static: bool
+    t_ns: np.ndarray
+    log_ns: np.ndarray
+    values: np.ndarray
+
+
+def parse_frames(value: str, path: Path) -> tuple[str, str]:
+    """PARENT and CHILD of `--pose-tf PARENT:CHILD`, without ROS 1's leading slashes."""
+    parent, colon, child = value.partition(":")
+    parent, child = _frame(parent.strip()), _frame(child.strip())
+    if not colon or not parent or not child or ":" in child:
+        raise ConversionError(
+            f"{OPTION} {value!r}: give PARENT:CHILD, the gripper's frame in the one its pose "
+            "is wanted in, e.g. base_link:tool0",
+            path=path,
+        )
+    if parent == child:
+        raise ConversionError(f"{OPTION} {value!r}: PARENT and CHILD are one frame", path=path)
+    return parent, child
+
+
+def _frame(name: str) -> str:
+    return name.lstrip("/")  # ROS 1's tf allowed "/base_link"; tf2 names it "base_link"
+
+
+def collect_edges(
+    messages: Iterable[tuple[bool, int, bytes]], deserialize: Callable[[bytes], Any]
+) -> dict[str, list[Edge]]:
+    """Each child frame's edges (one unless two parents claim it) from raw TFMessages, given
+    as (from /tf_static, log time ns, payload)."""
+    rows: dict[tuple[str, str], tuple[list[bool], list[int], list[int], list[tuple]]] = {}
+    for static, log_ns, raw in messages:
+        for transform in deserialize(raw).transforms:
+            stamp, move = transform.header.stamp, transform.transform
+            key = (_frame(transform.header.frame_id), _frame(transform.child_frame_id))
+            statics, stamps, logs, values = rows.setdefault(key, ([], [], [], []))
+            statics.append(static)
+            stamps.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
+            logs.append(log_ns)
+            t, r = move.translation, move.rotation
+            values.append((t.x, t.y, t.z, r.x, r.y, r.z, r.w))
+    edges: dict[str, list[Edge]] = {}
+    for (parent, child), (statics, stamps, logs, values) in rows.items():
+        t_ns, logged = np.asarray(stamps, np.int64), np.asarray(logs, np.int64)
+        pose = np.asarray(values, np.float64)
+        static = all(statics)
+        if static:  # latched, maybe republished: the last one holds
+            keep = np.array([np.argmax(logged)])
+        else:  # by stamp, a transform logged twice (or on both topics) once
+            dynamic = np.flatnonzero(~np.asarray(statics))
+            _, first = np.unique(t_ns[dynamic], return_index=True)
+            keep = dynamic[first]
+        t_ns, logged, pose = t_ns[keep], logged[keep], pose[keep]
+        pose[:, 3:] = rs.continuous_quaternions(rs.normalize(pose[:, 3:]))
+        edges.setdefault(child, []).append(Edge(parent, child, static, t_ns, logged, pose))
+    return edges
+
+
+def _listing(frames: set[str]) -> str:
+    names = sorted(frames)
+    more = f", ... ({len(names)} in all)" if len(names) > LISTED_FRAMES else ""
+    return ", ".join(names[:LISTED_FRAMES]) + more
+
+
+def chain(edges: dict[str, list[Edge]], parent: str, child: str, path: Path) -> list[Edge]:
+    """The edges from `child` up to `parent`, child's own first."""
+    frames = set(edges) | {e.parent for found in edges.values() for e in found}
+    for frame in (child, parent):
+        if frame not in frames:
+            raise ConversionError(
+                f"{OPTION}: frame {frame} is not in the bag's tf tree (frames: {_listing(frames)})",
+                path=path,
+            )
+    out: list[Edge] = []
+    frame = child
+    while frame != parent:
+        if frame not in edges:
+            raise ConversionError(
+                f"{OPTION}: {parent} is not above {child} in the tf tree: {child}'s chain "
+                f"reaches the root {frame}; give PARENT:CHILD with PARENT on that chain",
+                path=path,
+            )
+        if len(found := edges[frame]) > 1:
+            parents = ", ".join(sorted(e.parent for e in found))
+            raise ConversionError(
+                f"{OPTION}: frame {frame} has {len(found)} parents in tf ({parents}); a tf "
+                "tree gives each frame one",
+                path=path,
+            )
+        out.append(found[0])
+        frame = found[0].parent
+        if len(out) > len(edges):  # a loop never reaches a root
+            raise ConversionError(f"{OPTION}: the tf tree loops at {frame}", path=path)
+    return out
+
+
+def _compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """Poses (T, 7) of `inner`'s frame through `outer`'s: where inner's child sits."""
+    position = outer[:, :3] + rs.rotate_by_orientation(inner[:, :3], outer[:, 3:])
+    return np.concatenate([position, rs.multiply(outer[:, 3:], inner[:, 3:])], axis=1)
+
+
+def pose_stream(
+    edges: dict[str, list[Edge]], parent: str, child: str, path: Path, clock: str = "header"
+) -> SourceStream:
+    """CHILD's pose in PARENT, timed by the chain's dynamic edges' stamps (or, with
+    `clock="log"`, by the receive times of the messages that carried those stamps)."""
+    links = chain(edges, parent, child, path)
+    dynamic = [e for e in links if not e.static]
+    name = f"/tf {parent}->{child}"
+    if not dynamic:
+        raise ConversionError(
+            f"{OPTION}: every transform from {child} up to {parent} is static, so the pose "
+            "never moves and gives no velocity; choose a CHILD on the moving arm",
+            path=path,
+        )
+    timing = max(dynamic, key=lambda e: rs.median_rate(e.t_ns) if len(e.t_ns) > 1 else 0.0)
+    t_ns, log_ns = timing.t_ns, timing.log_ns
+    if any(not np.array_equal(e.t_ns, t_ns) for e in dynamic):
+        start, stop = max(int(e.t_ns[0]) for e in dynamic), min(int(e.t_ns[-1]) for e in dynamic)
+        inside = (t_ns >= start) & (t_ns <= stop)
+        if not inside.any():
+            spans = ", ".join(
+                f"{e.parent}->{e.child} {e.t_ns[0] / 1e9:.3f}-{e.t_ns[-1] / 1e9:.3f} s"
+                for e in dynamic
+            )
+            raise ConversionError(
+                f"{OPTION}: the moving transforms from {child} up to {parent} share no time "
+                f"({spans})",
+                path=path,
+            )
+        t_ns, log_ns = t_ns[inside], log_ns[inside]
+    pose: np.ndarray | None = None
+    for edge in reversed(links):  # from PARENT down to CHILD
+        if edge.static:
+            values = np.repeat(edge.values, len(t_ns), axis=0)
+        elif np.array_equal(edge.t_ns, t_ns):
+            values = edge.values
+        else:
+            values = rs.interpolate_pose(edge.t_ns, edge.values, t_ns)
+        pose = values if pose is None else _compose(pose, values)
+    assert pose is not None  # the chain holds a dynamic edge
+    pose[:, 3:] = rs.normalize(pose[:, 3:])
+    stamps = log_ns if clock == "log" else t_ns
+    return SourceStream("pose", name, stamps, pose, parent, clock, log_ns, msgtype=TF_TYPE)
