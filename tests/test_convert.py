@@ -257,7 +257,8 @@ def test_a_tf_link_at_another_rate_is_interpolated_at_the_fastest_ones_stamps(
     tmp_path: Path,
 ) -> None:
     bag = make_bag(tmp_path, tf_topics(base_on_tf_hz=25.0), "sqlite3", frames=WORLD_WRENCH)
-    report = convert(bag, tmp_path / "t.mcap", "gown", pose_tf="world:tool")
+    # ROS 1's tf named frames with a leading slash, tf2 without: either finds them
+    report = convert(bag, tmp_path / "t.mcap", "gown", pose_tf="/world:tool")
     got = read_trial(tmp_path / "t.mcap")
     t = seconds_of(got.pose.t_ns + report.source["start_ns"])
     np.testing.assert_allclose(got.pose.values, tool_in_world(t), atol=1e-4)
@@ -291,6 +292,23 @@ def test_a_pose_tf_the_tree_cannot_give_is_refused_in_one_line(
     tmp_path: Path, pose_tf: str, match: str
 ) -> None:
     bad(tmp_path, tf_topics(1.0), match, layout="mcap", pose_tf=pose_tf)
+
+
+@pytest.mark.parametrize(
+    ("extra", "pose_tf", "match"),
+    [
+        ([("world", "link1")], "world:tool", r"frame link1 has 2 parents in tf \(base, world\)"),
+        ([("x", "y"), ("y", "x")], "world:x", "the tf tree loops at x"),
+    ],
+)  # fmt: skip
+def test_a_tf_tree_that_is_no_tree_is_refused_in_one_line(
+    tmp_path: Path, extra: list[tuple[str, str]], pose_tf: str, match: str
+) -> None:
+    topics = tf_topics(1.0)
+    kind, stamps, (static,) = topics["/tf_static"]
+    unturned = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    topics["/tf_static"] = (kind, stamps, [static + [(*edge, unturned) for edge in extra]])
+    bad(tmp_path, topics, match, layout="sqlite3", pose_tf=pose_tf)
 
 
 def test_a_pose_tf_needs_a_bag_with_tf_and_no_pose_topic_beside_it(tmp_path: Path) -> None:
