@@ -357,6 +357,9 @@ def test_a_bag_without_velocity_or_pose_is_refused(tmp_path: Path) -> None:
     topics = standard_topics(1.0)
     del topics["/arm/ee_pose"]
     bad(tmp_path, topics, "no TwistStamped or PoseStamped topic", layout="sqlite3")
+    # a bag whose pose is in its tf tree is told how to take it from there
+    bad(tmp_path, tf_topics(1.0), r"force, torque and velocity; the bag has /tf: give the "
+        r"gripper's frame as --pose-tf PARENT:CHILD$")  # fmt: skip
 
 
 def test_two_wrench_topics_need_a_choice(tmp_path: Path) -> None:

@@ -225,9 +225,12 @@ def choose_topics(
             continue
         raise ConversionError(message, path=path)
     if "twist" not in chosen and "pose" not in chosen and not pose_tf:
+        # a robot's gripper pose is mostly in its tf tree: say how to take it from there
+        hint = "; the bag has /tf: give the gripper's frame as --pose-tf PARENT:CHILD"
         raise ConversionError(
             f"no TwistStamped or PoseStamped topic for the end-effector velocity "
-            f"(topics: {listing}); the model needs force, torque and velocity",
+            f"(topics: {listing}); the model needs force, torque and velocity"
+            f"{hint if tf.TF_TYPE in types.values() else ''}",
             path=path,
         )
     return chosen, notes
