@@ -414,13 +414,10 @@ def read_bag(
                     payloads.append(raw)
             if frames is not None:  # deserialised while the reader is open
                 statics = {t for t in tf_topics if t.rsplit("/", 1)[-1] == "tf_static"}
-                transforms = (
-                    (topic in statics, log_ns, raw)
-                    for topic in tf_topics
-                    for log_ns, raw in zip(*buckets[topic], strict=True)
-                )
                 edges = tf.collect_edges(
-                    transforms, lambda raw: reader.deserialize(raw, tf.TF_TYPE)
+                    [(topic in statics, *buckets[topic]) for topic in tf_topics],
+                    lambda raw: reader.deserialize(raw, tf.TF_TYPE),
+                    ros1=ros1,
                 )
     except errors as err:
         tools = {".bag": "rosbag reindex", ".mcap": "mcap recover"}  # else a ROS 2 bag folder

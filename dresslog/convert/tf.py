@@ -11,13 +11,13 @@ Static edges are constant (the last one published). The pose's times are the hea
 stamps of the chain's dynamic edges: shared, as robot_state_publisher's are, or else
 those of the fastest edge within the time every dynamic edge covers, the others
 interpolated there (position linearly, orientation by normalised lerp; never
-extrapolated). TFMessages are deserialised one by one with rosbags (their length varies
-with the frames' names), unlike the fixed-layout topics read in bulk in `rosbag`.
+extrapolated). The TFMessages are read in bulk by `tfmessage`, one layout per run of
+payloads that repeat their frames, rosbags deserialising any other one by one.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from dresslog.convert import resample as rs
+from dresslog.convert import tfmessage
 from dresslog.convert.source import SourceStream
 from dresslog.errors import ConversionError
 
@@ -66,30 +67,40 @@ def _frame(name: str) -> str:
 
 
 def collect_edges(
-    messages: Iterable[tuple[bool, int, bytes]], deserialize: Callable[[bytes], Any]
+    topics: Iterable[tuple[bool, Sequence[int], Sequence[bytes]]],
+    deserialize: Callable[[bytes], Any],
+    *,
+    ros1: bool,
 ) -> dict[str, list[Edge]]:
-    """Each child frame's edges (one unless two parents claim it) from raw TFMessages, given
-    as (from /tf_static, log time ns, payload)."""
-    rows: dict[tuple[str, str], tuple[list[bool], list[int], list[int], list[tuple]]] = {}
-    for static, log_ns, raw in messages:
-        for transform in deserialize(raw).transforms:
-            stamp, move = transform.header.stamp, transform.transform
-            key = (_frame(transform.header.frame_id), _frame(transform.child_frame_id))
-            statics, stamps, logs, values = rows.setdefault(key, ([], [], [], []))
-            statics.append(static)
-            stamps.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
-            logs.append(log_ns)
-            t, r = move.translation, move.rotation
-            values.append((t.x, t.y, t.z, r.x, r.y, r.z, r.w))
+    """Each child frame's edges (one unless two parents claim it) from the raw TFMessages of
+    each tf topic, given as (it is /tf_static, log times ns, payloads)."""
+    found: dict[tuple[str, str], list[tuple[np.ndarray, ...]]] = {}
+    read = 0  # messages of the topics before: rows keep the order they were sent in
+    for static, log_ns, payloads in topics:
+        got = tfmessage.decode(payloads, deserialize, ros1=ros1)
+        logged = np.asarray(log_ns, dtype=np.int64)[got.message]
+        for k, (parent, child) in enumerate(got.frames):
+            rows = got.frame == k
+            static_rows = np.full(int(rows.sum()), static)
+            message, slot = read + got.message[rows], got.slot[rows]
+            found.setdefault((_frame(parent), _frame(child)), []).append(
+                (message, slot, static_rows, got.t_ns[rows], logged[rows], got.values[rows])
+            )
+        read += len(payloads)
+    rows_of = {}
+    for key, parts in found.items():
+        columns = [np.concatenate(column) for column in zip(*parts, strict=True)]
+        sent = np.lexsort((columns[1], columns[0]))  # as sent: message by message, in order
+        rows_of[key] = [column[sent] for column in columns]
     edges: dict[str, list[Edge]] = {}
-    for (parent, child), (statics, stamps, logs, values) in rows.items():
-        t_ns, logged = np.asarray(stamps, np.int64), np.asarray(logs, np.int64)
-        pose = np.asarray(values, np.float64)
-        static = all(statics)
+    first_sent = sorted(rows_of, key=lambda key: (rows_of[key][0][0], rows_of[key][1][0]))
+    for parent, child in first_sent:  # the edges in the order their frames first came
+        _, _, statics, t_ns, logged, pose = rows_of[parent, child]
+        static = bool(statics.all())
         if static:  # latched, maybe republished: the last one holds
             keep = np.array([np.argmax(logged)])
         else:  # by stamp, a transform logged twice (or on both topics) once
-            dynamic = np.flatnonzero(~np.asarray(statics))
+            dynamic = np.flatnonzero(~statics)
             _, first = np.unique(t_ns[dynamic], return_index=True)
             keep = dynamic[first]
         t_ns, logged, pose = t_ns[keep], logged[keep], pose[keep]

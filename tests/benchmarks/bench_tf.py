@@ -4,8 +4,8 @@
 The /tf is a robot_state_publisher's for a six-joint arm with a two-finger gripper: one
 TFMessage of 8 transforms per 100 Hz step, all stamped alike, plus /tf_static (world ->
 base_link, wrist_3_link -> tool0). Measured: `convert` end to end, and apart from it the
-part that is the tf's own: rosbags' per-message deserialisation of every TFMessage with
-the edges collected (`tf.collect_edges`), and the chain composed (`tf.pose_stream`).
+part that is the tf's own: every TFMessage decoded and the edges collected
+(`tf.collect_edges`), and the chain composed (`tf.pose_stream`).
 
     python tests/benchmarks/bench_tf.py [--minutes 10] [--layouts ros1 mcap]
 """
@@ -99,12 +99,21 @@ def tf_part(path: Path) -> tuple[int, float, float]:
 
     with AnyReader([path]) as reader:
         connections = [c for c in reader.connections if c.msgtype == tf.TF_TYPE]
-        raw = [(c.topic == "/tf_static", t, r) for c, t, r in reader.messages(connections)]
+        topics: dict[str, tuple[list[int], list[bytes]]] = {}
+        for connection, t_ns, raw in reader.messages(connections):
+            times, payloads = topics.setdefault(connection.topic, ([], []))
+            times.append(t_ns)
+            payloads.append(raw)
+        count = sum(len(times) for times, _ in topics.values())
         started = time.perf_counter()
-        edges = tf.collect_edges(raw, lambda r: reader.deserialize(r, tf.TF_TYPE))
+        edges = tf.collect_edges(
+            [(topic == "/tf_static", *found) for topic, found in sorted(topics.items())],
+            lambda r: reader.deserialize(r, tf.TF_TYPE),
+            ros1=not reader.is2,
+        )
         collected = time.perf_counter()
         tf.pose_stream(edges, "base_link", "tool0", path)
-    return len(raw), collected - started, time.perf_counter() - collected
+    return count, collected - started, time.perf_counter() - collected
 
 
 def main() -> None:
@@ -115,7 +124,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         print(f"{args.minutes:g}-minute log: 1 kHz WrenchStamped + 100 Hz /tf of 8 links")
-        print(f"{'layout':<7} {'convert s':>9} {'tf msgs':>8} {'deser+collect s':>15} "
+        print(f"{'layout':<7} {'convert s':>9} {'tf msgs':>8} {'decode+collect s':>16} "
               f"{'us/msg':>7} {'compose s':>9}")  # fmt: skip
         for layout in args.layouts:
             path = write_log(folder, layout, args.minutes)
@@ -125,7 +134,7 @@ def main() -> None:
                 convert(path, folder / f"{layout}.mcap", "gown", pose_tf="base_link:tool0")
             total = time.perf_counter() - started
             count, collect_s, compose_s = tf_part(path)
-            print(f"{layout:<7} {total:>9.2f} {count:>8} {collect_s:>15.2f} "
+            print(f"{layout:<7} {total:>9.2f} {count:>8} {collect_s:>16.3f} "
                   f"{collect_s / count * 1e6:>7.1f} {compose_s:>9.3f}")  # fmt: skip
 
 
