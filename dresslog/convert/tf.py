@@ -77,14 +77,11 @@ def collect_edges(
     found: dict[tuple[str, str], list[tuple[np.ndarray, ...]]] = {}
     read = 0  # messages of the topics before: rows keep the order they were sent in
     for static, log_ns, payloads in topics:
-        got = tfmessage.decode(payloads, deserialize, ros1=ros1)
-        logged = np.asarray(log_ns, dtype=np.int64)[got.message]
-        for k, (parent, child) in enumerate(got.frames):
-            rows = got.frame == k
-            static_rows = np.full(int(rows.sum()), static)
-            message, slot = read + got.message[rows], got.slot[rows]
-            found.setdefault((_frame(parent), _frame(child)), []).append(
-                (message, slot, static_rows, got.t_ns[rows], logged[rows], got.values[rows])
+        logged = np.asarray(log_ns, dtype=np.int64)
+        for run in tfmessage.decode(payloads, deserialize, ros1=ros1):
+            statics = np.full(len(run.message), static)
+            found.setdefault((_frame(run.parent), _frame(run.child)), []).append(
+                (read + run.message, run.slot, statics, run.t_ns, logged[run.message], run.values)
             )
         read += len(payloads)
     rows_of = {}

@@ -29,13 +29,13 @@ CHUNK = 32_768
 
 
 @dataclass
-class Transforms:
-    """A topic's transforms, one row each: transform `slot` of message `message` (indices
-    into the payloads, rows in no set order), of child `frames[frame][1]` in parent
-    `frames[frame][0]` (as sent), at header stamp `t_ns`, position + quaternion `values`."""
+class Run:
+    """Transform `slot` of some of a topic's messages (`message`, indices into the
+    payloads): child frame `child` in `parent` (as sent), at header stamps `t_ns`,
+    position + quaternion `values` (n, 7)."""
 
-    frames: list[tuple[str, str]]
-    frame: np.ndarray
+    parent: str
+    child: str
     message: np.ndarray
     slot: np.ndarray
     t_ns: np.ndarray
@@ -109,29 +109,26 @@ def layout(payload: bytes, *, ros1: bool) -> _Layout | None:
     return _Layout(frames, np.asarray(stamps), np.asarray(values), template, ~numbers)
 
 
-def _numbers(rows: np.ndarray, found: _Layout, ros1: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Stamps (n, k) int64 ns and values (n, k, 7) of n payloads (rows of bytes) of a layout."""
-    stamp = np.ascontiguousarray(rows[:, found.stamps[:, None] + np.arange(8)])  # (n, k, 8)
-    sec = stamp.view("<u4" if ros1 else "<i4")[..., 0].astype(np.int64)
-    t_ns = sec * 1_000_000_000 + stamp.view("<u4")[..., 1].astype(np.int64)
-    values = np.ascontiguousarray(rows[:, found.values[:, None] + np.arange(56)]).view("<f8")
-    return t_ns, values
+def _runs(rows: np.ndarray, message: np.ndarray, found: _Layout, ros1: bool) -> list[Run]:
+    """The transforms of payloads (rows of bytes, messages `message`) of one layout."""
+    runs = []
+    for slot, ((parent, child), stamp, at) in enumerate(
+        zip(found.frames, found.stamps.tolist(), found.values.tolist(), strict=True)
+    ):
+        pair = rows[:, stamp : stamp + 8].copy()  # a strided view's rows, made contiguous
+        sec = pair[:, :4].copy().view("<u4" if ros1 else "<i4")[:, 0].astype(np.int64)
+        t_ns = sec * 1_000_000_000 + pair[:, 4:].copy().view("<u4")[:, 0]
+        values = rows[:, at : at + 56].copy().view("<f8")
+        runs.append(Run(parent, child, message, np.full(len(message), slot), t_ns, values))
+    return runs
 
 
 def decode(
     payloads: Sequence[bytes], deserialize: Callable[[bytes], Any], *, ros1: bool
-) -> Transforms:
-    """Every transform of a topic's TFMessages, in bulk where a layout repeats."""
-    frames: dict[tuple[str, str], int] = {}
-    parts: list[tuple[np.ndarray, ...]] = []  # frame, message, slot, t_ns, values
-
-    def add(names: list[tuple[str, str]], message: np.ndarray, t_ns: np.ndarray,
-            values: np.ndarray) -> None:  # fmt: skip
-        frame = np.asarray([frames.setdefault(n, len(frames)) for n in names], dtype=np.int64)
-        n, k = t_ns.shape
-        parts.append((np.tile(frame, n), np.repeat(message, k), np.tile(np.arange(k), n),
-                      t_ns.ravel(), values.reshape(n * k, 7)))  # fmt: skip
-
+) -> list[Run]:
+    """Every transform of a topic's TFMessages, in runs: in bulk where a layout repeats,
+    else one run per frame of the messages rosbags deserialised."""
+    runs: list[Run] = []
     lengths = np.fromiter(map(len, payloads), dtype=np.int64, count=len(payloads))
     alone: list[int] = []
     for size in np.unique(lengths).tolist():
@@ -153,24 +150,22 @@ def decode(
                 found = layouts[tried]
                 ours = rows if len(left) == len(part) else rows[left]
                 same = ~((ours != found.template) & found.fixed).any(axis=1)
-                if len(found.frames):
-                    add(found.frames, part[left[same]], *_numbers(ours[same], found, ros1))
+                matched = ours if same.all() else ours[same]
+                runs += _runs(matched, part[left[same]], found, ros1)
                 left = left[~same]
             alone += part[left].tolist()
+    rows_of: dict[tuple[str, str], tuple[list[int], list[int], list[int], list[tuple]]] = {}
     for i in sorted(alone):
-        transforms = deserialize(payloads[i]).transforms
-        if not transforms:
-            continue
-        names, stamps, moves = [], [], []
-        for transform in transforms:
+        for slot, transform in enumerate(deserialize(payloads[i]).transforms):
             stamp, move = transform.header.stamp, transform.transform
-            names.append((transform.header.frame_id, transform.child_frame_id))
+            key = (transform.header.frame_id, transform.child_frame_id)
+            messages, slots, stamps, values = rows_of.setdefault(key, ([], [], [], []))
+            messages.append(i)
+            slots.append(slot)
             stamps.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
             t, r = move.translation, move.rotation
-            moves.append((t.x, t.y, t.z, r.x, r.y, r.z, r.w))
-        add(names, np.array([i]), np.array([stamps], np.int64), np.array([moves], np.float64))
-    if not parts:
-        empty = np.zeros(0, dtype=np.int64)
-        return Transforms([], empty, empty, empty, empty, np.zeros((0, 7)))
-    frame, message, slot, t_ns, values = (np.concatenate(c) for c in zip(*parts, strict=True))
-    return Transforms(list(frames), frame, message, slot, t_ns, values)
+            values.append((t.x, t.y, t.z, r.x, r.y, r.z, r.w))
+    for (parent, child), (messages, slots, stamps, values) in rows_of.items():
+        runs.append(Run(parent, child, np.asarray(messages, np.int64), np.asarray(slots),
+                        np.asarray(stamps, np.int64), np.asarray(values, np.float64)))  # fmt: skip
+    return runs
