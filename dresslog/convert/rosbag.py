@@ -12,7 +12,8 @@ uint32 seq in the header, no encapsulation, no alignment) by `ros1_dtype`.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Collection, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path, PurePath
 from typing import Any, Literal
 
@@ -346,6 +347,76 @@ def _listed_storage(folder: Path) -> list[Path]:
         return []
 
 
+@contextmanager
+def opened_bag(path: Path) -> Iterator[Any]:
+    """rosbags' AnyReader on a bag checked first for what it would misread, its errors
+    (there, or while reading in the block) one line with the cure for a bag cut short."""
+    check_name(path)
+    if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
+        check_mcap(path)
+    elif path.suffix.lower() == ".bag" and path.is_file():
+        check_bag(path)
+    highlevel, rosbag1, rosbag2, typesys = _rosbags()
+    if path.is_dir():  # a ROS 2 bag folder's MCAP storage, which rosbags reads as a file
+        for storage in _listed_storage(path):
+            if storage.suffix.lower() == ".mcap" and storage.is_file():
+                check_mcap(storage)
+    # UnicodeDecodeError: bytes where rosbags reads text (a ROS 1 bag's first line, the YAML)
+    errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError,
+              UnicodeDecodeError)  # fmt: skip
+    try:
+        default = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+        with highlevel.AnyReader([path], default_typestore=default) as reader:
+            yield reader
+    except errors as err:
+        tools = {".bag": "rosbag reindex", ".mcap": "mcap recover"}  # else a ROS 2 bag folder
+        tool = tools.get(path.suffix, "ros2 bag reindex") if path.is_file() else "ros2 bag reindex"
+        reason = " ".join(str(err).split())  # a YAML error draws a caret under the line
+        raise ConversionError(
+            f"cannot read bag: {reason}; if its recording was cut short, `{tool}` may repair it",
+            path=path,
+        ) from None
+
+
+def topic_counts(reader: Any) -> tuple[dict[str, str], Counter[str]]:
+    """Each topic's message type (pkg/msg/Type, ROS 1 too) and message count."""
+    types = {c.topic: c.msgtype for c in reader.connections}
+    counts = Counter[str]()
+    for connection in reader.connections:
+        counts[connection.topic] += connection.msgcount
+    return types, counts
+
+
+def tf_topics_of(types: dict[str, str], empty: Collection[str] = ()) -> list[str]:
+    """The bag's tf topics (/tf, /tf_static) that hold messages."""
+    return sorted(t for t, m in types.items() if m == tf.TF_TYPE and t not in empty)
+
+
+def read_topics(reader: Any, topics: set[str]) -> dict[str, tuple[list[int], list]]:
+    """Each topic's receive times and raw payloads."""
+    connections = [c for c in reader.connections if c.topic in topics]
+    buckets = _ros1_messages(reader.readers[0], connections) if not reader.is2 else None
+    if buckets is None:  # rosbags' own per-message path
+        buckets = {t: ([], []) for t in topics}
+        for connection, t_ns, raw in reader.messages(connections=connections):
+            times, payloads = buckets[connection.topic]
+            times.append(t_ns)
+            payloads.append(raw)
+    return buckets
+
+
+def tf_edges(
+    reader: Any, tf_topics: list[str], buckets: dict[str, tuple[list[int], list]]
+) -> dict[str, list[tf.Edge]]:
+    """The tf tree's edges from the read tf topics' messages (`tf.collect_edges`)."""
+    statics = {t for t in tf_topics if t.rsplit("/", 1)[-1] == "tf_static"}
+    return tf.collect_edges(
+        [(topic in statics, *buckets[topic]) for topic in tf_topics],
+        lambda raw: reader.deserialize(raw, tf.TF_TYPE),
+        ros1=not reader.is2,
+    )
+
+
 def read_bag(
     path: str | Path,
     *,
@@ -368,65 +439,24 @@ def read_bag(
             f"{tf.OPTION} and --pose-topic both give the pose; leave one out", path=path
         )
     frames = tf.parse_frames(pose_tf, path) if pose_tf is not None else None
-    check_name(path)
-    if path.suffix.lower() == ".mcap" and path.is_file():  # before rosbags, which is optional
-        check_mcap(path)
-    elif path.suffix.lower() == ".bag" and path.is_file():
-        check_bag(path)
-    highlevel, rosbag1, rosbag2, typesys = _rosbags()
-    if path.is_dir():  # a ROS 2 bag folder's MCAP storage, which rosbags reads as a file
-        for storage in _listed_storage(path):
-            if storage.suffix.lower() == ".mcap" and storage.is_file():
-                check_mcap(storage)
-    # UnicodeDecodeError: bytes where rosbags reads text (a ROS 1 bag's first line, the YAML)
-    errors = (highlevel.AnyReaderError, rosbag1.ReaderError, rosbag2.ReaderError, OSError,
-              UnicodeDecodeError)  # fmt: skip
     wanted = {"wrench": wrench_topic, "twist": twist_topic, "pose": pose_topic}
-    try:
-        default = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
-        with highlevel.AnyReader([path], default_typestore=default) as reader:
-            ros1 = not reader.is2
-            types = {c.topic: c.msgtype for c in reader.connections}  # pkg/msg/Type, ROS 1 too
-            if not types or reader.message_count == 0:
-                raise ConversionError("bag has no messages", path=path)
-            counts = Counter[str]()
-            for connection in reader.connections:
-                counts[connection.topic] += connection.msgcount
-            empty = frozenset(t for t in types if not counts[t])
-            chosen, notes = choose_topics(types, wanted, path, empty, pose_tf=frames is not None)
-            tf_topics = sorted(t for t, m in types.items() if m == tf.TF_TYPE and t not in empty)
-            if frames is not None and not tf_topics:
-                raise ConversionError(
-                    f"{tf.OPTION}: no /tf in the bag (no {tf.TF_TYPE} topic with messages; "
-                    f"topics: {_listing(types)})",
-                    path=path,
-                )
-            if frames is None:
-                tf_topics = []
-            topics = set(chosen.values()) | set(tf_topics)
-            connections = [c for c in reader.connections if c.topic in topics]
-            buckets = _ros1_messages(reader.readers[0], connections) if ros1 else None
-            if buckets is None:  # rosbags' own per-message path
-                buckets = {t: ([], []) for t in topics}
-                for connection, t_ns, raw in reader.messages(connections=connections):
-                    times, payloads = buckets[connection.topic]
-                    times.append(t_ns)
-                    payloads.append(raw)
-            if frames is not None:  # deserialised while the reader is open
-                statics = {t for t in tf_topics if t.rsplit("/", 1)[-1] == "tf_static"}
-                edges = tf.collect_edges(
-                    [(topic in statics, *buckets[topic]) for topic in tf_topics],
-                    lambda raw: reader.deserialize(raw, tf.TF_TYPE),
-                    ros1=ros1,
-                )
-    except errors as err:
-        tools = {".bag": "rosbag reindex", ".mcap": "mcap recover"}  # else a ROS 2 bag folder
-        tool = tools.get(path.suffix, "ros2 bag reindex") if path.is_file() else "ros2 bag reindex"
-        reason = " ".join(str(err).split())  # a YAML error draws a caret under the line
-        raise ConversionError(
-            f"cannot read bag: {reason}; if its recording was cut short, `{tool}` may repair it",
-            path=path,
-        ) from None
+    with opened_bag(path) as reader:
+        ros1 = not reader.is2
+        types, counts = topic_counts(reader)
+        if not types or reader.message_count == 0:
+            raise ConversionError("bag has no messages", path=path)
+        empty = frozenset(t for t in types if not counts[t])
+        chosen, notes = choose_topics(types, wanted, path, empty, pose_tf=frames is not None)
+        tf_topics = tf_topics_of(types, empty) if frames is not None else []
+        if frames is not None and not tf_topics:
+            raise ConversionError(
+                f"{tf.OPTION}: no /tf in the bag (no {tf.TF_TYPE} topic with messages; "
+                f"topics: {_listing(types)})",
+                path=path,
+            )
+        buckets = read_topics(reader, set(chosen.values()) | set(tf_topics))
+        if frames is not None:  # deserialised while the reader is open
+            edges = tf_edges(reader, tf_topics, buckets)
     streams: dict[str, SourceStream] = {}
     if frames is not None:
         streams["pose"] = tf.pose_stream(edges, *frames, path, clock)
