@@ -23,7 +23,7 @@ COMMANDS = {
 }
 
 HELP = {
-    "info": "Summarise a trial file, a model folder or a dataset folder.",
+    "info": "Summarise a trial, a model folder, a dataset folder or a ROS bag.",
     "record": "Simulate one dressing trial in pybullet and record it to MCAP.",
     "convert": "Convert a ROS bag or force/torque CSV into a dresslog trial.",
     "infer": "Stream trials through the force-map LSTM; write Rerun recordings.",

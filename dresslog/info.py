@@ -25,7 +25,8 @@ class Description(NamedTuple):
 
 
 def describe(path: str | Path, *, as_json: bool = False) -> Description:
-    """Summarise `path` by what it is: a dataset (manifest), a model (card) or a trial file."""
+    """Summarise `path` by what it is: a dataset (manifest), a model (card), a ROS bag (its
+    topics and tf tree, for `convert`) or a trial file."""
     from dresslog.dataset.manifest import MANIFEST_FILE
     from dresslog.model.files import CARD_FILE, MODEL_FILES
 
@@ -36,6 +37,10 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
         return _dataset(path, as_json)
     if (path / CARD_FILE).is_file():
         return _model(path, as_json)
+    from dresslog.convert.bag_info import describe_bag, is_bag
+
+    if is_bag(path):  # not a trial yet: what `convert` needs to make one
+        return Description(describe_bag(path, as_json=as_json))
     if path.is_dir():
         raise DresslogError(
             f"neither a model folder (no {CARD_FILE}) nor a dataset folder (no {MANIFEST_FILE})"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import sys
 import warnings
@@ -832,3 +833,60 @@ def test_the_command_prints_gap_warnings(tmp_path: Path) -> None:
     )
     assert result.exit_code == 0, result.output
     assert "Warning: gap of 0.220 s in /arm/ee_pose" in result.output
+
+
+@pytest.mark.parametrize("layout", ["ros1", "mcap"])
+def test_info_on_a_bag_shows_its_topics_what_convert_takes_and_its_tf_tree(
+    tmp_path: Path, layout: str
+) -> None:
+    """What `convert`'s options are chosen from: the topics, and the tf frames drawn as a
+    tree from the root, each static or moving, so that PARENT:CHILD can be read off it."""
+    bag = make_bag(tmp_path, tf_topics(1.0), layout)
+    result = CliRunner().invoke(main, ["info", str(bag)])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert re.match(r"log(\.bag)?: ROS [12] bag, 1101 messages over 1\.50 s$", lines[0]), lines[0]
+    assert re.search(r"/tf_static +1  tf2_msgs/msg/TFMessage$", result.output, re.M)
+    assert "  convert  takes wrench /ft_sensor/wrench; the pose needs --pose-tf" in result.output
+    tree = lines[lines.index("  tf tree") + 1 :]
+    assert tree == [
+        "    world",
+        "      base  (static)",
+        "        elbow  (/tf, 100 transforms at 100 Hz, never moving)",
+        "        link1  (/tf, 100 transforms at 100 Hz)",
+        "          tool  (static)",
+        "      camera  (static)",
+    ]
+    as_json = CliRunner().invoke(main, ["info", str(bag), "--json"])
+    listed = json.loads(as_json.output)
+    assert {(e["parent"], e["child"], e["static"]) for e in listed["tf"]} == {
+        ("world", "base", True), ("base", "link1", False), ("base", "elbow", False),
+        ("link1", "tool", True), ("world", "camera", True),
+    }  # fmt: skip
+
+
+def test_info_on_a_bag_with_a_pose_topic_names_the_topics_convert_takes(tmp_path: Path) -> None:
+    bag = make_bag(tmp_path, standard_topics(1.0), "sqlite3")
+    result = CliRunner().invoke(main, ["info", str(bag)])
+    assert result.exit_code == 0, result.output
+    assert "tf tree" not in result.output
+    assert re.search(r"  convert  takes wrench /ft_sensor/wrench, \w+ /", result.output)
+    topics = standard_topics(1.0)
+    topics["/ft_raw"] = topics["/ft_sensor/wrench"]
+    (tmp_path / "two").mkdir()
+    two = make_bag(tmp_path / "two", topics, "ros1")
+    result = CliRunner().invoke(main, ["info", str(two)])
+    assert result.exit_code == 0, result.output
+    assert (
+        "  convert  needs options: 2 WrenchStamped topics (/ft_raw, /ft_sensor/wrench); "
+        "choose one with --wrench-topic" in result.output
+    )
+
+
+def test_info_on_a_bag_that_is_not_one_says_so_in_one_line(tmp_path: Path) -> None:
+    bag = tmp_path / "log.bag"
+    bag.write_bytes(b"not a bag at all")
+    result = CliRunner().invoke(main, ["info", str(bag)])
+    assert result.exit_code == 1
+    assert len(lines := result.output.strip().splitlines()) == 1
+    assert lines[0].startswith(f"Error: {bag}: not a ROS 1 bag (it does not begin as one); {READS}")
