@@ -51,8 +51,12 @@ def test_readme_robot_log_example_runs_on_the_bundled_log(
     (tmp_path / "samples").symlink_to(ROOT / "samples")
     monkeypatch.chdir(tmp_path)
     commands = _bash_commands("Your robot's data")
-    assert [c[:2] for c in commands] == [["dresslog", "convert"], ["dresslog", "infer"]]
-    for argv in commands:
+    assert [c[:2] for c in commands] == [
+        ["dresslog", "convert"],
+        ["dresslog", "infer"],
+        ["dresslog", "convert"],
+    ]
+    for argv in commands[:2]:  # the CSVs; the bag's command is the next test's
         result = CliRunner().invoke(main, argv[1:])
         assert result.exit_code == 0 and not result.stderr, result.output
     assert (tmp_path / "runs/day1/trial.rrd").stat().st_size > 0
@@ -73,6 +77,47 @@ def test_readme_robot_log_example_runs_on_the_bundled_log(
     model.reset()
     on_log, _ = model.run(logged)  # what `infer` estimated
     assert sequence_rmse(truth, on_log[hold:]) < 1.1 * sequence_rmse(truth, on_trial)
+
+
+def test_readme_robot_bag_example_gives_the_csv_logs_trial(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """The "Your robot's data" bag command, as written, on samples/robot/bag/ (the pose
+    from /tf): the trial the CSV command makes from the same log, silently, but for the
+    CSVs' rounding (5 decimals of N and N m, 6 of m, which the bag's float64s do not
+    have: up to 5e-6 in the wrench, 5e-7 m in position, so 5e-5 m/s in the velocity of
+    central differences), and the model's estimate on it scores as on the CSVs'."""
+    from click.testing import CliRunner
+
+    from dresslog.cli.main import main
+    from dresslog.io import TrialReader
+    from dresslog.model import load_model, sequence_rmse
+
+    (tmp_path / "samples").symlink_to(ROOT / "samples")
+    monkeypatch.chdir(tmp_path)
+    csv, _, bag = _bash_commands("Your robot's data")
+    assert bag[2] == "samples/robot/bag" and "--pose-tf" in bag
+    for argv in (csv, bag):
+        result = CliRunner().invoke(main, argv[1:])
+        assert result.exit_code == 0 and not result.stderr, result.output
+    with (
+        TrialReader(csv[csv.index("-o") + 1]) as from_csv,
+        TrialReader(bag[bag.index("-o") + 1]) as from_bag,
+        TrialReader(ROOT / "samples/gown.mcap") as trial,
+    ):
+        assert from_bag.metadata.source["streams"]["pose"]["topic"] == "/tf base_link->tool0"
+        logged, phi = from_csv.measurements.phi, from_bag.measurements.phi
+        truth = trial.force_map.forces
+    assert phi.shape == logged.shape == (800, 9)
+    np.testing.assert_allclose(phi[:, :6], logged[:, :6], rtol=0, atol=1e-5)  # N, N m
+    np.testing.assert_allclose(phi[:, 6:], logged[:, 6:], rtol=0, atol=1e-4)  # m/s
+    model = load_model(ROOT / "samples/models/gown").estimator()
+    on_csv, _ = model.run(logged)
+    model.reset()
+    on_bag, _ = model.run(phi)
+    hold = len(phi) - len(truth)
+    scores = sequence_rmse(truth, on_bag[hold:]), sequence_rmse(truth, on_csv[hold:])
+    assert scores[0] == pytest.approx(scores[1], rel=1e-3), scores
 
 
 def test_robot_sample_is_what_its_script_makes(tmp_path: Path) -> None:
