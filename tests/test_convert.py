@@ -250,7 +250,9 @@ def test_a_bag_with_tf_instead_of_a_pose_topic_converts_to_the_tools_analytic_mo
     assert stream["type"] == "tf2_msgs/msg/TFMessage" and stream["frame_id"] == parent
     assert "differentiated from pose" in report.source["processing"]["twist"]
     lines = format_summary(summarize(out)).splitlines()
-    assert any(line.startswith(f"    pose    300 messages at 100 Hz (/tf {parent}->tool, header")
+    # every message read counts: 3,000 wrenches, 300 /tf and 1 /tf_static (its 3 transforms)
+    assert report.messages_in == 3301
+    assert any(line.startswith(f"    pose    301 messages at 100 Hz (/tf {parent}->tool, header")
                for line in lines), lines  # fmt: skip
 
 

@@ -242,7 +242,7 @@ def _resampling(t_ns: np.ndarray) -> str:
 
 def _describe(stream: SourceStream, source: Source) -> dict[str, object]:
     out: dict[str, object] = {
-        "messages": len(stream),
+        "messages": stream.message_count,
         "rate_hz": round(rs.median_rate(stream.t_ns), 3),
         "clock": stream.clock,
     }

@@ -460,6 +460,7 @@ def read_bag(
     streams: dict[str, SourceStream] = {}
     if frames is not None:
         streams["pose"] = tf.pose_stream(edges, *frames, path, clock)
+        streams["pose"].messages = sum(len(buckets[t][1]) for t in tf_topics)
     for kind, topic in chosen.items():
         log_ns, payloads = buckets[topic]
         if not payloads:

@@ -39,6 +39,13 @@ class SourceStream:
     has_orientation: bool = True
     #: the message type read, where not the kind's own (a pose built from tf)
     msgtype: str = ""
+    #: the messages read for it, where they are not one a sample (a pose from tf: every
+    #: TFMessage of the bag's tf topics); 0 for one a sample
+    messages: int = 0
+
+    @property
+    def message_count(self) -> int:
+        return self.messages or len(self)
 
     def __len__(self) -> int:
         return len(self.t_ns)
@@ -63,4 +70,4 @@ class Source:
 
     @property
     def message_count(self) -> int:
-        return sum(len(s) for s in self.streams)
+        return sum(s.message_count for s in self.streams)
