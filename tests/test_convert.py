@@ -880,9 +880,19 @@ def test_info_on_a_bag_with_a_pose_topic_names_the_topics_convert_takes(tmp_path
     result = CliRunner().invoke(main, ["info", str(two)])
     assert result.exit_code == 0, result.output
     assert (
-        "  convert  needs options: 2 WrenchStamped topics (/ft_raw, /ft_sensor/wrench); "
+        "  convert  refuses it as it stands: 2 WrenchStamped topics (/ft_raw, /ft_sensor/wrench); "
         "choose one with --wrench-topic" in result.output
     )
+
+
+def test_info_on_an_empty_bag_says_there_is_nothing_to_convert(tmp_path: Path) -> None:
+    bag = make_bag(tmp_path, {}, "sqlite3")
+    result = CliRunner().invoke(main, ["info", str(bag)])
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines()[1:] == [
+        "  topics   none",
+        "  convert  has nothing to convert: the bag holds no messages",
+    ]
 
 
 def test_info_on_a_bag_that_is_not_one_says_so_in_one_line(tmp_path: Path) -> None:

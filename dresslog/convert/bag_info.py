@@ -40,7 +40,11 @@ def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
         tf_topics = rosbag.tf_topics_of(types, empty)
         buckets = rosbag.read_topics(reader, set(tf_topics)) if tf_topics else {}
         edges = rosbag.tf_edges(reader, tf_topics, buckets) if tf_topics else {}
-    choice = _default_choice(types, empty, path, bool(edges))
+    choice = (
+        _default_choice(types, empty, path, bool(edges))
+        if total
+        else "has nothing to convert: the bag holds no messages"
+    )
     if as_json:
         return json.dumps(
             {
@@ -54,7 +58,8 @@ def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
             indent=1,
         )  # fmt: skip
     name = "ROS 2 bag" if reader.is2 else "ROS 1 bag"
-    lines = [f"{path.name}: {name}, {total} messages over {seconds:.2f} s", "  topics"]
+    lines = [f"{path.name}: {name}, {total} messages over {seconds:.2f} s"]
+    lines.append("  topics" if types else "  topics   none")
     width = max((len(t) for t in types), default=0)
     lines += [f"    {t:<{width}}  {counts[t]:>7}  {types[t]}" for t in sorted(types)]
     lines.append(f"  convert  {choice}")
@@ -77,7 +82,7 @@ def _default_choice(types: dict[str, str], empty: frozenset[str], path: Path, ha
         if pose_tf:
             taken += "; the pose needs --pose-tf PARENT:CHILD (the tf tree below)"
         return taken + "".join(f"; {note}" for note in notes)
-    return f"needs options: {problem}"
+    return f"refuses it as it stands: {problem}"
 
 
 def _tree(edges: dict[str, list[tf.Edge]]) -> list[str]:
