@@ -117,6 +117,7 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     per_step = [
         bp.TRUTH_LIMB, bp.ESTIMATE_LIMB, bp.EE, bp.CONTACTS, bp.CONTACT_FORCES, bp.EE_FORCE,
         bp.EE_TORQUE, bp.EE_VELOCITY, bp.TOTAL_TRUTH, bp.TOTAL_ESTIMATE, bp.RMSE,
+        bp.EE_FORCE_ARROW,
     ]  # fmt: skip
     for path in per_step:
         assert column(entities[path], bp.STEP) == list(range(STEPS)), path
@@ -138,6 +139,28 @@ def test_recording_has_every_entity_for_every_step(inferred) -> None:
     # trial opened beside a gown one took the arm's layout
     (entry,) = rc.RrdReader(rrd).recordings()
     assert entry.application_id == "dresslog-gown"
+
+
+def test_the_grippers_measured_force_is_an_arrow_at_the_gripper_in_both_maps(inferred) -> None:
+    """From the gripper's position along the measured force (world axes), longer for a
+    stronger pull but never past 15 cm."""
+    trial = read_trial(inferred[0])
+    arrows = temporal(inferred[2])[bp.EE_FORCE_ARROW]
+    origins = np.array([row[0] for row in column(arrows, "Arrows3D:origins")])
+    vectors = np.array([row[0] for row in column(arrows, "Arrows3D:vectors")])
+    assert trial.pose is not None
+    np.testing.assert_allclose(origins, trial.pose.values[:, :3], atol=1e-6)
+    force = trial.measurements.phi[:, :3]
+    moving = np.linalg.norm(force, axis=1) > 1e-3
+    along = np.sum(vectors * force, axis=1) / (
+        np.linalg.norm(vectors, axis=1) * np.linalg.norm(force, axis=1) + 1e-12
+    )
+    assert np.all(along[moving] > 0.999)
+    lengths = np.linalg.norm(vectors, axis=1)
+    strength = np.linalg.norm(force, axis=1)
+    assert np.all(lengths < 0.15) and np.all(np.diff(lengths[np.argsort(strength)]) >= -1e-6)
+    maps = [q for q in view_queries(inferred[2]) if f"+ /{bp.EE}/**" in q]
+    assert len(maps) == 2 and all(f"+ /{bp.EE_FORCE_ARROW}" in q for q in maps)
 
 
 def test_a_recording_opens_playing_from_its_first_step_in_real_time(inferred) -> None:

@@ -34,6 +34,8 @@ CONTACT_FORCES = "world/truth/contact_forces"
 #: The gripper is measured, not ground truth: both 3D views show it.
 EE = "world/ee"
 EE_PATH = "world/ee_path"
+#: The measured force on the gripper as an arrow at it, in both 3D views.
+EE_FORCE_ARROW = "world/ee_force"
 EE_FORCE = "plots/ee/force"
 EE_TORQUE = "plots/ee/torque"
 EE_VELOCITY = "plots/ee/velocity"
@@ -154,7 +156,13 @@ def _map_views(maps: list[tuple[str, str]], camera: Any) -> list[rrb.Spatial3DVi
         rrb.Spatial3DView(
             name=name,
             origin=WORLD,
-            contents=[f"+ /{root}/**", f"+ /{EE}/**", f"+ /{EE_PATH}", f"+ /{LEGEND}/**"],
+            contents=[
+                f"+ /{root}/**",
+                f"+ /{EE}/**",
+                f"+ /{EE_PATH}",
+                f"+ /{EE_FORCE_ARROW}",
+                f"+ /{LEGEND}/**",
+            ],
             background=[250, 250, 252],
             eye_controls=camera,
             defaults=[grey],

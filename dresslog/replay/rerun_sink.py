@@ -57,6 +57,12 @@ LABEL_COLOR = [255, 255, 255]
 ARROW_MAX = 0.08
 ARROW_HALF = 0.5
 ARROW_COLOR = [200, 30, 30]
+#: The measured force on the gripper, drawn at it the same way but longer (its forces are
+#: newtons, the limb's contacts tenths): GRIP_ARROW_MAX m long, half of it at GRIP_ARROW_HALF N.
+GRIP_ARROW_MAX = 0.15
+GRIP_ARROW_HALF = 2.0
+#: Purple: the gripper's axes take red, green and blue, the limb's contacts red.
+GRIP_ARROW_COLOR = [150, 60, 210]
 #: The garment as a thin wireframe: a filled mesh in front of the ground-truth limb
 #: would tint its heat map and skew the comparison with the estimate.
 GARMENT_LINE_RADIUS = 0.0008
@@ -430,6 +436,17 @@ class RerunSink:
             assert self.recording is not None
             self.recording.log(bp.EE, rr.TransformAxes3D(0.08), static=True)
         send(bp.EE, mask, rr.Transform3D.columns(translation=pose[:, :3], quaternion=pose[:, 3:7]))
+        # the garment's pull on the gripper (world axes, as the wrench is), from where it is
+        force = np.stack(b.phi)[mask, 0:3].astype(np.float64)
+        magnitude = np.linalg.norm(force, axis=1, keepdims=True)
+        length = GRIP_ARROW_MAX * magnitude / (magnitude + GRIP_ARROW_HALF)
+        arrows = rr.Arrows3D.columns(
+            origins=pose[:, :3],
+            vectors=force * (length / np.maximum(magnitude, 1e-12)),
+            colors=np.tile(np.array([GRIP_ARROW_COLOR], np.uint8), (len(pose), 1)),
+            radii=np.full(len(pose), 0.004),
+        )
+        send(bp.EE_FORCE_ARROW, mask, arrows)
         self._path_so_far.append(pose[:, :3])
         if self.path is None:  # a live view's path grows as it flushes; a file's is sent once
             self._send_path()
