@@ -57,7 +57,7 @@ def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
             },
             indent=1,
         )  # fmt: skip
-    name = "ROS 2 bag" if reader.is2 else "ROS 1 bag"
+    name = "ROS 2 bag" if kind == "ros2" else "ROS 1 bag"
     lines = [f"{path.name}: {name}, {total} messages over {seconds:.2f} s"]
     lines.append("  topics" if types else "  topics   none")
     width = max((len(t) for t in types), default=0)
