@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 from typing import NamedTuple
 
-from dresslog.errors import DresslogError, ModelError
+from dresslog.errors import DresslogError, ModelError, TrialFormatError
 
 
 class Description(NamedTuple):
@@ -37,7 +37,7 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
         return _dataset(path, as_json)
     if (path / CARD_FILE).is_file():
         return _model(path, as_json)
-    from dresslog.convert.bag_info import describe_bag, is_bag
+    from dresslog.convert.bag_info import describe_bag, is_bag, is_ros2_log
 
     if is_bag(path):  # not a trial yet: what `convert` needs to make one
         return Description(describe_bag(path, as_json=as_json))
@@ -49,7 +49,12 @@ def describe(path: str | Path, *, as_json: bool = False) -> Description:
         )
     from dresslog.io.summary import format_summary, summarize
 
-    summary = summarize(path)
+    try:
+        summary = summarize(path)
+    except TrialFormatError:
+        if path.suffix.lower() == ".mcap" and path.is_file() and is_ros2_log(path):  # a bare bag
+            return Description(describe_bag(path, as_json=as_json))
+        raise
     return Description(summary.model_dump_json(indent=2) if as_json else format_summary(summary))
 
 

@@ -356,7 +356,12 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
 ]
 
 
-@pytest.mark.parametrize(("make", "message"), CASES, ids=[c[0].__name__ for c in CASES])
+#: Robots' logs, not trials: `info` describes them as the ROS 2 bags they are.
+LOGS = (foreign, robot_bag)
+NOT_LOGS = [case for case in CASES if case[0] not in LOGS]
+
+
+@pytest.mark.parametrize(("make", "message"), NOT_LOGS, ids=[c[0].__name__ for c in NOT_LOGS])
 def test_info_says_what_is_wrong_in_one_line(tmp_path: Path, make_trial, make, message) -> None:
     good, _ = make_trial(name="good.mcap")
     path = make(tmp_path, good)
@@ -367,6 +372,20 @@ def test_info_says_what_is_wrong_in_one_line(tmp_path: Path, make_trial, make, m
     assert lines[0].startswith(f"Error: {path}: ")
     assert __import__("re").search(message, lines[0]), lines[0]
     assert "Traceback" not in result.output
+
+
+def test_info_describes_a_bare_ros2_bag_that_the_trial_reader_refuses(tmp_path: Path) -> None:
+    """A robot's MCAP (profile ros2, no dresslog metadata, no /ee/wrench) is described
+    as a bag: what `convert` takes from it, or why it would refuse it."""
+    pytest.importorskip("rosbags")
+    robot, chatter = robot_bag(tmp_path, tmp_path), foreign(tmp_path, tmp_path)
+    result = CliRunner().invoke(main, ["info", str(robot)])
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines()[0] == "robot.mcap: ROS 2 bag, 6 messages over 0.02 s"
+    assert "  convert  takes wrench /ft/wrench, pose /ee/pose" in result.output
+    result = CliRunner().invoke(main, ["info", str(chatter)])
+    assert result.exit_code == 0, result.output
+    assert "  convert  refuses it as it stands: no WrenchStamped topic" in result.output
 
 
 @pytest.mark.parametrize(("make", "message"), CASES, ids=[c[0].__name__ for c in CASES])

@@ -9,6 +9,7 @@ from the root down, each frame moving or static.
 from __future__ import annotations
 
 import json
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ import numpy as np
 from dresslog.convert import rosbag, tf
 from dresslog.convert.rosbag import opened_bag
 from dresslog.errors import ConversionError
+from dresslog.io import well_known as wk
 from dresslog.trial import median_rate
 
 
@@ -25,6 +27,26 @@ def is_bag(path: Path) -> bool:
     if path.is_dir():
         return (path / "metadata.yaml").is_file()
     return path.suffix.lower() == ".bag" and path.is_file()
+
+
+def is_ros2_log(path: Path) -> bool:
+    """An MCAP file of profile ros2 that no dresslog wrote, nor holds our wrench channel: a
+    robot's log (a bare bag), not a damaged trial, which the trial reader describes.
+    `path` is a regular file (a pipe would block the read)."""
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+
+    try:
+        with path.open("rb") as stream:
+            reader = make_reader(stream)
+            profile = reader.get_header().profile
+            summary = reader.get_summary()
+    except (OSError, McapError, ValueError, EOFError, struct.error):  # the reader's to say
+        return False
+    if profile != wk.PROFILE or summary is None:
+        return False
+    ours = any(index.name == wk.METADATA_NAME for index in summary.metadata_indexes)
+    return not ours and all(c.topic != wk.WRENCH for c in summary.channels.values())
 
 
 def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
