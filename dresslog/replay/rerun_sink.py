@@ -34,7 +34,7 @@ from dresslog.replay import blueprint as bp
 from dresslog.replay.colors import color_scale, heat_colors, legend
 from dresslog.replay.metrics import MetricsSink
 from dresslog.spec import Outcome, Task, task_of
-from dresslog.trial import contact_magnitudes, contact_vectors
+from dresslog.trial import contact_vectors
 
 if TYPE_CHECKING:
     import rerun as rr
@@ -405,7 +405,7 @@ class RerunSink:
         mask, rmse = _present(b.rmse)
         if rmse is not None:
             send(bp.RMSE, mask, rr.Scalars.columns(scalars=rmse))
-        self._send_pose(b, send)
+        self._send_pose(b, phi, send)
         self._send_contacts(b, send)
         mask, garment = _present(b.garment)
         if garment is not None and self._edges is not None:
@@ -426,7 +426,7 @@ class RerunSink:
             return start
         return 0 if first_ns >= EPOCH_STAMPS else None
 
-    def _send_pose(self, b: _Buffer, send: Any) -> None:
+    def _send_pose(self, b: _Buffer, phi: np.ndarray, send: Any) -> None:
         import rerun as rr
 
         mask, pose = _present(b.pose)
@@ -437,15 +437,8 @@ class RerunSink:
             self.recording.log(bp.EE, rr.TransformAxes3D(0.08), static=True)
         send(bp.EE, mask, rr.Transform3D.columns(translation=pose[:, :3], quaternion=pose[:, 3:7]))
         # the garment's pull on the gripper (world axes, as the wrench is), from where it is
-        force = np.stack(b.phi)[mask, 0:3].astype(np.float64)
-        magnitude = np.linalg.norm(force, axis=1, keepdims=True)
-        length = GRIP_ARROW_MAX * magnitude / (magnitude + GRIP_ARROW_HALF)
-        arrows = rr.Arrows3D.columns(
-            origins=pose[:, :3],
-            vectors=force * (length / np.maximum(magnitude, 1e-12)),
-            colors=np.tile(np.array([GRIP_ARROW_COLOR], np.uint8), (len(pose), 1)),
-            radii=np.full(len(pose), 0.004),
-        )
+        arrows = _arrows(pose[:, :3], phi[mask, 0:3], GRIP_ARROW_MAX, GRIP_ARROW_HALF,
+                         GRIP_ARROW_COLOR, radius=0.004)  # fmt: skip
         send(bp.EE_FORCE_ARROW, mask, arrows)
         self._path_so_far.append(pose[:, :3])
         if self.path is None:  # a live view's path grows as it flushes; a file's is sent once
@@ -471,9 +464,6 @@ class RerunSink:
         items = [c for c in b.contacts if c is not None]
         counts = [len(c) for c in items]
         allc = np.concatenate(items)
-        vectors = contact_vectors(allc)
-        magnitude = contact_magnitudes(allc)[:, None]
-        length = ARROW_MAX * magnitude / (magnitude + ARROW_HALF)
         send(
             bp.CONTACTS,
             mask,
@@ -483,15 +473,32 @@ class RerunSink:
                 colors=np.tile(np.array([[20, 20, 20]], np.uint8), (len(allc), 1)),
             ).partition(counts),
         )
-        send(
-            bp.CONTACT_FORCES,
-            mask,
-            rr.Arrows3D.columns(
-                origins=allc["position"],
-                vectors=vectors * (length / np.maximum(magnitude, 1e-12)),
-                colors=np.tile(np.array([ARROW_COLOR], np.uint8), (len(allc), 1)),
-            ).partition(counts),
+        arrows = _arrows(
+            allc["position"], contact_vectors(allc), ARROW_MAX, ARROW_HALF, ARROW_COLOR
         )
+        send(bp.CONTACT_FORCES, mask, arrows.partition(counts))
+
+
+def _arrows(
+    origins: np.ndarray,
+    forces: np.ndarray,
+    longest: float,
+    half: float,
+    color: list[int],
+    radius: float | None = None,
+) -> Any:
+    """Arrows3D columns along `forces` (N, 3) from `origins`, growing with force but
+    saturating: `longest` m long at most, half of it at `half` N."""
+    import rerun as rr
+
+    magnitude = np.linalg.norm(forces, axis=1, keepdims=True)
+    length = longest * magnitude / (magnitude + half)
+    return rr.Arrows3D.columns(
+        origins=origins,
+        vectors=forces * (length / np.maximum(magnitude, 1e-12)),
+        colors=np.tile(np.array([color], np.uint8), (len(forces), 1)),
+        radii=None if radius is None else np.full(len(forces), radius),
+    )
 
 
 def _known_vmax(context: TrialContext) -> float | None:
