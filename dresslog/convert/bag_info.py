@@ -9,7 +9,6 @@ from the root down, each frame moving or static.
 from __future__ import annotations
 
 import json
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ from dresslog.convert import rosbag, tf
 from dresslog.convert.rosbag import opened_bag
 from dresslog.errors import ConversionError
 from dresslog.io import well_known as wk
+from dresslog.io.reader import file_summary
 from dresslog.trial import median_rate
 
 
@@ -33,20 +33,15 @@ def is_ros2_log(path: Path) -> bool:
     """An MCAP file of profile ros2 that no dresslog wrote, nor holds our wrench channel: a
     robot's log (a bare bag), not a damaged trial, which the trial reader describes.
     `path` is a regular file (a pipe would block the read)."""
-    from mcap.exceptions import McapError
-    from mcap.reader import make_reader
-
-    try:
-        with path.open("rb") as stream:
-            reader = make_reader(stream)
-            profile = reader.get_header().profile
-            summary = reader.get_summary()
-    except (OSError, McapError, ValueError, EOFError, struct.error):  # the reader's to say
+    found = file_summary(path)
+    if found is None:
         return False
-    if profile != wk.PROFILE or summary is None:
-        return False
-    ours = any(index.name == wk.METADATA_NAME for index in summary.metadata_indexes)
-    return not ours and all(c.topic != wk.WRENCH for c in summary.channels.values())
+    profile, summary, ours = found
+    return (
+        profile == wk.PROFILE
+        and not ours
+        and all(c.topic != wk.WRENCH for c in summary.channels.values())
+    )
 
 
 def describe_bag(path: str | Path, *, as_json: bool = False) -> str:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from types import TracebackType
-from typing import BinaryIO, NoReturn, Self
+from typing import TYPE_CHECKING, BinaryIO, NoReturn, Self
 
 import numpy as np
 from mcap.exceptions import McapError
@@ -39,6 +39,9 @@ from dresslog.trial import (
     Trial,
     measurements,
 )
+
+if TYPE_CHECKING:
+    from mcap.summary import Summary
 
 MAGIC = b"\x89MCAP0\r\n"
 #: How a Rerun recording (.rrd) begins, so `infer`'s output given back as a trial is named.
@@ -510,6 +513,27 @@ def read_trial(path: str | Path) -> Trial:
         return reader.read()
 
 
+def file_summary(path: str | Path) -> tuple[str, Summary, bool] | None:
+    """An MCAP file's profile, its summary section and whether it holds a `dresslog`
+    metadata record, read without its messages; None for a file with none of that to
+    read (not MCAP, cut short, no summary section), which a whole read explains."""
+    from mcap.reader import make_reader
+
+    try:
+        with Path(path).open("rb") as stream:
+            if stream.read(len(MAGIC)) != MAGIC:
+                return None
+            stream.seek(0)
+            reader = make_reader(stream)
+            profile, summary = reader.get_header().profile, reader.get_summary()
+    except (OSError, McapError, ValueError, EOFError, struct.error):
+        return None
+    if summary is None:
+        return None
+    ours = any(index.name == wk.METADATA_NAME for index in summary.metadata_indexes)
+    return profile, summary, ours
+
+
 def summary_counts(path: str | Path) -> dict[str, int] | None:
     """Messages per topic of a dresslog file, from its summary section alone: None for a
     file that is not one (not MCAP, cut short, no summary or statistics, no `dresslog`
@@ -518,19 +542,11 @@ def summary_counts(path: str | Path) -> dict[str, int] | None:
     For a question a whole read would answer at the cost of the file's size in memory:
     a 30-minute estimate copy, read to see it is one, took 600 MB and 8 s.
     """
-    from mcap.reader import make_reader
-
-    try:
-        with Path(path).open("rb") as stream:
-            if stream.read(len(MAGIC)) != MAGIC:
-                return None
-            stream.seek(0)
-            summary = make_reader(stream).get_summary()
-    except (OSError, McapError, ValueError, EOFError, struct.error):
+    found = file_summary(path)
+    if found is None:
         return None
-    if summary is None or summary.statistics is None:
-        return None
-    if not any(index.name == wk.METADATA_NAME for index in summary.metadata_indexes):
+    _, summary, ours = found
+    if summary.statistics is None or not ours:
         return None
     counts = summary.statistics.channel_message_counts
     topics: dict[str, int] = {}
