@@ -7,7 +7,15 @@ import click
 from dresslog.dataset.generate import MAX_TRIALS
 
 from .common import reports_errors
-from .options import FiniteRange, duration_option, executor_option, task_option
+from .options import (
+    FiniteRange,
+    duration_option,
+    executor_option,
+    rotation_option,
+    rotation_spec,
+    speed_option,
+    task_option,
+)
 
 
 @click.command("generate")
@@ -24,6 +32,8 @@ from .options import FiniteRange, duration_option, executor_option, task_option
               help="Share of the trials in the test split (1: a test set of fresh seeds "
               "only, to score models on).")  # fmt: skip
 @duration_option(" per trial")
+@speed_option("drawn per trial")
+@rotation_option
 @executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
@@ -35,15 +45,20 @@ def generate(
     seed: int,
     test_fraction: float,
     duration: float | None,
+    speed: float | None,
+    rotation: tuple[str, float] | None,
     executor: str,
     quiet: bool,
 ) -> None:
     """Simulate many trials in parallel into OUT; run again to resume or extend it.
 
     Failed (unstable) trials are listed in OUT/manifest.json and replaced by fresh seeds.
+    --speed and --rotation make every trial of one condition (a raised forearm, say), to
+    train or score a model on.
     """
     from dresslog.dataset import generate as generate_dataset
 
+    fixed = {"duration": duration, "speed": speed, "limb_rotation": rotation_spec(rotation)}
     manifest = generate_dataset(
         task,
         trials,
@@ -51,7 +66,7 @@ def generate(
         workers=workers,
         seed=seed,
         test_fraction=test_fraction,
-        overrides={"duration": duration} if duration else None,
+        overrides={field: value for field, value in fixed.items() if value is not None},
         executor=executor,
         progress=not quiet,
     )

@@ -80,3 +80,24 @@ FINITE = FiniteRange()
 #: The spec's ranges, so `record --speed` and `sweep --speeds` refuse alike.
 SPEED_RANGE = FiniteRange(0, MAX_SPEED, min_open=True)
 ROTATION_RANGE = FiniteRange(-MAX_ROTATION, MAX_ROTATION)
+
+
+def speed_option(drawn: str) -> Callable[[Any], Any]:
+    """`--speed`, fixed; `drawn` says what sets it otherwise ("from --seed")."""
+    return click.option("--speed", type=SPEED_RANGE, metavar="M/S", help="End-effector speed, m/s.",
+                        show_default=f"{drawn}: gown 0.10-0.15, shorts 0.15-0.20")  # fmt: skip
+
+
+rotation_option = click.option(
+    "--rotation",
+    type=(click.Choice(["x", "y", "z"]), ROTATION_RANGE),
+    metavar="AXIS DEG",
+    help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
+    f"({ROTATION_RANGE.describe('DEG')}).",
+    show_default="none",
+)
+
+
+def rotation_spec(rotation: tuple[str, float] | None) -> dict[str, Any] | None:
+    """`--rotation z -15` as the spec's `limb_rotation` ({"axis": "z", "degrees": -15.0})."""
+    return dict(zip(("axis", "degrees"), rotation, strict=True)) if rotation else None

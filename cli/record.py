@@ -9,7 +9,14 @@ import click
 from dresslog.spec import MAX_OFFSET
 
 from .common import reports_errors
-from .options import ROTATION_RANGE, SPEED_RANGE, FiniteRange, duration_option, task_option
+from .options import (
+    FiniteRange,
+    duration_option,
+    rotation_option,
+    rotation_spec,
+    speed_option,
+    task_option,
+)
 
 
 @click.command("record")
@@ -18,16 +25,11 @@ from .options import ROTATION_RANGE, SPEED_RANGE, FiniteRange, duration_option, 
               required=True, help="Trial file to write (.mcap).")  # fmt: skip
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Draws speed, limb offset and path.")  # fmt: skip
-@click.option("--speed", type=SPEED_RANGE, metavar="M/S",
-              help="End-effector speed, m/s.",
-              show_default="from --seed: gown 0.10-0.15, shorts 0.15-0.20")  # fmt: skip
+@speed_option("from --seed")
 @click.option("--offset", type=FiniteRange(-MAX_OFFSET, MAX_OFFSET), nargs=3, metavar="X Y Z",
               help="Limb offset from its nominal pose, m (the range is each component's).",
               show_default="from --seed, within the paper's ranges")  # fmt: skip
-@click.option("--rotation", type=(click.Choice(["x", "y", "z"]),
-              ROTATION_RANGE), metavar="AXIS DEG",
-              help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
-              f"({ROTATION_RANGE.describe('DEG')}).", show_default="none")  # fmt: skip
+@rotation_option
 @duration_option("", checked=False)
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
@@ -59,9 +61,13 @@ def record(
     streamed = live or connect is not None  # `--connect ""` (an unset $VIEWER) is refused
     if model is not None and not streamed:
         raise click.UsageError("--model is the live view's; use it with --live or --connect")
-    turn = dict(zip(("axis", "degrees"), rotation, strict=True)) if rotation else None
     spec = random_spec(
-        task, seed, speed=speed, duration=duration, limb_offset=offset or None, limb_rotation=turn
+        task,
+        seed,
+        speed=speed,
+        duration=duration,
+        limb_offset=offset or None,
+        limb_rotation=rotation_spec(rotation),
     )
     if streamed:
         from dresslog.replay.live import record_live

@@ -206,11 +206,13 @@ def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match="task gown, not shorts"):
         generate("shorts", 2, tmp_path, workers=1, recorder=FAKE)
     with pytest.raises(
-        DatasetError, match=r"fields none fixed \(no --duration\), not duration=0\.5"
+        DatasetError,
+        match=r"fields none fixed \(no --duration, --speed or --rotation\), not duration=0\.5",
     ):
         generate("gown", 2, tmp_path, workers=1, overrides={"duration": 0.5}, recorder=FAKE)
     with pytest.raises(
-        DatasetError, match=r"fields duration=0\.5, not none fixed \(no --duration\)"
+        DatasetError,
+        match=r"fields duration=0\.5, not none fixed \(no --duration, --speed or --rotation\)",
     ):
         short = {"workers": 1, "test_fraction": 0, "recorder": FAKE}
         generate("gown", 2, tmp_path / "short", overrides={"duration": 0.5}, **short)
@@ -494,6 +496,34 @@ def test_cli_generate_seed_reaches_every_trial(tmp_path: Path) -> None:
         (split, trial_seed(5, split, slot))
         for split, slot in ((Split.TRAIN, 0), (Split.TRAIN, 1), (Split.TEST, 0))
     }
+
+
+def test_cli_generate_speed_and_rotation_make_every_trial_of_that_condition(
+    tmp_path: Path,
+) -> None:
+    """A dataset of a raised forearm, to fine-tune or score a model on: every trial is
+    simulated at the speed and rotation asked, with its own offset and path, and a folder
+    of one condition is not extended with another."""
+    out = tmp_path / "d"
+    args = ["generate", "--task", "gown", "--trials", "3", "--test-fraction", "0.34"]
+    args += ["--duration", "0.1", "--workers", "1", "-q", "-o", str(out)]
+    result = CliRunner().invoke(main, [*args, "--speed", "0.18", "--rotation", "z", "-15"])
+    assert result.exit_code == 0, result.output
+    entries = load_manifest(out).trials
+    with TrialReader(out / entries[0].file) as trial:  # the simulator got it, not just the card
+        recorded = trial.metadata.spec
+    assert recorded is not None and recorded.speed == 0.18
+    assert recorded.limb_rotation is not None
+    assert (recorded.limb_rotation.axis, recorded.limb_rotation.degrees) == ("z", -15.0)
+    assert {e.spec.speed for e in entries} == {0.18}
+    assert len({e.spec.limb_offset for e in entries}) == 3  # each trial draws its own
+    result = CliRunner().invoke(main, [*args, "--rotation", "z", "15"])
+    assert result.exit_code == 1
+    assert result.output == (
+        f"Error: {out}: folder holds a dataset with fixed spec fields duration=0.1, speed=0.18, "
+        "limb_rotation={'axis': 'z', 'degrees': -15.0}, not duration=0.1, "
+        "limb_rotation={'axis': 'z', 'degrees': 15.0}; use another folder or the same options\n"
+    )
 
 
 @prints_warnings

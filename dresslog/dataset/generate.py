@@ -171,9 +171,12 @@ def _whole(value: object) -> int | None:
 
 def _shown(value: object) -> str:
     """A request's value for a message; spec fields fixed for every trial as an option-like
-    list: duration=1.0, or "none fixed (no --duration)"."""
+    list: duration=1.0, or "none fixed (no --duration, --speed or --rotation)"."""
     if isinstance(value, Mapping):
-        return ", ".join(f"{k}={v}" for k, v in value.items()) or "none fixed (no --duration)"
+        return (
+            ", ".join(f"{k}={v}" for k, v in value.items())
+            or "none fixed (no --duration, --speed or --rotation)"
+        )
     return str(value)
 
 
