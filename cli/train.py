@@ -27,9 +27,9 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
               help="Passes over the training split.")  # fmt: skip
 @click.option("--batch-size", type=click.IntRange(min=1), default=16, show_default=True,
               help="Sequences per batch.")  # fmt: skip
-@click.option("--hidden", type=click.IntRange(1, MAX_HIDDEN), default=50, show_default=True,
+@click.option("--hidden", type=click.IntRange(1, MAX_HIDDEN), show_default="50, or --init's",
               help="LSTM cells per layer.")  # fmt: skip
-@click.option("--layers", type=click.IntRange(1, MAX_LAYERS), default=3, show_default=True,
+@click.option("--layers", type=click.IntRange(1, MAX_LAYERS), show_default="3, or --init's",
               help="LSTM layers.")  # fmt: skip
 @click.option("--lr", type=FiniteRange(0, MAX_LR, min_open=True), default=1e-3, show_default=True,
               help="RMSprop learning rate.")  # fmt: skip
@@ -57,6 +57,9 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
               "sequence).", show_default="whole sequences")  # fmt: skip
 @click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
               help="Draws the validation split, the batches and the initial weights.")  # fmt: skip
+@click.option("--init", type=click.Path(), metavar="MODEL",
+              help="Start from this model's weights (fine-tuning: its network and input "
+              "standardisation are kept).", show_default="random weights")  # fmt: skip
 @click.option(
     "--overwrite",
     is_flag=True,

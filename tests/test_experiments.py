@@ -642,6 +642,53 @@ def test_info_summarises_a_model_folder_and_a_dataset_folder(model: Path, data: 
     assert code == 0 and json.loads(output)["task"] == "gown"
 
 
+@pytest.mark.slow
+def test_train_init_fine_tunes_a_model_and_its_card_and_info_name_it(
+    model: Path, data: Path
+) -> None:
+    """`train --init MODEL`: the initial model's network, on this data, named in the card;
+    a network option may repeat the model's (--hidden 4) but not change it."""
+    out = data.parent / "fine-tuned"
+    code, output = invoke("train", data, "-o", out, "--init", model, "--hidden", "4", "-q",
+                          "--epochs", "1", "--lr", "1e-4")  # fmt: skip
+    assert code == 0, output
+    initial, tuned = load_model(model).card, load_model(out).card
+    assert (tuned.hidden, tuned.layers, tuned.data.n_train) == (4, 1, 3)
+    assert tuned.init is not None and tuned.init.weights_sha256 == initial.weights_sha256
+    assert tuned.init.manifest_sha256 == initial.data.manifest_sha256
+    assert tuned.init.test_ratio == initial.metrics["test_ratio"]
+    code, output = invoke("info", out)
+    assert (
+        code == 0
+        and (
+            f"  init      fine-tuned from {model} (weights {initial.weights_sha256[:12]}, "
+            f"test ratio {initial.metrics['test_ratio']:.3f})"
+        )
+        in output.splitlines()
+    ), output
+    code, output = invoke("train", data, "-o", out.with_name("8"), "--init", model, "--hidden", "8")
+    assert (code, output) == (
+        1,
+        f"Error: {model}: --hidden 8 would change the initial model's network (1x4 LSTM), "
+        "which fine-tuning keeps; leave --hidden out\n",
+    )
+
+
+def test_train_init_refuses_a_model_for_the_other_task_or_a_tampered_one(
+    data: Path, tmp_path: Path
+) -> None:
+    shorts = _fake_model(tmp_path / "shorts", "shorts")
+    code, output = invoke("train", data, "-o", tmp_path / "m", "--init", shorts)
+    assert code == 1 and output.count("\n") == 1
+    assert "model is for shorts but the data is gown; give a gown model" in output
+    gown = _fake_model(tmp_path / "gown", "gown")
+    weights = gown / "model.safetensors"
+    weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
+    code, output = invoke("train", data, "-o", tmp_path / "m", "--init", gown)
+    assert code == 1 and "does not match the sha256" in output and output.count("\n") == 1
+    assert not (tmp_path / "m").exists()
+
+
 def test_info_describes_a_tampered_model_and_fails_and_refuses_a_folder_that_is_neither(
     tmp_path: Path,
 ) -> None:

@@ -241,6 +241,50 @@ def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Pa
         train(more, more_forces, checkpoint=ckpt, **kwargs)
 
 
+def test_fine_tuning_starts_from_the_initial_weights_whatever_the_force_scale(trained):
+    """`init`: the run starts where the initial model ended (its outputs in newtons, the
+    loss's forces scaled by --balance-loss), not from random weights."""
+    weights, history = trained
+    phis, forces = synthetic(32, seed=1)
+    kwargs = {"batch_size": 8, "hidden": 12, "layers": 2, "seed": 3, "progress": False}
+    still, _ = train(phis, forces, epochs=1, lr=1e-9, balance_loss=True, init=weights, **kwargs)
+    for name, value in weights.items():  # a step of 1e-8 at most: the initial weights
+        np.testing.assert_allclose(still[name], value, atol=1e-6, err_msg=name)
+    # at a fine-tuning rate: RMSprop starts afresh, and its first steps are ten times lr
+    _, tuned = train(phis, forces, epochs=1, lr=1e-4, init=weights, **kwargs)
+    fresh = history.epochs[0].train_loss  # the same first epoch from random weights
+    assert tuned.epochs[0].train_loss < 0.6 * fresh
+    with pytest.raises(
+        ModelError,
+        match=r"^the initial weights are for 8 limb points, 12 cells x 2 layers, 9 inputs, "
+        r"this run 8 limb points, 6 cells x 2 layers, 9 inputs$",
+    ):
+        train(phis, forces, init=weights, **{**kwargs, "hidden": 6})
+
+
+def test_a_resume_from_other_initial_weights_is_refused(tmp_path: Path, trained):
+    weights, _ = trained
+    phis, forces = synthetic(8, seed=2)
+    kwargs = {"epochs": 3, "batch_size": 4, "hidden": 12, "layers": 2, "progress": False}
+    ckpt = tmp_path / "run.ckpt"
+
+    def stop(record: EpochRecord) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train(phis, forces, checkpoint=ckpt, on_epoch=stop, init=weights, **kwargs)
+    with pytest.raises(ModelError, match=r"\(it had --init of weights \w{8}, this run no --init\)"):
+        train(phis, forces, checkpoint=ckpt, **kwargs)
+    other = {k: v + 0.01 for k, v in weights.items()}
+    with pytest.raises(
+        ModelError,
+        match=r"\(it had --init of weights (\w{8}), this run --init of weights (?!\1)\w{8}\)",
+    ):
+        train(phis, forces, checkpoint=ckpt, init=other, **kwargs)
+    _, history = train(phis, forces, checkpoint=ckpt, init=weights, **kwargs)  # resumed
+    assert [e.epoch for e in history.epochs] == [1, 2, 3]
+
+
 def test_keep_best_returns_the_epoch_of_lowest_validation_loss_across_a_resume(tmp_path: Path):
     phis, forces = synthetic(12, seed=5, n_points=4)
     kwargs = {"batch_size": 2, "hidden": 6, "layers": 1, "lr": 0.02, "seed": 3, "threads": 1}
@@ -473,7 +517,7 @@ def test_tampered_weights_are_refused(saved: Path):
     [
         ({"format": "keras"}, "not a dresslog model card"),
         ({"format_version": 99}, "newer"),
-        ({"format_version": 3, "a_later_field": 1}, "format version 3 is newer"),
+        ({"format_version": 4, "a_later_field": 1}, "format version 4 is newer"),
         ({"n_points": 9}, "has shape"),
         ({"task": "socks"}, "task"),
     ],

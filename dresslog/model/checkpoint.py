@@ -27,14 +27,19 @@ if TYPE_CHECKING:
     from dresslog.model.train import TrainHistory
 
 
-def run_key(net: ForceMapLSTM, history: TrainHistory, normalise: bool, data: str) -> dict[str, Any]:
-    """What a checkpoint must share with the run that resumes it: settings, shape, data."""
-    return {
+def run_key(
+    net: ForceMapLSTM, history: TrainHistory, normalise: bool, data: str, init: str | None = None
+) -> dict[str, Any]:
+    """What a checkpoint must share with the run that resumes it: settings, shape, data,
+    and the fingerprint of the weights it started from, if not random ones (a key without
+    it is a run from random weights, as before fine-tuning existed)."""
+    key = {
         "settings": history.settings.model_dump(),
         "arch": [net.n_points, net.hidden, net.layers],
         "normalise": normalise,
         "data": data,
     }
+    return key if init is None else {**key, "init": init}
 
 
 def fingerprint(*arrays: Sequence[np.ndarray]) -> str:
@@ -144,7 +149,8 @@ def _options(key: dict[str, Any]) -> dict[str, Any]:
     settings = dict(key.get("settings") or {})
     balance_loss = settings.pop("force_scale", 1.0) != 1.0
     arch = dict(zip(("hidden", "layers"), (key.get("arch") or [])[1:], strict=False))
-    return {**settings, "balance_loss": balance_loss, **arch, "normalise": key.get("normalise")}
+    options = {**settings, "balance_loss": balance_loss, **arch, "normalise": key.get("normalise")}
+    return {**options, "init": key.get("init")}
 
 
 def _difference(saved: dict[str, Any], key: dict[str, Any]) -> str:
@@ -156,6 +162,8 @@ def _difference(saved: dict[str, Any], key: dict[str, Any]) -> str:
         option = f"--{name.replace('_', '-')}"
         if value is None or value is False:
             return f"no {option}"
+        if name == "init":  # a fingerprint of the weights: a model's path is not kept
+            return f"{option} of weights {value[:8]}"
         return option if value is True else f"{option} {value}"
 
     for name in new:

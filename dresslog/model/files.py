@@ -10,6 +10,7 @@ Public API
     ``n_points``, ``hidden``, ``layers``, ``input_dim``, ``normalisation``
     (``Normalisation(mean, std)`` or None for identity), ``hyperparameters``
     (``Hyperparameters``), ``data`` (``DataProvenance``: manifest sha256, sequence counts),
+    ``init`` (``InitialModel``: the model a fine-tuned one started from, or None),
     ``metrics`` (name -> float: "train_loss", "val_loss", "test_rmse", "test_ratio", ...),
     ``history`` (one ``EpochRecord(epoch, train_loss, val_loss, seconds)`` per epoch
     trained; empty in cards written before dresslog kept it), ``weights_sha256``,
@@ -71,9 +72,9 @@ TRAINING_PLOT = "training.png"
 #: What a model folder holds; --overwrite replaces these and nothing else.
 MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
 FORMAT: Final = "dresslog-model"
-#: 2 added `data.signal`; a card of a newer version than this is refused as such, before
-#: the fields this dresslog does not know would be.
-FORMAT_VERSION = 2
+#: 2 added `data.signal`, 3 `init`; a card of a newer version than this is refused as
+#: such, before the fields this dresslog does not know would be.
+FORMAT_VERSION = 3
 
 
 class Normalisation(BaseModel):
@@ -122,6 +123,17 @@ class DataProvenance(BaseModel):
     signal: Normalisation | None = None
 
 
+class InitialModel(BaseModel):
+    """The model a fine-tuned one started from (`train --init`): which weights, trained on
+    which data, and how it scored, so a card tells what the fine-tuning added."""
+
+    model_config = ConfigDict(extra="forbid")
+    description: str = ""
+    weights_sha256: str
+    manifest_sha256: str | None = None
+    test_ratio: float | None = None
+
+
 class EpochRecord(BaseModel):
     """One training epoch: mean training loss, validation loss (None without a held-out set)."""
 
@@ -146,6 +158,8 @@ class ModelCard(BaseModel):
     normalisation: Normalisation | None = None
     hyperparameters: Hyperparameters = Field(default_factory=Hyperparameters)
     data: DataProvenance = Field(default_factory=DataProvenance)
+    #: the model whose weights training started from, or None: from random weights
+    init: InitialModel | None = None
     metrics: dict[str, float] = Field(default_factory=dict)
     #: the learning curve of the run that made the weights, so it travels with them
     history: list[EpochRecord] = Field(default_factory=list)

@@ -4,9 +4,9 @@ Public API
 ----------
 ``format_card(path, card, verified) -> str``
     Task and sizes, input normalisation, how it was trained (hyperparameters, data, the
-    epochs run and the one kept), its recorded test metrics and the weights hash, and
-    whether the model loads, as `dresslog info` prints it (``--json`` prints the
-    card itself).
+    model it was fine-tuned from, the epochs run and the one kept), its recorded test
+    metrics and the weights hash, and whether the model loads, as `dresslog info` prints
+    it (``--json`` prints the card itself).
 """
 
 from __future__ import annotations
@@ -46,6 +46,12 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
         + (f" from {data.description}" if data.description else "")
         + (f", manifest {data.manifest_sha256[:12]}" if data.manifest_sha256 else ""),
     ]
+    if (init := card.init) is not None:
+        scored = f", test ratio {init.test_ratio:.3f}" if init.test_ratio is not None else ""
+        lines.append(
+            f"  init      fine-tuned from {init.description or 'a model'} "
+            f"(weights {init.weights_sha256[:12]}{scored})"
+        )
     if card.history:
         last = card.history[-1]
         kept = card.metrics.get("kept_epoch", last.epoch)

@@ -4,7 +4,7 @@ Public API
 ----------
 ``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
 seed=0, window=None, val_fraction=0.1, val=None, normalise=False, balance_loss=False,
-keep_best=False, lr_schedule="constant", input_differences=False, threads=None,
+keep_best=False, lr_schedule="constant", input_differences=False, init=None, threads=None,
 progress=True, checkpoint=None, restart_other=False, on_epoch=None)
 -> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
@@ -25,6 +25,9 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
     epochs (set per epoch from its number alone, so a resumed run follows the same curve);
     the paper's is constant. ``input_differences``: the network reads phi's change per
     step as 9 more inputs (``dresslog.model.inputs``; not in the paper).
+    ``init``: weights (as ``save_model`` writes them) to start from instead of random ones,
+    their input standardisation kept (``normalise`` is then theirs): fine-tuning. Their
+    sizes must be ``hidden``, ``layers`` and the inputs'; the optimiser starts afresh.
     Same data, seed and threads give the same weights. ``checkpoint``: a file written
     after every epoch (safetensors, its settings as JSON metadata: nothing is unpickled)
     from which an interrupted run resumes;
@@ -32,7 +35,7 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
     fresh run (resuming one of the same is what a fresh run would compute anyway).
     ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
 
-``make_card(task, weights, history, *, data=None, metrics=None) -> ModelCard``
+``make_card(task, weights, history, *, data=None, init=None, metrics=None) -> ModelCard``
     The card for freshly trained weights: sizes and normalisation read from the weights,
     hyperparameters and the kept epoch's losses from the history; ``save_model`` adds the hash.
 
@@ -51,7 +54,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -64,6 +67,7 @@ from dresslog.model.files import (
     DataProvenance,
     EpochRecord,
     Hyperparameters,
+    InitialModel,
     ModelCard,
     Normalisation,
 )
@@ -179,6 +183,7 @@ def train(
     keep_best: bool = False,
     lr_schedule: LrSchedule = "constant",
     input_differences: bool = False,
+    init: Mapping[str, np.ndarray] | None = None,
     threads: int | None = None,
     progress: bool = True,
     checkpoint: str | Path | None = None,
@@ -206,6 +211,13 @@ def train(
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
         lr_schedule=lr_schedule,
     )  # fmt: skip
+    if init is not None and (sizes := infer_sizes(init)) != (
+        wanted := (n_points, hidden, layers, phis[0].shape[1])
+    ):
+        shown = "{} limb points, {} cells x {} layers, {} inputs"
+        raise ModelError(
+            f"the initial weights are for {shown.format(*sizes)}, this run {shown.format(*wanted)}"
+        )
 
     settings = Hyperparameters(
         epochs=epochs,
@@ -226,7 +238,12 @@ def train(
     def build() -> tuple[ForceMapLSTM, torch.optim.Optimizer]:
         torch.manual_seed(seed)
         net = ForceMapLSTM(n_points, hidden=hidden, layers=layers, input_dim=phis[0].shape[1])
-        if normalise:
+        if init is not None:  # its outputs in newtons, the loss's forces in newtons x scale
+            start = {k: np.array(v, np.float32) for k, v in init.items()}
+            start["head.weight"][:n_points] *= scale
+            start["head.bias"][:n_points] *= scale
+            net.load_state_dict({k: torch.from_numpy(v) for k, v in start.items()})
+        elif normalise:
             steps = np.concatenate(phis)
             net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
         return net, torch.optim.RMSprop(net.parameters(), lr=lr)
@@ -235,7 +252,10 @@ def train(
         net, optim = build()
         ckpt = Path(checkpoint) if checkpoint is not None else None
         data = fingerprint(phis, targets, val_phis, val_targets)
-        run = RunState(net, optim, history, run_key(net, history, normalise, data))
+        key = run_key(
+            net, history, normalise, data, None if init is None else fingerprint([*init.values()])
+        )
+        run = RunState(net, optim, history, key)
         if ckpt is not None and ckpt.exists():
             try:
                 resume(ckpt, run)
@@ -350,6 +370,7 @@ def make_card(
     history: TrainHistory,
     *,
     data: DataProvenance | None = None,
+    init: InitialModel | None = None,
     metrics: dict[str, float] | None = None,
 ) -> ModelCard:
     """A model card for trained weights; evaluation metrics can be added later."""
@@ -373,6 +394,7 @@ def make_card(
         normalisation=None if identity else Normalisation(mean=mean.tolist(), std=std.tolist()),
         hyperparameters=history.settings,
         data=data,
+        init=init,
         metrics={**losses, **(metrics or {})},
         history=history.epochs,
     )
