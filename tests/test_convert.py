@@ -279,6 +279,34 @@ def test_the_pose_from_tf_honours_the_bags_receive_times(tmp_path: Path) -> None
     np.testing.assert_allclose(got.pose.values, pose(t), atol=1e-4)
 
 
+@pytest.mark.parametrize("layout", ["ros1", "mcap"])
+def test_tf_with_unset_header_stamps_is_timed_by_the_bags_log_times(
+    tmp_path: Path, layout: str
+) -> None:
+    """A driver that leaves its TransformStamped stamps 0: the moving links in the chain fall
+    back to the bag's log times, as any other topic does, and say so; static ones need none."""
+    trials = []
+    for unstamped in ((), ("/ft_sensor/wrench", "/tf", "/tf_static")):
+        (folder := tmp_path / ("unset" if unstamped else "set")).mkdir()
+        bag = make_bag(folder, tf_topics(), layout, unstamped=unstamped, frames=BASE_WRENCH)
+        report = convert(bag, folder / "t.mcap", "gown", pose_tf="base:tool")
+        trials.append(read_trial(folder / "t.mcap"))
+    # the log times are the stamps here: the trial is the stamped bag's
+    stamped, unset = trials
+    for kind in ("wrench", "twist", "pose"):
+        before, after = getattr(stamped, kind), getattr(unset, kind)
+        np.testing.assert_array_equal(after.t_ns, before.t_ns)
+        np.testing.assert_array_equal(after.values, before.values)
+    assert report.source["streams"]["pose"]["clock"] == "log"
+    # a note for each topic and moving link of the chain: not base->elbow, nor static links
+    assert report.source["notes"] == [
+        "/tf base->link1: header stamps unset, used the bag's log times",
+        "/ft_sensor/wrench: header stamps unset, used the bag's log times",
+    ]
+    lines = format_summary(summarize(folder / "t.mcap")).splitlines()
+    assert "    note    /tf base->link1: header stamps unset, used the bag's log times" in lines
+
+
 @pytest.mark.parametrize(
     ("pose_tf", "match"),
     [

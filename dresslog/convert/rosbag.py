@@ -20,7 +20,14 @@ from typing import Any, Literal
 import numpy as np
 
 from dresslog.convert import tf
-from dresslog.convert.source import MESSAGE_TYPES, WIDTHS, Source, SourceStream
+from dresslog.convert.source import (
+    MESSAGE_TYPES,
+    WIDTHS,
+    Source,
+    SourceStream,
+    stamps_unset,
+    unset_note,
+)
 from dresslog.errors import ConversionError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
@@ -459,7 +466,7 @@ def read_bag(
             edges = tf_edges(reader, tf_topics, buckets)
     streams: dict[str, SourceStream] = {}
     if frames is not None:
-        streams["pose"] = tf.pose_stream(edges, *frames, path, clock)
+        streams["pose"] = tf.pose_stream(edges, *frames, path, clock, notes)
         streams["pose"].messages = sum(len(buckets[t][1]) for t in tf_topics)
     for kind, topic in chosen.items():
         log_ns, payloads = buckets[topic]
@@ -472,9 +479,7 @@ def read_bag(
                 f"topic {topic}: message does not match {MESSAGE_TYPES[kind]}: {err}", path=path
             ) from None
         logged = np.asarray(log_ns, dtype=np.int64)
-        # unset header stamps (0): fall back to the recording time. A clock that starts at
-        # 0, as simulation time does, may stamp the first message 0, and only that one.
-        unset = bool((stamps[1:] == 0).any())
+        unset = stamps_unset(stamps)  # then the recording time stands in
         if clock == "log":
             if not unset and (swapped := int((np.diff(stamps) < 0).sum())):
                 notes.append(
@@ -484,7 +489,7 @@ def read_bag(
             stamps, stream_clock = logged, "log"
         elif unset:
             stamps, stream_clock = logged, "log"
-            notes.append(f"{topic}: header stamps unset, used the bag's log times")
+            notes.append(unset_note(topic))
         else:
             stream_clock = "header"
         streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, stream_clock, logged)

@@ -23,6 +23,18 @@ COMPONENTS = {
 WIDTHS = {kind: len(names) for kind, names in COMPONENTS.items()}
 
 
+def stamps_unset(stamps: np.ndarray) -> bool:
+    """Header stamps left 0 by a driver that never fills them, for the bag's log times to
+    stand in. A clock that starts at 0, as simulation time does, may stamp the first message
+    0, and only that one."""
+    return bool((stamps[1:] == 0).any())
+
+
+def unset_note(name: str) -> str:
+    """The note on a stream (or tf link) timed by the bag's log times for want of stamps."""
+    return f"{name}: header stamps unset, used the bag's log times"
+
+
 @dataclass
 class SourceStream:
     """One measured signal as recorded: `t_ns` (T,) int64 on the source clock, `values` (T, D)."""

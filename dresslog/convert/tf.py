@@ -11,8 +11,10 @@ Static edges are constant (the last one published). The pose's times are the hea
 stamps of the chain's dynamic edges: shared, as robot_state_publisher's are, or else
 those of the fastest edge within the time every dynamic edge covers, the others
 interpolated there (position linearly, orientation by normalised lerp; never
-extrapolated). The TFMessages are read in bulk by `tfmessage`, one layout per run of
-payloads that repeat their frames, rosbags deserialising any other one by one.
+extrapolated). A dynamic edge whose stamps are unset (0) is timed by the bag's log
+times instead, as any other topic is. The TFMessages are read in bulk by `tfmessage`,
+one layout per run of payloads that repeat their frames, rosbags deserialising any other
+one by one.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import numpy as np
 
 from dresslog.convert import resample as rs
 from dresslog.convert import tfmessage
-from dresslog.convert.source import SourceStream
+from dresslog.convert.source import SourceStream, stamps_unset, unset_note
 from dresslog.errors import ConversionError
 
 TF_TYPE = "tf2_msgs/msg/TFMessage"
@@ -37,7 +39,8 @@ LISTED_FRAMES = 12
 
 @dataclass
 class Edge:
-    """Where `child` sits in `parent`: position + quaternion (T, 7) at header stamps `t_ns`."""
+    """Where `child` sits in `parent`: position + quaternion (T, 7) at header stamps `t_ns`
+    (the log times, where `unset`)."""
 
     parent: str
     child: str
@@ -45,6 +48,8 @@ class Edge:
     t_ns: np.ndarray
     log_ns: np.ndarray
     values: np.ndarray
+    #: a dynamic edge's header stamps were unset (0): `t_ns` are its log times
+    unset: bool = False
 
 
 def parse_frames(value: str, path: Path) -> tuple[str, str]:
@@ -93,16 +98,18 @@ def collect_edges(
     first_sent = sorted(rows_of, key=lambda key: (rows_of[key][0][0], rows_of[key][1][0]))
     for parent, child in first_sent:  # the edges in the order their frames first came
         _, _, statics, t_ns, logged, pose = rows_of[parent, child]
-        static = bool(statics.all())
+        static, unset = bool(statics.all()), False
         if static:  # latched, maybe republished: the last one holds
             keep = np.array([np.argmax(logged)])
         else:  # by stamp, a transform logged twice (or on both topics) once
             dynamic = np.flatnonzero(~statics)
+            if unset := stamps_unset(t_ns[dynamic]):  # the log times stand in
+                t_ns = logged
             _, first = np.unique(t_ns[dynamic], return_index=True)
             keep = dynamic[first]
         t_ns, logged, pose = t_ns[keep], logged[keep], pose[keep]
         pose[:, 3:] = rs.continuous_quaternions(rs.normalize(pose[:, 3:]))
-        edges.setdefault(child, []).append(Edge(parent, child, static, t_ns, logged, pose))
+        edges.setdefault(child, []).append(Edge(parent, child, static, t_ns, logged, pose, unset))
     return edges
 
 
@@ -151,13 +158,21 @@ def _compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
 
 
 def pose_stream(
-    edges: dict[str, list[Edge]], parent: str, child: str, path: Path, clock: str = "header"
+    edges: dict[str, list[Edge]],
+    parent: str,
+    child: str,
+    path: Path,
+    clock: str = "header",
+    notes: list[str] | None = None,
 ) -> SourceStream:
     """CHILD's pose in PARENT, timed by the chain's dynamic edges' stamps (or, with
-    `clock="log"`, by the receive times of the messages that carried those stamps)."""
+    `clock="log"`, by the receive times of the messages that carried those stamps).
+    `notes`, where given, gets one for each moving link whose stamps were unset."""
     links = chain(edges, parent, child, path)
     dynamic = [e for e in links if not e.static]
     name = f"/tf {parent}->{child}"
+    if clock == "header" and notes is not None:
+        notes += [unset_note(f"/tf {e.parent}->{e.child}") for e in dynamic if e.unset]
     if not dynamic:
         raise ConversionError(
             f"{OPTION}: every transform from {child} up to {parent} is static, so the pose "
@@ -192,4 +207,5 @@ def pose_stream(
     assert pose is not None  # the chain holds a dynamic edge
     pose[:, 3:] = rs.normalize(pose[:, 3:])
     stamps = log_ns if clock == "log" else t_ns
-    return SourceStream("pose", name, stamps, pose, parent, clock, log_ns, msgtype=TF_TYPE)
+    on = "log" if timing.unset else clock  # the times are log times either way
+    return SourceStream("pose", name, stamps, pose, parent, on, log_ns, msgtype=TF_TYPE)
