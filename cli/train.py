@@ -1,4 +1,4 @@
-"""`dresslog train DATA -o MODEL`: the paper's network by default; options for the rest."""
+"""`dresslog train DATA... -o MODEL`: the paper's network by default; options for the rest."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 
 
 @click.command("train")
-@click.argument("data", type=click.Path(file_okay=False))
+@click.argument("data", nargs=-1, required=True, type=click.Path(file_okay=False))
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
               help="Model folder to write.")  # fmt: skip
 @click.option("--epochs", type=click.IntRange(min=1), default=10, show_default=True,
@@ -68,8 +68,11 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 )
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors
-def train(data: str, out: str, quiet: bool, **options: Any) -> None:
-    """Train a force-map LSTM on DATA's training split; score it on the test split."""
+def train(data: tuple[str, ...], out: str, quiet: bool, **options: Any) -> None:
+    """Train a force-map LSTM on DATA's training split; score it on the test split.
+
+    Several DATA folders of one task are pooled (a condition's trials beside in-range ones).
+    """
     from dresslog.experiments import TRAINING_PLOT, train_dataset
     from dresslog.model.files import EpochRecord
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -672,6 +673,38 @@ def test_train_init_fine_tunes_a_model_and_its_card_and_info_name_it(
         f"Error: {model}: --hidden 8 would change the initial model's network (1x4 LSTM), "
         "which fine-tuning keeps; leave --hidden out\n",
     )
+
+
+@pytest.mark.slow
+def test_train_pools_several_dataset_folders_of_one_task(data: Path, tmp_path: Path) -> None:
+    """`train A B`: both training splits to learn from, both test splits to score on, and
+    the card naming both; a folder given twice, or of the other task, is refused."""
+    near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05)}  # the `data` fixture's
+    other = tmp_path / "raised"
+    generate("gown", 3, other, workers=2, seed=1, test_fraction=1 / 3, overrides=near)
+    out = tmp_path / "pooled"
+    code, output = invoke("train", data, other, "-o", out, "--epochs", "1", "--hidden", "4",
+                          "--layers", "1", "-q")  # fmt: skip
+    assert code == 0, output
+    card = load_model(out).card
+    assert (card.data.n_train, card.metrics["test_n_sequences"]) == (3 + 2, 1 + 1)
+    assert card.data.description == f"{data} + {other}"
+    hashes = [load_manifest(folder).content_hash() for folder in (data, other)]
+    assert card.data.manifest_sha256 == hashlib.sha256(" ".join(hashes).encode()).hexdigest()
+    code, output = invoke("train", data, other, data, "-o", tmp_path / "m")
+    assert (code, output) == (
+        1,
+        f"Error: {data}: is given twice; give each dataset folder once\n",
+    )
+    shorts = tmp_path / "shorts"
+    generate("shorts", 2, shorts, workers=1, test_fraction=0, overrides={"duration": 0.1})
+    code, output = invoke("train", data, shorts, "-o", tmp_path / "m")
+    assert (code, output) == (
+        1,
+        f"Error: {shorts}: holds shorts trials but {data} holds gown; "
+        "a model is trained for one task\n",
+    )
+    assert not (tmp_path / "m").exists()
 
 
 def test_train_init_refuses_a_model_for_the_other_task_or_a_tampered_one(

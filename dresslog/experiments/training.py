@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import hashlib
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from dresslog.dataset import Split, load_dataset, load_manifest
+from dresslog.dataset import DatasetArrays, Split, load_dataset, load_manifest
 from dresslog.dataset.manifest import MIN_TRAIN
 from dresslog.errors import DatasetError, ModelError
 from dresslog.experiments.evaluation import check_data_task, warn_no_force
@@ -28,10 +29,11 @@ from dresslog.model.files import (
 from dresslog.model.numpy_lstm import NumpyEstimator
 from dresslog.model.options import VAL_FRACTION, LrSchedule, check_options, held_out
 from dresslog.plots import plot_training
+from dresslog.spec import Task
 
 
 def train_dataset(
-    data: str | Path,
+    data: str | Path | Sequence[str | Path],
     out: str | Path,
     *,
     epochs: int = 10,
@@ -55,27 +57,33 @@ def train_dataset(
     """Train the paper's network (by default: 3 layers of 50 cells) on `data`'s training
     split; save to `out`.
 
-    `init` names a model to start from (fine-tuning, e.g. on trials of a raised forearm):
-    its network, input standardisation and signal differences are kept, so `hidden`,
-    `layers`, `normalise` and `input_differences` may only repeat its own; the card
-    names it under `init`.
+    `data` may be several dataset folders of one task: their training splits are pooled
+    (the validation sequences drawn from all), and so are their test splits for the
+    card's scores. `init` names a model to start from (fine-tuning, e.g. on trials of a
+    raised forearm, beside in-range ones so that it does not forget them): its network,
+    input standardisation and signal differences are kept, so `hidden`, `layers`,
+    `normalise` and `input_differences` may only repeat its own; the card names it
+    under `init`.
     """
     out = Path(out)
     if out.name in ("", ".."):  # `-o .` or `-o ..`: name the folder, for the files beside it
         out = out.resolve()
     check_model_folder(out, overwrite)  # say so now, not after hours of training
-    manifest = load_manifest(data)
+    folders = _folders(data)
+    named = " + ".join(printable(f) for f in folders)
+    task = _one_task(folders)
     start = None
     if init is not None:
         start = load_model(init)
-        check_data_task(start, manifest.task)
+        check_data_task(start, task)
         hidden, layers, normalise, input_differences = _as_initial(
             start, hidden, layers, normalise, input_differences
         )
-    steps = [t.steps for t in manifest.trials if t.split is Split.TRAIN]
+    steps = [t.steps for f in folders for t in load_manifest(f).trials if t.split is Split.TRAIN]
     if len(steps) < MIN_TRAIN:
         raise DatasetError(
-            f"needs at least {MIN_TRAIN} training trials, has {len(steps)}", path=data
+            f"needs at least {MIN_TRAIN} training trials, has {len(steps)}",
+            path=folders[0] if len(folders) == 1 else named,
         )
     hidden, layers = hidden or 50, layers or 3
     check_options(  # from the manifest: a bad option fails before minutes of decoding
@@ -88,23 +96,22 @@ def train_dataset(
     out.parent.mkdir(parents=True, exist_ok=True)  # the checkpoint and the lock go beside it
     # a second run on the same output would share (and garble) the checkpoint
     with exclusive(out.with_name(f".{out.name}.train.lock"), "dresslog train", out):
-        arrays = load_dataset(data, workers=workers, progress=progress)
+        pooled = [load_dataset(f, workers=workers, progress=progress) for f in folders]
         if start is not None:
-            check_data_task(start, arrays.task, arrays.forces[0].shape[-1])
-        rows = arrays.rows(Split.TRAIN)
-        if not any(arrays.forces[row].any() for row in rows):  # trials too short to touch
+            check_data_task(start, task, pooled[0].n_points)
+        sequences, forces, outcomes = _split_of(pooled, Split.TRAIN)
+        if not any(f.any() for f in forces):  # trials too short to touch
             warn_no_force(
-                data,
-                f"training sequence (outcomes: "
-                f"{', '.join(sorted(set(arrays.outcomes[rows].tolist())))})",
+                named,
+                f"training sequence (outcomes: {', '.join(sorted(set(outcomes)))})",
                 "the model can only learn to estimate none",
                 "generate longer trials (--duration)",
             )
         from dresslog.model.train import make_card, train  # torch once the data checks out
 
         weights, history = train(
-            arrays.sequences(rows),
-            arrays.force_maps(rows),
+            sequences,
+            forces,
             epochs=epochs,
             batch_size=batch_size,
             lr=lr,
@@ -124,20 +131,19 @@ def train_dataset(
             on_epoch=on_epoch,
         )
         metrics: dict[str, float] = {}
-        test = arrays.rows(Split.TEST)
-        if len(test):
-            scores = evaluate(
-                NumpyEstimator(weights), arrays.sequences(test), arrays.force_maps(test)
-            )
+        test, test_forces, _ = _split_of(pooled, Split.TEST)
+        if test:
+            scores = evaluate(NumpyEstimator(weights), test, test_forces)
             metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
-        signal = np.concatenate(arrays.sequences(rows))
+        signal = np.concatenate(sequences)
+        hashes = [arrays.manifest_sha256 for arrays in pooled]
         provenance = DataProvenance(
-            manifest_sha256=arrays.manifest_sha256,
-            description=printable(data),
+            manifest_sha256=hashes[0] if len(hashes) == 1 else _pooled_hash(hashes),
+            description=named,
             signal=Normalisation(mean=signal.mean(0).tolist(), std=signal.std(0).tolist()),
         )
         card = make_card(
-            arrays.task,
+            task,
             weights,
             history,
             data=provenance,
@@ -153,6 +159,51 @@ def train_dataset(
         )
         checkpoint.unlink(missing_ok=True)
     return card
+
+
+def _folders(data: str | Path | Sequence[str | Path]) -> list[Path]:
+    """The dataset folders `data` names: one, or several, each once."""
+    folders = [Path(data)] if isinstance(data, str | Path) else [Path(f) for f in data]
+    if not folders:
+        raise DatasetError("no dataset folder given")
+    seen: set[Path] = set()
+    for folder in folders:
+        if (same := folder.resolve()) in seen:
+            raise DatasetError("is given twice; give each dataset folder once", path=folder)
+        seen.add(same)
+    return folders
+
+
+def _one_task(folders: Sequence[Path]) -> Task:
+    """The task every folder's manifest records; a folder of another one is refused."""
+    tasks = [load_manifest(f).task for f in folders]
+    for folder, task in zip(folders[1:], tasks[1:], strict=True):
+        if task != tasks[0]:
+            raise DatasetError(
+                f"holds {task} trials but {printable(folders[0])} holds {tasks[0]}; "
+                "a model is trained for one task",
+                path=folder,
+            )
+    return tasks[0]
+
+
+def _split_of(
+    pooled: Sequence[DatasetArrays], split: Split
+) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    """Every folder's `split`: phi, force maps and outcomes, folder after folder."""
+    sequences, forces, outcomes = [], [], []
+    for arrays in pooled:
+        rows = arrays.rows(split)
+        sequences += arrays.sequences(rows)
+        forces += arrays.force_maps(rows)
+        outcomes += arrays.outcomes[rows].tolist()
+    return sequences, forces, outcomes
+
+
+def _pooled_hash(hashes: Sequence[str]) -> str:
+    """Several folders' content hashes as one, in the order given (which draws the
+    validation sequences): what the card names pooled data by."""
+    return hashlib.sha256(" ".join(hashes).encode()).hexdigest()
 
 
 def _as_initial(
