@@ -71,7 +71,8 @@ def train_dataset(
     check_model_folder(out, overwrite)  # say so now, not after hours of training
     folders = _folders(data)
     named = " + ".join(printable(f) for f in folders)
-    task = _one_task(folders)
+    manifests = [load_manifest(f) for f in folders]
+    task = _one_task(folders, [m.task for m in manifests])
     start = None
     if init is not None:
         start = load_model(init)
@@ -79,7 +80,7 @@ def train_dataset(
         hidden, layers, normalise, input_differences = _as_initial(
             start, hidden, layers, normalise, input_differences
         )
-    steps = [t.steps for f in folders for t in load_manifest(f).trials if t.split is Split.TRAIN]
+    steps = [t.steps for m in manifests for t in m.trials if t.split is Split.TRAIN]
     if len(steps) < MIN_TRAIN:
         raise DatasetError(
             f"needs at least {MIN_TRAIN} training trials, has {len(steps)}",
@@ -174,9 +175,8 @@ def _folders(data: str | Path | Sequence[str | Path]) -> list[Path]:
     return folders
 
 
-def _one_task(folders: Sequence[Path]) -> Task:
+def _one_task(folders: Sequence[Path], tasks: Sequence[Task]) -> Task:
     """The task every folder's manifest records; a folder of another one is refused."""
-    tasks = [load_manifest(f).task for f in folders]
     for folder, task in zip(folders[1:], tasks[1:], strict=True):
         if task != tasks[0]:
             raise DatasetError(
