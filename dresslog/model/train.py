@@ -252,9 +252,8 @@ def train(
         net, optim = build()
         ckpt = Path(checkpoint) if checkpoint is not None else None
         data = fingerprint(phis, targets, val_phis, val_targets)
-        key = run_key(
-            net, history, normalise, data, None if init is None else fingerprint([*init.values()])
-        )
+        initial = None if init is None else fingerprint([init[name] for name in sorted(init)])
+        key = run_key(net, history, normalise, data, initial)
         run = RunState(net, optim, history, key)
         if ckpt is not None and ckpt.exists():
             try:
