@@ -719,6 +719,12 @@ def test_train_init_refuses_a_model_for_the_other_task_or_a_tampered_one(
     weights.write_bytes(weights.read_bytes()[:-4] + b"\0\0\0\0")
     code, output = invoke("train", data, "-o", tmp_path / "m", "--init", gown)
     assert code == 1 and "does not match the sha256" in output and output.count("\n") == 1
+    code, output = invoke("train", data, "-o", tmp_path / "m", "--init", data)  # a slip
+    assert (code, output) == (
+        1,
+        f"Error: {data}: is a dataset folder, not a model: --init takes the model to start "
+        "from; give the dataset folders as DATA\n",
+    )
     assert not (tmp_path / "m").exists()
 
 

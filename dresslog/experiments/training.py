@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.dataset import DatasetArrays, Split, load_dataset, load_manifest
-from dresslog.dataset.manifest import MIN_TRAIN
+from dresslog.dataset.manifest import MANIFEST_FILE, MIN_TRAIN
 from dresslog.errors import DatasetError, ModelError
 from dresslog.experiments.evaluation import check_data_task, warn_no_force
 from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
@@ -75,6 +75,12 @@ def train_dataset(
     task = _one_task(folders, [m.task for m in manifests])
     start = None
     if init is not None:
+        if (Path(init) / MANIFEST_FILE).is_file():  # read_card's hint is for eval's order
+            raise ModelError(
+                "is a dataset folder, not a model: --init takes the model to start from; "
+                "give the dataset folders as DATA",
+                path=init,
+            )
         start = load_model(init)
         check_data_task(start, task)
         hidden, layers, normalise, input_differences = _as_initial(
