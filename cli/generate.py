@@ -53,7 +53,7 @@ def generate(
     """Simulate many trials in parallel into OUT; run again to resume or extend it.
 
     Failed (unstable) trials are listed in OUT/manifest.json and replaced by fresh seeds.
-    --speed and --rotation make every trial of one condition (a raised forearm, say), to
+    --speed and --rotation make every trial of one condition (a forearm turned aside, say), to
     train or score a model on.
     """
     from dresslog.dataset import generate as generate_dataset

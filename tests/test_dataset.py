@@ -501,7 +501,7 @@ def test_cli_generate_seed_reaches_every_trial(tmp_path: Path) -> None:
 def test_cli_generate_speed_and_rotation_make_every_trial_of_that_condition(
     tmp_path: Path,
 ) -> None:
-    """A dataset of a raised forearm, to fine-tune or score a model on: every trial is
+    """A dataset of a forearm turned aside, to fine-tune or score a model on: every trial is
     simulated at the speed and rotation asked, with its own offset and path, and a folder
     of one condition is not extended with another."""
     out = tmp_path / "d"

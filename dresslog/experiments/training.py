@@ -60,7 +60,7 @@ def train_dataset(
     `data` may be several dataset folders of one task: their training splits are pooled
     (the validation sequences drawn from all), and so are their test splits for the
     card's scores. `init` names a model to start from (fine-tuning, e.g. on trials of a
-    raised forearm, beside in-range ones so that it does not forget them): its network,
+    forearm turned aside, beside in-range ones so that it does not forget them): its network,
     input standardisation and signal differences are kept, so `hidden`, `layers`,
     `normalise` and `input_differences` may only repeat its own; the card names it
     under `init`.
