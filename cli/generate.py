@@ -8,6 +8,8 @@ from dresslog.dataset.generate import MAX_TRIALS
 
 from .common import reports_errors
 from .options import (
+    AXIS,
+    ROTATION_RANGE,
     FiniteRange,
     duration_option,
     executor_option,
@@ -34,6 +36,9 @@ from .options import (
 @duration_option(" per trial")
 @speed_option("drawn per trial")
 @rotation_option
+@click.option("--rotation-range", type=(AXIS, ROTATION_RANGE, ROTATION_RANGE),
+              metavar="AXIS LOW HIGH", show_default="none",
+              help="Draw each trial's rotation about AXIS, LOW to HIGH degrees.")  # fmt: skip
 @executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
@@ -47,6 +52,7 @@ def generate(
     duration: float | None,
     speed: float | None,
     rotation: tuple[str, float] | None,
+    rotation_range: tuple[str, float, float] | None,
     executor: str,
     quiet: bool,
 ) -> None:
@@ -54,9 +60,13 @@ def generate(
 
     Failed (unstable) trials are listed in OUT/manifest.json and replaced by fresh seeds.
     --speed and --rotation make every trial of one condition (a forearm turned aside, say), to
-    train or score a model on.
+    train or score a model on; --rotation-range makes them across a span of conditions.
     """
     from dresslog.dataset import generate as generate_dataset
+
+    if rotation and rotation_range:
+        raise click.UsageError("--rotation fixes every trial's rotation, --rotation-range draws "
+                               "it; give one")  # fmt: skip
 
     fixed = {"duration": duration, "speed": speed, "limb_rotation": rotation_spec(rotation)}
     manifest = generate_dataset(
@@ -67,6 +77,9 @@ def generate(
         seed=seed,
         test_fraction=test_fraction,
         overrides={field: value for field, value in fixed.items() if value is not None},
+        rotation_range=dict(zip(("axis", "low", "high"), rotation_range, strict=True))
+        if rotation_range
+        else None,
         executor=executor,
         progress=not quiet,
     )

@@ -80,6 +80,8 @@ FINITE = FiniteRange()
 #: The spec's ranges, so `record --speed` and `sweep --speeds` refuse alike.
 SPEED_RANGE = FiniteRange(0, MAX_SPEED, min_open=True)
 ROTATION_RANGE = FiniteRange(-MAX_ROTATION, MAX_ROTATION)
+#: The limb's rotation axes (ours: z up).
+AXIS = click.Choice(["x", "y", "z"])
 
 
 def speed_option(drawn: str) -> Callable[[Any], Any]:
@@ -90,7 +92,7 @@ def speed_option(drawn: str) -> Callable[[Any], Any]:
 
 rotation_option = click.option(
     "--rotation",
-    type=(click.Choice(["x", "y", "z"]), ROTATION_RANGE),
+    type=(AXIS, ROTATION_RANGE),
     metavar="AXIS DEG",
     help="Turn the forearm (gown) or foot (shorts) about x, y or z, degrees "
     f"({ROTATION_RANGE.describe('DEG')}).",

@@ -103,6 +103,8 @@ def _dataset(path: Path, as_json: bool) -> Description:
     if manifest.overrides:  # what sets this dataset apart (short trials, a sweep's speed)
         fixed = ", ".join(f"{k}={json.dumps(v)}" for k, v in manifest.overrides.items())
         lines.append(f"  fixed for every trial: {fixed}")
+    if manifest.rotation_range is not None:
+        lines.append(f"  drawn per trial: limb rotation {manifest.rotation_range}")
     if damaged:
         names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
         more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""

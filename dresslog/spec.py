@@ -96,6 +96,38 @@ class LimbRotation(BaseModel):
     degrees: Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)] = 0.0
 
 
+class RotationRange(BaseModel):
+    """Rotations about `axis` drawn per trial, uniformly from `low` to `high` degrees: a
+    dataset across a span of conditions (to train a model for all of them), not one."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    axis: Literal["x", "y", "z"]
+    low: Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)]
+    high: Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)]
+
+    @model_validator(mode="after")
+    def _a_span(self) -> RotationRange:
+        if not self.low < self.high:  # equal bounds are one condition: --rotation's
+            raise ValueError(f"low {self.low:g} must be below high {self.high:g}")
+        return self
+
+    def draw(self, seed: int) -> LimbRotation:
+        """The rotation of the trial with `seed`, from a stream of its own: the rest of
+        the trial's spec is the one `seed` draws without a range."""
+        import numpy as np  # lazily: `info` and `infer` load this module at start-up
+
+        degrees = np.random.default_rng((seed, _ROTATION_STREAM)).uniform(self.low, self.high)
+        return LimbRotation(axis=self.axis, degrees=float(degrees))
+
+    def __str__(self) -> str:
+        return f"{self.axis} {self.low:+g}...{self.high:+g} deg"
+
+
+#: Keys the rotation's random stream apart from the seed's own (offset, speed, path).
+_ROTATION_STREAM = 1
+
+
 class SimParams(BaseModel):
     """Physics settings of the pybullet simulation (SI units)."""
 

@@ -526,6 +526,58 @@ def test_cli_generate_speed_and_rotation_make_every_trial_of_that_condition(
     )
 
 
+def test_cli_generate_rotation_range_draws_each_trials_rotation_within_it(tmp_path: Path) -> None:
+    """A dataset across a span of conditions, to train one model for all of them: each
+    trial's rotation is drawn within the range and reaches the simulator, the rest of its
+    spec is the one its seed draws without a range, and `info` names the range."""
+    out, plain = tmp_path / "d", tmp_path / "plain"
+    args = ["generate", "--task", "gown", "--trials", "4", "--test-fraction", "0.25"]
+    args += ["--duration", "0.1", "--workers", "1", "-q"]
+    result = CliRunner().invoke(main, [*args, "--rotation-range", "z", "-15", "15", "-o", out])
+    assert result.exit_code == 0, result.output
+    assert CliRunner().invoke(main, [*args, "-o", plain]).exit_code == 0
+    drawn, unturned = load_manifest(out).trials, load_manifest(plain).trials
+    degrees = [e.spec.limb_rotation.degrees for e in drawn]
+    assert all(-15 <= d <= 15 for d in degrees) and len(set(degrees)) == 4, degrees
+    assert {e.spec.limb_rotation.axis for e in drawn} == {"z"}
+    for turned, same in zip(drawn, unturned, strict=True):  # only the rotation differs
+        assert (
+            turned.spec.model_copy(update={"limb_rotation": same.spec.limb_rotation}) == same.spec
+        )
+    with TrialReader(out / drawn[0].file) as trial:
+        assert trial.metadata.spec == drawn[0].spec
+    shown = CliRunner().invoke(main, ["info", str(out)])
+    assert shown.output.splitlines()[2] == "  drawn per trial: limb rotation z -15...+15 deg"
+    result = CliRunner().invoke(main, [*args, "-o", out])  # not extended with fixed trials
+    assert result.exit_code == 1
+    assert result.output == (
+        f"Error: {out}: folder holds a dataset with rotation drawn per trial z -15...+15 deg, "
+        "not none (no --rotation-range); use another folder or the same options\n"
+    )
+
+
+@pytest.mark.parametrize(
+    ("options", "code", "message"),
+    [
+        (["--rotation", "z", "5", "--rotation-range", "z", "-5", "5"], 2,
+         "Error: --rotation fixes every trial's rotation, --rotation-range draws it; give one"),
+        (["--rotation-range", "y", "5", "-5"], 1,
+         "Error: invalid rotation range: low 5 must be below high -5"),
+        (["--rotation-range", "y", "5", "95"], 2,
+         "Error: Invalid value for '--rotation-range': 95.0 is not in the range -90<=x<=90."),
+    ],
+    ids=["both", "empty", "beyond"],
+)  # fmt: skip
+def test_a_rotation_range_no_trial_could_have_is_refused_in_one_line(
+    tmp_path: Path, options: list[str], code: int, message: str
+) -> None:
+    args = ["generate", "--task", "gown", "--trials", "2", "-o", str(tmp_path / "d"), *options]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == code
+    assert result.output.splitlines()[-1] == message
+    assert not (tmp_path / "d").exists()
+
+
 @prints_warnings
 def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
     """3 trials at the default 1/6 made no test trials, found only when `eval` failed."""

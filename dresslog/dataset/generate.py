@@ -49,7 +49,7 @@ from dresslog.dataset.manifest import (
 )
 from dresslog.errors import DatasetError, DresslogError, DresslogWarning, first_problem
 from dresslog.io.files import exclusive, is_temporary, named_as_recording, resolved
-from dresslog.spec import Task, TrialSpec, task_of
+from dresslog.spec import RotationRange, Task, TrialSpec, task_of
 from dresslog.stops import stop_signals
 from dresslog.trial import STEP_HZ
 
@@ -161,6 +161,23 @@ def _checked_overrides(task: Task, overrides: Mapping[str, Any] | None) -> dict[
     return overrides
 
 
+def _checked_range(
+    drawn: RotationRange | Mapping[str, Any] | None, overrides: Mapping[str, Any]
+) -> RotationRange | None:
+    """`drawn` as a `RotationRange` if a valid one that no fixed rotation contradicts."""
+    if drawn is None:
+        return None
+    if "limb_rotation" in overrides:
+        raise DatasetError(
+            "a rotation is fixed for every trial or drawn per trial (--rotation or "
+            "--rotation-range), not both"
+        )
+    try:
+        return RotationRange.model_validate(drawn)
+    except ValidationError as err:
+        raise DatasetError(f"invalid rotation range: {first_problem(err)}") from None
+
+
 def _whole(value: object) -> int | None:
     """`value` as an int if it is a whole number type (numpy's too), else None."""
     try:
@@ -177,17 +194,24 @@ def _shown(value: object) -> str:
             ", ".join(f"{k}={v}" for k, v in value.items())
             or "none fixed (no --duration, --speed or --rotation)"
         )
-    return str(value)
+    return "none (no --rotation-range)" if value is None else str(value)
 
 
 def _open_manifest(
-    root: Path, task: Task, seed: int, counts: Mapping[Split, int], overrides: dict[str, Any]
+    root: Path,
+    task: Task,
+    seed: int,
+    counts: Mapping[Split, int],
+    overrides: dict[str, Any],
+    rotation_range: RotationRange | None,
 ) -> Manifest:
     """The folder's manifest if it has one (checked to be the same request), else a new one;
     either asks for `counts` (n_train, n_test, n_sweep)."""
     asked = {f"n_{split}": counts.get(split, 0) for split in Split}
     if not (root / MANIFEST_FILE).exists():
-        return Manifest(task=task, seed=seed, overrides=overrides, **asked)
+        return Manifest(
+            task=task, seed=seed, overrides=overrides, rotation_range=rotation_range, **asked
+        )
     manifest = load_manifest(root)
     # the other command's folder before its fields, which no option of this one sets (a
     # sweep setting's speed); a split not asked for must be empty, else its trials are lost
@@ -203,6 +227,7 @@ def _open_manifest(
         ("task", manifest.task, task),
         ("seed", manifest.seed, seed),
         ("fixed spec fields", manifest.overrides, overrides),
+        ("rotation drawn per trial", manifest.rotation_range, rotation_range),
     ):
         if have != want:
             raise DatasetError(
@@ -249,10 +274,13 @@ def _job(
     """The attempt's spec is the simulator's `random_spec` (imported with the first job), or
     for a test recorder one validated without the simulator."""
     seed = trial_seed(manifest.seed, split, slot, attempt)
+    fixed = manifest.overrides
+    if manifest.rotation_range is not None:
+        fixed = {**fixed, "limb_rotation": manifest.rotation_range.draw(seed).model_dump()}
     if recorder == RECORDER:
-        spec = resolve(SPEC_FACTORY)(manifest.task, seed, **manifest.overrides)
+        spec = resolve(SPEC_FACTORY)(manifest.task, seed, **fixed)
     else:
-        spec = TrialSpec.model_validate({"task": manifest.task, "seed": seed, **manifest.overrides})
+        spec = TrialSpec.model_validate({"task": manifest.task, "seed": seed, **fixed})
     return Job(str(root), split, slot, attempt, spec, recorder)
 
 
@@ -282,6 +310,7 @@ def generate(
     test_fraction: float = TEST_FRACTION,
     splits: Mapping[Split | str, int] | None = None,
     overrides: Mapping[str, Any] | None = None,
+    rotation_range: RotationRange | Mapping[str, Any] | None = None,
     executor: ExecutorName | str = "process",
     max_attempts: int = MAX_ATTEMPTS,
     progress: bool = True,
@@ -292,7 +321,8 @@ def generate(
 
     ``splits`` replaces the train/test division by explicit counts (the sweeps use
     ``{"sweep": 128}``); ``overrides`` fixes spec fields for every trial (``duration``,
-    ``speed``, ``limb_rotation``); ``recorder`` ("module:function", called as
+    ``speed``, ``limb_rotation``); ``rotation_range`` draws each trial's ``limb_rotation``
+    (``{"axis": "z", "low": -15, "high": 15}``); ``recorder`` ("module:function", called as
     ``f(spec, path, overwrite=True)``) swaps the simulator, for tests; ``label`` names
     the progress bar (the task by default). Raises
     `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
@@ -310,13 +340,14 @@ def generate(
     counts = _split_counts(trials, test_fraction) if splits is None else _given_counts(splits)
     workers = workers or os.cpu_count() or 1
     overrides = _checked_overrides(task, overrides)
+    drawn = _checked_range(rotation_range, overrides)
     with _named_as_given(root, given):  # the folder's errors, every one of them
         _check_folder(root)
         check_executor(executor)
         root.mkdir(parents=True, exist_ok=True)
         command = "dresslog sweep" if Split.SWEEP in counts else "dresslog generate"  # its folders
         with exclusive(root / LOCK_FILE, command):
-            manifest = _open_manifest(root, task, seed, counts, overrides)
+            manifest = _open_manifest(root, task, seed, counts, overrides, drawn)
             for split in Split:
                 if manifest.wanted(split):
                     (root / split.value).mkdir(exist_ok=True)

@@ -30,7 +30,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, m
 from dresslog import __version__
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
 from dresslog.io.files import atomic_path, no_such, sha256_file
-from dresslog.spec import RECORDED, Outcome, Task, TrialSpec
+from dresslog.spec import RECORDED, Outcome, RotationRange, Task, TrialSpec
 
 MANIFEST_FILE = "manifest.json"
 #: The file that marks a sweep's folder (`dresslog sweep` writes it beside its table and
@@ -121,6 +121,9 @@ class Manifest(BaseModel):
     n_sweep: int = Field(0, ge=0)
     overrides: dict[str, Any] = Field(
         default_factory=dict, description="spec fields fixed for every trial (e.g. duration)"
+    )
+    rotation_range: RotationRange | None = Field(
+        None, description="limb rotation drawn per trial (`generate --rotation-range`)"
     )
     trials: list[Entry] = Field(default_factory=list)
     failures: list[Entry] = Field(default_factory=list)
