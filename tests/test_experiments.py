@@ -22,7 +22,7 @@ import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
-from dresslog.dataset import generate, load_manifest
+from dresslog.dataset import generate, load_dataset, load_manifest
 from dresslog.errors import DatasetError, DresslogWarning, ModelError
 from dresslog.experiments import (
     Scores,
@@ -33,7 +33,14 @@ from dresslog.experiments import (
 )
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
-from dresslog.model.files import EpochRecord, Hyperparameters, ModelCard, load_model, save_model
+from dresslog.model.files import (
+    CARD_FILE,
+    EpochRecord,
+    Hyperparameters,
+    ModelCard,
+    load_model,
+    save_model,
+)
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_figure, sweep_lines, training_figure
 from dresslog.spec import Task
@@ -673,6 +680,32 @@ def test_train_init_fine_tunes_a_model_and_its_card_and_info_name_it(
         f"Error: {model}: --hidden 8 would change the initial model's network (1x4 LSTM), "
         "which fine-tuning keeps; leave --hidden out\n",
     )
+
+
+@pytest.mark.slow
+def test_a_fine_tuned_cards_signal_covers_the_initial_models_training_data_too(
+    model: Path, data: Path
+) -> None:
+    """`infer` calls a trial unfamiliar by the card's `data.signal`: a model fine-tuned on
+    rotated trials has learnt the in-range ones too, and must not call them unfamiliar."""
+    elsewhere = data.parent / "trained-elsewhere"
+    shutil.copytree(model, elsewhere)
+    card = json.loads((elsewhere / CARD_FILE).read_text())  # as if trained on other data
+    card["data"]["signal"] = {"mean": [1.0] * 9, "std": [2.0] * 9}
+    (elsewhere / CARD_FILE).write_text(json.dumps(card))
+    out = data.parent / "tuned-elsewhere"
+    code, output = invoke("train", data, "-o", out, "--init", elsewhere, "-q", "--epochs", "1")
+    assert code == 0, output
+    arrays = load_dataset(data, progress=False)
+    own = np.concatenate(arrays.sequences(arrays.rows("train")))
+    before = card["data"]["n_train"] + card["data"]["n_val"]
+    share = before / (before + 3)
+    mean = share * 1.0 + (1 - share) * own.mean(0)
+    variance = share * (4.0 + 1.0) + (1 - share) * (own.var(0) + own.mean(0) ** 2) - mean**2
+    seen = load_model(out).card.data.signal
+    assert seen is not None
+    np.testing.assert_allclose(seen.mean, mean, rtol=1e-6)
+    np.testing.assert_allclose(seen.std, np.sqrt(variance), rtol=1e-6)
 
 
 @pytest.mark.slow

@@ -144,12 +144,11 @@ def train_dataset(
         if test:
             scores = evaluate(NumpyEstimator(weights), test, test_forces)
             metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
-        signal = np.concatenate(sequences)
         hashes = [arrays.manifest_sha256 for arrays in pooled]
         provenance = DataProvenance(
             manifest_sha256=hashes[0] if len(hashes) == 1 else _pooled_hash(hashes),
             description=named,
-            signal=Normalisation(mean=signal.mean(0).tolist(), std=signal.std(0).tolist()),
+            signal=_seen_signal(sequences, None if start is None else start.card.data),
         )
         card = make_card(
             task,
@@ -248,6 +247,21 @@ def _as_initial(
                 path=start.path,
             )
     return card.hidden, card.layers, standardised, differences
+
+
+def _seen_signal(sequences: Sequence[np.ndarray], before: DataProvenance | None) -> Normalisation:
+    """The training signal's per-channel mean and std, which `infer` calls a trial unlike
+    the training data by. A fine-tuned model has learnt from its initial model's sequences
+    too (`before`): the two sets' mixture, weighted by their sequence counts."""
+    signal = np.concatenate(sequences)
+    mean, var = signal.mean(0), signal.var(0)
+    if before is not None and before.signal is not None:
+        share = (before.n_train + before.n_val) / (before.n_train + before.n_val + len(sequences))
+        old_mean, old_var = np.array(before.signal.mean), np.array(before.signal.std) ** 2
+        mixed = share * old_mean + (1 - share) * mean
+        var = share * (old_var + old_mean**2) + (1 - share) * (var + mean**2) - mixed**2
+        mean = mixed
+    return Normalisation(mean=mean.tolist(), std=np.sqrt(np.maximum(var, 0)).tolist())
 
 
 def _initial_model(start: LoadedModel) -> InitialModel:

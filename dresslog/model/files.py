@@ -121,7 +121,8 @@ class DataProvenance(BaseModel):
     n_val: int = 0
     description: str = ""
     #: the training sequences' 9-D signal, per channel: what `infer` tells a trial far
-    #: from the training data by (a model without input standardisation has no other)
+    #: from the training data by (a model without input standardisation has no other);
+    #: a fine-tuned model's covers its initial model's training sequences too
     signal: Normalisation | None = None
 
 
