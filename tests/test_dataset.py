@@ -661,6 +661,15 @@ def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
         ({"workers": -1}, r"--workers must be a whole number \(0: all cores\), not -1"),
         ({"workers": 2.5}, "--workers must be a whole number"),
         ({"task": "hat"}, "task 'hat' is not one of gown, shorts"),
+        (
+            {
+                "overrides": {"limb_rotation": {"axis": "z", "degrees": 5}},
+                "rotation_range": {"axis": "z", "low": -5, "high": 5},
+            },
+            r"a rotation is fixed for every trial or drawn per trial \(--rotation or "
+            r"--rotation-range\), not both",
+        ),
+        ({"rotation_range": {"axis": "w", "low": -5, "high": 5}}, "invalid rotation range: axis"),
     ],
 )
 def test_generate_called_from_a_script_says_what_is_wrong_with_its_arguments(
