@@ -47,9 +47,6 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
     show_default=True,
     help="cosine: anneal the learning rate to 0 over the epochs (the paper: constant).",
 )
-@click.option("--warmup", type=click.IntRange(min=0), default=0, metavar="BATCHES",
-              show_default=True, help="Raise the learning rate linearly over the first BATCHES "
-              "batches (with --init: some 100 spare the weights).")  # fmt: skip
 @click.option(
     "--input-differences",
     is_flag=True,

@@ -45,7 +45,6 @@ def train_dataset(
     balance_loss: bool = False,
     keep_best: bool = False,
     lr_schedule: LrSchedule = "constant",
-    warmup: int = 0,
     input_differences: bool = False,
     window: int | None = None,
     seed: int = 0,
@@ -97,7 +96,7 @@ def train_dataset(
     check_options(  # from the manifest: a bad option fails before minutes of decoding
         steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
-        lr_schedule=lr_schedule, warmup=warmup,
+        lr_schedule=lr_schedule,
     )  # fmt: skip
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
     check_name_fits(out, temporary_path(checkpoint).name)  # the longest name beside it
@@ -131,7 +130,6 @@ def train_dataset(
             balance_loss=balance_loss,
             keep_best=keep_best,
             lr_schedule=lr_schedule,
-            warmup=warmup,
             input_differences=input_differences,
             init=None if start is None else start.weights,
             progress=progress,

@@ -72,9 +72,9 @@ TRAINING_PLOT = "training.png"
 #: What a model folder holds; --overwrite replaces these and nothing else.
 MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
 FORMAT: Final = "dresslog-model"
-#: 2 added `data.signal`, 3 `init`, 4 `hyperparameters.warmup`; a card of a newer version
-#: than this is refused as such, before the fields this dresslog does not know would be.
-FORMAT_VERSION = 4
+#: 2 added `data.signal`, 3 `init`; a card of a newer version than this is refused as
+#: such, before the fields this dresslog does not know would be.
+FORMAT_VERSION = 3
 
 
 class Normalisation(BaseModel):
@@ -106,8 +106,6 @@ class Hyperparameters(BaseModel):
     lr_schedule: LrSchedule = "constant"
     #: the network reads phi's change since the last step too (`dresslog.model.inputs`)
     input_differences: bool = False
-    #: the learning rate rose linearly over the first this many batches (0: none)
-    warmup: int = 0
 
 
 class DataProvenance(BaseModel):

@@ -38,7 +38,6 @@ def check_options(
     window: int | None,
     keep_best: bool,
     lr_schedule: str = "constant",
-    warmup: int = 0,
 ) -> None:
     """Refuse settings that cannot train, or that the data make meaningless.
 
@@ -49,8 +48,6 @@ def check_options(
         raise ModelError("epochs, batch size, hidden size and layers must all be 1 or more")
     if not (math.isfinite(lr) and lr > 0):
         raise ModelError(f"the learning rate must be a positive number, not {lr}")
-    if warmup < 0:
-        raise ModelError(f"a warm-up is 0 or more batches, not {warmup}")
     if lr_schedule not in LR_SCHEDULES:
         raise ModelError(f"lr_schedule {lr_schedule!r} is not one of {', '.join(LR_SCHEDULES)}")
     if keep_best and not n_val:

@@ -35,14 +35,13 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
         )
         if on
     ]
-    warmup = f", warm-up {hp.warmup} batch{'es' * (hp.warmup > 1)}" if hp.warmup else ""
     lines = [
         f"{path}  (dresslog model, format {card.format_version})",
         f"  task      {card.task.value}, {card.n_points} limb points",
         f"  network   {card.layers}x{card.hidden} LSTM on {card.input_dim}-D input"
         + (f"; {', '.join(extras)}" if extras else ""),
         f"  training  {_count(hp.epochs, 'epoch')}, batch {hp.batch_size}, {hp.optimizer} "
-        f"lr {hp.lr:g} ({hp.lr_schedule}{warmup}), seed {hp.seed}",
+        f"lr {hp.lr:g} ({hp.lr_schedule}), seed {hp.seed}",
         f"  data      {data.n_train} training + {data.n_val} validation sequences"
         + (f" from {data.description}" if data.description else "")
         + (f", manifest {data.manifest_sha256[:12]}" if data.manifest_sha256 else ""),

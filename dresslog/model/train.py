@@ -182,7 +182,6 @@ def train(
     balance_loss: bool = False,
     keep_best: bool = False,
     lr_schedule: LrSchedule = "constant",
-    warmup: int = 0,
     input_differences: bool = False,
     init: Mapping[str, np.ndarray] | None = None,
     threads: int | None = None,
@@ -210,7 +209,7 @@ def train(
     check_options(
         [len(p) for p in phis], len(val_phis), epochs=epochs, batch_size=batch_size,
         hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
-        lr_schedule=lr_schedule, warmup=warmup,
+        lr_schedule=lr_schedule,
     )  # fmt: skip
     if init is not None and (sizes := infer_sizes(init)) != (
         wanted := (n_points, hidden, layers, phis[0].shape[1])
@@ -231,7 +230,6 @@ def train(
         keep_best=keep_best,
         lr_schedule=lr_schedule,
         input_differences=input_differences,
-        warmup=warmup,
     )
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
     previous_threads = torch.get_num_threads()
@@ -299,16 +297,6 @@ def epoch_lr(settings: Hyperparameters, epoch: int) -> float:
     return settings.lr
 
 
-def warmed(settings: Hyperparameters, step: int) -> float:
-    """The share of its epoch's rate that 0-based batch `step` of the run takes.
-
-    RMSprop divides by a running mean of squared gradients that starts at 0, so its first
-    steps are some ten times the rate: trained weights (`--init`) are thrown off before
-    the mean has caught up. A linear rise over `warmup` batches spares them.
-    """
-    return min(1.0, (step + 1) / settings.warmup) if settings.warmup else 1.0
-
-
 def _fit(
     run: RunState,
     phis: list[np.ndarray],
@@ -324,17 +312,16 @@ def _fit(
     net, optim, history = run.net, run.optim, run.history
     s = history.settings
     bar = tqdm(total=s.epochs, initial=len(history.epochs), unit="epoch", disable=not progress)
-    batches = math.ceil(len(phis) / s.batch_size)
     for epoch in range(len(history.epochs), s.epochs):
         started = time.perf_counter()
         # Each epoch's shuffle depends only on (seed, epoch), so a resumed run matches.
         rng = np.random.default_rng([s.seed, epoch])
+        for group in optim.param_groups:
+            group["lr"] = epoch_lr(s, epoch)
         order = rng.permutation(len(phis))
         net.train()
         total, count = 0.0, 0
-        for batch, start in enumerate(range(0, len(order), s.batch_size)):
-            for group in optim.param_groups:
-                group["lr"] = epoch_lr(s, epoch) * warmed(s, epoch * batches + batch)
+        for start in range(0, len(order), s.batch_size):
             idx = order[start : start + s.batch_size]
             pairs = [(phis[k], targets[k]) for k in idx]
             if s.window is not None:
