@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, get_args
 
 import click
 
-from dresslog.spec import MAX_DURATION, MAX_ROTATION, MAX_SPEED, Task, TrialSpec
+from dresslog.spec import MAX_DURATION, MAX_ROTATION, MAX_SPEED, Axis, Task, TrialSpec
 
 
 class OneLineChoice(click.Choice):
@@ -81,7 +81,7 @@ FINITE = FiniteRange()
 SPEED_RANGE = FiniteRange(0, MAX_SPEED, min_open=True)
 ROTATION_RANGE = FiniteRange(-MAX_ROTATION, MAX_ROTATION)
 #: The limb's rotation axes (ours: z up).
-AXIS = click.Choice(["x", "y", "z"])
+AXIS = click.Choice(get_args(Axis))
 
 
 def speed_option(drawn: str) -> Callable[[Any], Any]:

@@ -83,6 +83,12 @@ class Outcome(StrEnum):
 PAPER_AXES = {"x": "X", "y": "Z", "z": "Y"}
 
 
+#: A limb part's rotation axis (ours: z up) and angle: a joint's range, not a full turn
+#: (999 degrees is a typo, not a pose).
+Axis = Literal["x", "y", "z"]
+Degrees = Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)]
+
+
 class LimbRotation(BaseModel):
     """A rotation of the distal limb part: forearm about the elbow, foot about the ankle.
 
@@ -91,9 +97,8 @@ class LimbRotation(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
-    axis: Literal["x", "y", "z"] = "z"
-    # a joint's range, not a full turn: 999 degrees is a typo, not a pose
-    degrees: Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)] = 0.0
+    axis: Axis = "z"
+    degrees: Degrees = 0.0
 
 
 class RotationRange(BaseModel):
@@ -102,9 +107,9 @@ class RotationRange(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
-    axis: Literal["x", "y", "z"]
-    low: Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)]
-    high: Annotated[float, Field(ge=-MAX_ROTATION, le=MAX_ROTATION)]
+    axis: Axis
+    low: Degrees
+    high: Degrees
 
     @model_validator(mode="after")
     def _a_span(self) -> RotationRange:
