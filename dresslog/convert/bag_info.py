@@ -49,11 +49,10 @@ def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
     (as JSON: the same, the tree as its edges)."""
     path = Path(path)
     with opened_bag(path) as reader:
-        types, counts = rosbag.topic_counts(reader)
+        types, counts, empty = rosbag.topic_counts(reader)
         total = reader.message_count
         seconds = reader.duration / 1e9 if total else 0.0
         kind = "ros2" if reader.is2 else "ros1"
-        empty = frozenset(t for t in types if not counts[t])
         tf_topics = rosbag.tf_topics_of(types, empty)
         buckets = rosbag.read_topics(reader, set(tf_topics)) if tf_topics else {}
         edges = rosbag.tf_edges(reader, tf_topics, buckets) if tf_topics else {}

@@ -385,13 +385,15 @@ def opened_bag(path: Path) -> Iterator[Any]:
         ) from None
 
 
-def topic_counts(reader: Any) -> tuple[dict[str, str], Counter[str]]:
-    """Each topic's message type (pkg/msg/Type, ROS 1 too) and message count."""
+def topic_counts(reader: Any) -> tuple[dict[str, str], Counter[str], frozenset[str]]:
+    """Each topic's message type (pkg/msg/Type, ROS 1 too) and message count, and the
+    topics with none: a connection a recorder opened and never wrote to, which no
+    default choice may take."""
     types = {c.topic: c.msgtype for c in reader.connections}
     counts = Counter[str]()
     for connection in reader.connections:
         counts[connection.topic] += connection.msgcount
-    return types, counts
+    return types, counts, frozenset(t for t in types if not counts[t])
 
 
 def tf_topics_of(types: dict[str, str], empty: Collection[str] = ()) -> list[str]:
@@ -449,10 +451,9 @@ def read_bag(
     wanted = {"wrench": wrench_topic, "twist": twist_topic, "pose": pose_topic}
     with opened_bag(path) as reader:
         ros1 = not reader.is2
-        types, counts = topic_counts(reader)
+        types, _, empty = topic_counts(reader)
         if not types or reader.message_count == 0:
             raise ConversionError("bag has no messages", path=path)
-        empty = frozenset(t for t in types if not counts[t])
         chosen, notes = choose_topics(types, wanted, path, empty, pose_tf=frames is not None)
         tf_topics = tf_topics_of(types, empty) if frames is not None else []
         if frames is not None and not tf_topics:
