@@ -3,9 +3,9 @@
 Public API
 ----------
 ``plot_sweep(path, report)``: RMSE against speed and against limb rotation, each with the
-    all-zero estimate of the same sequences, the in-range line, the training speeds shaded,
-    a right-hand scale in x in-range and the paper's x in-range where ``PAPER_SWEEP`` has
-    it for a setting swept (``dresslog sweep``).
+    all-zero estimate of the same sequences, the in-range line, the speeds and rotations
+    the model was trained on shaded, a right-hand scale in x in-range and the paper's x
+    in-range where ``PAPER_SWEEP`` has it for a setting swept (``dresslog sweep``).
 ``sweep_lines(report, kind)``: the points ``plot_sweep`` joins, per axis.
 ``plot_training(path, card)``: training and validation loss per epoch from a model card's
     ``history``, log scale, the kept epoch marked when ``keep_best`` chose it (``dresslog
@@ -23,8 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from dresslog.io.files import atomic_path
-from dresslog.sim.specs import SPEED_RANGE
-from dresslog.spec import PAPER_AXES, Task
+from dresslog.spec import PAPER_AXES
 
 #: The paper's RMSE over its in-range RMSE where the README's sweep table quotes one, by
 #: (kind, our axis, value): the gown's at 20 cm/s, forearm -15 deg about its Y (our z) and
@@ -122,15 +121,14 @@ def sweep_figure(report: SweepReport) -> Any:
     """Fig. 12 (RMSE against speed) and Fig. 13 (against rotation, one line per axis) as a
     matplotlib Figure; ``plot_sweep`` saves it."""
     plt = _pyplot()
+    from matplotlib.transforms import ScaledTranslation
+
     kinds = [k for k in ("speed", "rotation") if any(s.kind == k for s in report.settings)]
     fig, axes = plt.subplots(1, len(kinds), figsize=(5.5 * len(kinds), 4.6), squeeze=False)
     base = report.baseline_rmse
     paper = PAPER_SWEEP.get(report.task, {})
-    trained = SPEED_RANGE.get(Task(report.task))  # the training speeds, shaded and ticked
     for ax, kind in zip(axes[0], kinds, strict=True):
         lines = sweep_lines(report, kind)
-        if kind == "speed" and trained:
-            ax.axvspan(*trained, color="gray", alpha=0.12, lw=0, label="training speeds")
         colours = {}
         for axis, (values, rmse, zero) in lines.items():
             (drawn,) = ax.plot(values, rmse, "o-", label=_name(axis))
@@ -147,20 +145,44 @@ def sweep_figure(report: SweepReport) -> Any:
         if base > 0:
             right = ax.secondary_yaxis("right", functions=(lambda y: y / base, lambda r: r * base))
             right.set_ylabel("x in-range RMSE")
-        swept = sorted({v for values, *_ in lines.values() for v in values})
-        if kind == "speed" and trained:  # the span's ends named too
-            swept = sorted({*swept, *trained})
+        trained = _mark_trained(ax, report, kind, colours)
+        swept = sorted({v for values, *_ in lines.values() for v in values} | trained)
         if len(swept) <= 8:  # ticks at the settings: one speed alone got a crowd of them
             ax.set_xticks(swept)
         ax.set_xlabel("end-effector speed (m/s)" if kind == "speed" else "limb rotation (deg)")
         ax.set_ylabel("RMSE (N)")
         ax.set_title(f"against {'speed (Fig. 12)' if kind == 'speed' else 'rotation (Fig. 13)'}")
-        # below the axes: inside, it hides the lines it names
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize="small")
+        # below the axes (inside, it hides the lines it names), by a fixed 0.5 inch: a
+        # share of the axes' height went under the axis label when tight_layout shrank them
+        below = ax.transAxes + ScaledTranslation(0, -0.5, fig.dpi_scale_trans)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0), bbox_transform=below, ncol=2,
+                  fontsize="small")  # fmt: skip
     name = Path(report.model).name
     model = name if name == report.task else f"{name} ({report.task})"
     fig.suptitle(f"Generalisation sweep of model {model}, {report.n} sequences per setting")
     return fig
+
+
+def _mark_trained(ax: Any, report: SweepReport, kind: str, colours: dict[str, str]) -> set[float]:
+    """Shade the speeds or rotations the model was trained on (a line for one fixed
+    value), a rotation in its axis's colour and only on an axis swept; return their ends,
+    for the ticks."""
+    if kind == "speed":
+        spans = [("", low, high) for low, high in report.trained_speeds]
+    else:
+        spans = [span for span in report.trained_rotations if span[0] in colours]
+    ends: set[float] = set()
+    for axis, low, high in spans:
+        label = "training speeds" if kind == "speed" else f"training rotations about {axis}"
+        if label in ax.get_legend_handles_labels()[1]:
+            label = "_nolegend_"  # two spans about one axis: named once
+        colour = colours.get(axis, "gray") if axis else "gray"
+        if high > low:
+            ax.axvspan(low, high, color=colour, alpha=0.12, lw=0, label=label)
+        else:
+            ax.axvline(low, color=colour, alpha=0.25, lw=7, label=label)
+        ends |= {low, high}
+    return ends
 
 
 def _name(axis: str) -> str:

@@ -15,6 +15,7 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
+import matplotlib.colors
 import matplotlib.image
 import matplotlib.pyplot
 import numpy as np
@@ -31,6 +32,7 @@ from dresslog.experiments import (
     sweep_settings,
     train_dataset,
 )
+from dresslog.experiments.sweeps import trained_conditions
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.files import (
@@ -38,12 +40,13 @@ from dresslog.model.files import (
     EpochRecord,
     Hyperparameters,
     ModelCard,
+    TrainingFolder,
     load_model,
     save_model,
 )
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import plot_sweep, sweep_figure, sweep_lines, training_figure
-from dresslog.spec import Task
+from dresslog.spec import RotationRange, Task
 from tests.conftest import SAMPLES, prints_warnings
 
 
@@ -740,6 +743,50 @@ def test_train_pools_several_dataset_folders_of_one_task(data: Path, tmp_path: P
     assert not (tmp_path / "m").exists()
 
 
+@pytest.mark.slow
+def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuning(
+    data: Path, tmp_path: Path
+) -> None:
+    """A model fine-tuned for a span of rotations named its folders only by path: `sweep`
+    shaded the gown's default speeds whatever it was trained on, and could not show the
+    span, nor `info` what the trials held."""
+    near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}  # the `data` fixture's
+    turned = tmp_path / "turned"
+    span = RotationRange(axis="z", low=-15, high=15)
+    generate("gown", 3, turned, workers=2, seed=1, test_fraction=1 / 3,
+             overrides={**near, "speed": 0.2}, rotation_range=span)  # fmt: skip
+    pooled = tmp_path / "pooled"
+    train_dataset([data, turned], pooled, epochs=1, hidden=4, layers=1, progress=False)
+    folders = load_model(pooled).card.data.folders
+    assert folders == [
+        TrainingFolder(folder=str(data), trials=3, overrides=near),
+        TrainingFolder(
+            folder=str(turned), trials=2, overrides={**near, "speed": 0.2}, rotation_range=span
+        ),
+    ]
+    tuned = tmp_path / "tuned"
+    train_dataset(data, tuned, init=pooled, epochs=1, progress=False)
+    card = load_model(tuned).card
+    assert card.init is not None and card.init.folders == folders
+    assert card.trained_folders() == [folders[0], *folders]
+    assert trained_conditions(card) == ([(0.10, 0.15), (0.2, 0.2)], [("z", -15, 15)])
+    code, output = invoke("info", tuned)
+    assert (
+        code == 0
+        and (
+            f"  init      fine-tuned from {pooled} "
+            f"(weights {card.init.weights_sha256[:12]}, test ratio {card.init.test_ratio:.3f})\n"
+            f"            {data}: 3 trials; 1.5 s long, limb_offset [0.3, 0.0, 0.05]\n"
+            f"            {turned}: 2 trials; 1.5 s long, limb_offset [0.3, 0.0, 0.05], "
+            "speed 0.2 m/s, rotation z -15...+15 deg drawn per trial\n"
+        )
+        in output
+    ), output
+    bundled = load_model(SAMPLES / "models" / "gown").card  # format 3: conditions not kept
+    assert bundled.trained_folders() == [TrainingFolder(folder="data/gown", trials=3000)]
+    assert trained_conditions(bundled) == ([(0.10, 0.15)], [])  # generate's defaults
+
+
 def test_train_init_refuses_a_model_for_the_other_task_or_a_tampered_one(
     data: Path, tmp_path: Path
 ) -> None:
@@ -895,12 +942,16 @@ def test_sweep_plot_draws_no_trend_through_an_unmeasured_0_deg(tmp_path: Path) -
 def test_sweep_plot_names_its_model_and_marks_the_training_speeds_and_the_papers_figure() -> None:
     """Both panels were titled "gown, 8 sequences per setting", the model unnamed; nothing
     showed which speeds were in training nor where the paper's model went (4.4x in-range
-    at 20 cm/s), which the README's table sets beside ours."""
+    at 20 cm/s), which the README's table sets beside ours; nor, later, which rotations a
+    fine-tuned model was trained on (a span, shaded in its axis's colour; one fixed, a bar)."""
     settings = [
         replace(s, scores=Scores(8, 0.01, 0.02, 0.5, 0.8, 0.6, 0.3, 0.4))
         for s in sweep_settings(Task.GOWN, [0.2], ["z:-15", "y:-15"])
     ]
-    report = SweepReport("gown", "runs/models/gown-big", 8, 0.005, settings)
+    trained = [("x", 0.0, 10.0), ("y", -5.0, -5.0), ("z", -15.0, 15.0)]  # x: not swept
+    report = SweepReport(
+        "gown", "runs/models/gown-big", 8, 0.005, settings, [(0.10, 0.15)], trained
+    )
     fig = sweep_figure(report)
     speed, rotation = fig.axes[:2]
     assert fig.get_suptitle() == (
@@ -924,6 +975,15 @@ def test_sweep_plot_names_its_model_and_marks_the_training_speeds_and_the_papers
         "about z, the paper (x in-range)": ([-15.0], [pytest.approx(1.65 * 0.005)]),
         "about y, the paper (x in-range)": ([-15.0], [pytest.approx(0.82 * 0.005)]),
     }
+    colour = {line.get_label(): line.get_color() for line in rotation.get_lines()}
+    (turned,) = rotation.patches  # the span about z, in its line's colour
+    assert [turned.get_x(), turned.get_x() + turned.get_width()] == [-15, 15]
+    assert turned.get_facecolor()[:3] == matplotlib.colors.to_rgb(colour["about z (paper's Y)"])
+    (fixed,) = [line for line in rotation.get_lines() if line.get_label().endswith("about y")]
+    assert (
+        list(fixed.get_xdata()) == [-5, -5] and fixed.get_color() == colour["about y (paper's Z)"]
+    )
+    assert list(rotation.get_xticks()) == [-15, -5, 0, 15]
     right = [a.get_ylabel() for ax in (speed, rotation) for a in ax.child_axes]
     assert right == ["x in-range RMSE"] * 2  # a scale in x in-range beside each panel
     matplotlib.pyplot.close(fig)

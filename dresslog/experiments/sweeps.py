@@ -7,7 +7,7 @@ import json
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -31,11 +31,13 @@ from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,
     LoadedModel,
+    ModelCard,
     load_model,
 )
 from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.plots import plot_sweep
-from dresslog.spec import Task, TrialSpec, task_of
+from dresslog.sim.specs import SPEED_RANGE
+from dresslog.spec import LimbRotation, Task, TrialSpec, task_of
 
 #: The kinds of setting, in the order the table lists them.
 _KINDS = ("baseline", "speed", "rotation")
@@ -71,6 +73,10 @@ class SweepReport:
     n: int
     baseline_rmse: float
     settings: list[Setting]
+    #: what the model was trained on (`trained_conditions`): speed spans, m/s, and
+    #: rotation spans, (axis, low, high) deg; low == high for one fixed condition
+    trained_speeds: list[tuple[float, float]] = field(default_factory=list)
+    trained_rotations: list[tuple[str, float, float]] = field(default_factory=list)
 
     def ratio(self, setting: Setting) -> float:
         assert setting.scores is not None
@@ -91,6 +97,31 @@ class SweepReport:
                 f"{s.scores.zero_rmse:>12.5f}{s.scores.ratio:>8.3f}{self.ratio(s):>12.2f}"
             )
         return "\n".join(lines)
+
+
+def trained_conditions(
+    card: ModelCard,
+) -> tuple[list[tuple[float, float]], list[tuple[str, float, float]]]:
+    """The speeds and limb rotations of the model's training trials, as spans (low == high
+    for one fixed value), from the folders its card names (`ModelCard.trained_folders`).
+
+    A folder whose conditions the card does not record (one older than format 4, as the
+    bundled models') is taken as `generate`'s defaults: speeds drawn over the task's
+    range, no rotation. Trials with no rotation add none: the in-range line stands for 0 deg.
+    """
+    speeds: set[tuple[float, float]] = set()
+    rotations: set[tuple[str, float, float]] = set()
+    for folder in card.trained_folders():
+        fixed = folder.overrides or {}
+        speed = fixed.get("speed")
+        speeds.add(SPEED_RANGE[card.task] if speed is None else (speed, speed))
+        if "limb_rotation" in fixed:
+            turned = LimbRotation.model_validate(fixed["limb_rotation"])
+            if turned.degrees:
+                rotations.add((turned.axis, turned.degrees, turned.degrees))
+        if (drawn := folder.rotation_range) is not None:
+            rotations.add((drawn.axis, drawn.low, drawn.high))
+    return sorted(speeds), sorted(rotations)
 
 
 def parse_rotation(text: str) -> tuple[str, float]:
@@ -244,7 +275,10 @@ def sweep(
     done.sort(key=lambda s: s.order)
     baseline = done[0].scores
     assert baseline is not None
-    report = SweepReport(task.value, str(model), n, baseline.rmse, done)
+    speeds_seen, rotations_seen = trained_conditions(loaded.card)
+    report = SweepReport(
+        task.value, str(model), n, baseline.rmse, done, speeds_seen, rotations_seen
+    )
     if empty := [s.name for s in done if s.scores is not None and s.scores.zero_rmse == 0]:
         in_range = ", as is x in-range, the in-range RMSE being 0 too" if baseline.rmse == 0 else ""
         warn_no_force(

@@ -22,6 +22,7 @@ from dresslog.model.files import (
     LoadedModel,
     ModelCard,
     Normalisation,
+    TrainingFolder,
     check_model_folder,
     load_model,
     save_model,
@@ -147,6 +148,15 @@ def train_dataset(
             manifest_sha256=hashes[0] if len(hashes) == 1 else _pooled_hash(hashes),
             description=named,
             signal=_seen_signal(sequences, None if start is None else start.card.data),
+            folders=[
+                TrainingFolder(
+                    folder=printable(folder),
+                    trials=sum(t.split is Split.TRAIN for t in manifest.trials),
+                    overrides=manifest.overrides,
+                    rotation_range=manifest.rotation_range,
+                )
+                for folder, manifest in zip(folders, manifests, strict=True)
+            ],
         )
         card = make_card(
             task,
@@ -269,4 +279,5 @@ def _initial_model(start: LoadedModel) -> InitialModel:
         weights_sha256=card.weights_sha256,
         manifest_sha256=card.data.manifest_sha256,
         test_ratio=card.metrics.get("test_ratio"),
+        folders=card.trained_folders(),
     )

@@ -64,7 +64,7 @@ from dresslog.io.files import (
 from dresslog.model.inputs import PHI_DIM, unfamiliar
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.model.options import LrSchedule
-from dresslog.spec import Task, task_of
+from dresslog.spec import RotationRange, Task, task_of
 
 WEIGHTS_FILE = "model.safetensors"
 CARD_FILE = "card.json"
@@ -72,9 +72,10 @@ TRAINING_PLOT = "training.png"
 #: What a model folder holds; --overwrite replaces these and nothing else.
 MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
 FORMAT: Final = "dresslog-model"
-#: 2 added `data.signal`, 3 `init`; a card of a newer version than this is refused as
-#: such, before the fields this dresslog does not know would be.
-FORMAT_VERSION = 3
+#: 2 added `data.signal`, 3 `init`, 4 `data.folders` and `init.folders`; a card of a
+#: newer version than this is refused as such, before the fields this dresslog does not
+#: know would be.
+FORMAT_VERSION = 4
 
 
 class Normalisation(BaseModel):
@@ -108,6 +109,21 @@ class Hyperparameters(BaseModel):
     input_differences: bool = False
 
 
+class TrainingFolder(BaseModel):
+    """One dataset folder a model was trained on, with what its manifest gave every trial:
+    the conditions the model has seen, which `sweep` marks on its plot and `info` prints."""
+
+    model_config = ConfigDict(extra="forbid")
+    folder: str
+    #: the folder's training trials (validation ones among them)
+    trials: int | None = Field(None, ge=0)
+    #: spec fields fixed for every trial (`generate --speed`, `--rotation`, `--duration`);
+    #: None: not known (a model whose card, older than format 4, does not say)
+    overrides: dict[str, Any] | None = None
+    #: limb rotation drawn per trial (`generate --rotation-range`)
+    rotation_range: RotationRange | None = None
+
+
 class DataProvenance(BaseModel):
     """Which data trained the model: enough to tell two models' training sets apart."""
 
@@ -122,6 +138,8 @@ class DataProvenance(BaseModel):
     #: from the training data by (a model without input standardisation has no other);
     #: a fine-tuned model's covers its initial model's training sequences too
     signal: Normalisation | None = None
+    #: each folder and its conditions (none on cards before format 4)
+    folders: list[TrainingFolder] = Field(default_factory=list)
 
 
 class InitialModel(BaseModel):
@@ -133,6 +151,8 @@ class InitialModel(BaseModel):
     weights_sha256: str
     manifest_sha256: str | None = None
     test_ratio: float | None = None
+    #: its `ModelCard.trained_folders` (none on cards before format 4)
+    folders: list[TrainingFolder] = Field(default_factory=list)
 
 
 class EpochRecord(BaseModel):
@@ -189,6 +209,17 @@ class ModelCard(BaseModel):
         if norm is not None and not len(norm.mean) == len(norm.std) == width:
             raise ValueError(f"normalisation is not {width}-D")
         return self
+
+    def trained_folders(self) -> list[TrainingFolder]:
+        """Every folder the weights have seen, the initial model's after this run's; a
+        card before format 4 gives its data as one folder of conditions not known."""
+        folders = self.data.folders or [
+            TrainingFolder(folder=self.data.description, trials=self.data.n_train + self.data.n_val)
+        ]
+        if (init := self.init) is not None:
+            unknown = TrainingFolder(folder=f"the data of {init.description or 'a model'}")
+            folders = folders + (init.folders or [unknown])
+        return folders
 
 
 @dataclass(frozen=True)

@@ -13,12 +13,33 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dresslog.model.files import ModelCard
+from dresslog.model.files import ModelCard, TrainingFolder
+from dresslog.spec import LimbRotation
+
+#: How `info` names the spec fields `generate` can fix for every trial.
+_FIXED = {"speed": "speed {:g} m/s", "duration": "{:g} s long"}
 
 
 def _count(n: int, noun: str) -> str:
     """`1 epoch`, `2 epochs`: a one-epoch test model's card read `1 epochs`."""
     return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _conditions(folder: TrainingFolder) -> str:
+    """A training folder's trials and what they had in common, on one line."""
+    trials = f"{folder.trials} trials; " if folder.trials is not None else ""
+    if folder.overrides is None:
+        return f"{folder.folder}: {trials}conditions not recorded"
+    said = []
+    for field, value in folder.overrides.items():
+        if field == "limb_rotation":
+            rotation = LimbRotation.model_validate(value)
+            said.append(f"rotation {rotation.axis} {rotation.degrees:+g} deg")
+        else:
+            said.append(_FIXED.get(field, f"{field} {{}}").format(value))
+    if folder.rotation_range is not None:
+        said.append(f"rotation {folder.rotation_range} drawn per trial")
+    return f"{folder.folder}: {trials}{', '.join(said) or 'generate defaults'}"
 
 
 def format_card(path: Path, card: ModelCard, verified: bool) -> str:
@@ -46,12 +67,14 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
         + (f" from {data.description}" if data.description else "")
         + (f", manifest {data.manifest_sha256[:12]}" if data.manifest_sha256 else ""),
     ]
+    lines += [f"{'':12}{_conditions(folder)}" for folder in data.folders]
     if (init := card.init) is not None:
         scored = f", test ratio {init.test_ratio:.3f}" if init.test_ratio is not None else ""
         lines.append(
             f"  init      fine-tuned from {init.description or 'a model'} "
             f"(weights {init.weights_sha256[:12]}{scored})"
         )
+        lines += [f"{'':12}{_conditions(folder)}" for folder in init.folders]
     if card.history:
         last = card.history[-1]
         kept = card.metrics.get("kept_epoch", last.epoch)
