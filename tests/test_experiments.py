@@ -410,6 +410,8 @@ def test_sweep_writes_a_table_and_a_plot(
     # the JSON carries the table's ratio to in-range, as the CSV does
     ratios = [float(row.split(",")[-1]) for row in rows[1:]]
     assert [s["ratio_to_in_range"] for s in saved["settings"]] == pytest.approx(ratios, 1e-3)
+    # what the model was trained on, from its card: the `data` fixture drew its speeds
+    assert (saved["trained_speeds"], saved["trained_rotations"]) == ([[0.10, 0.15]], [])
     speeds = {e.spec.speed for e in load_manifest(out / "speed_0.2").trials}
     assert speeds == {0.2}
     # every setting re-simulates the same sequences: same seeds, same paths
