@@ -527,6 +527,10 @@ def test_tampered_weights_are_refused(saved: Path):
             f"format version {FORMAT_VERSION + 1} is newer",
         ),
         ({"n_points": 9}, "has shape"),
+        (  # `sweep` and `info` read a folder's conditions as a trial spec's fields
+            {"data": {"folders": [{"folder": "d", "overrides": {"speed": -1}}]}},
+            "d's fixed spec fields: speed: Input should be greater than 0",
+        ),
         ({"task": "socks"}, "task"),
     ],
 )

@@ -64,7 +64,7 @@ from dresslog.io.files import (
 from dresslog.model.inputs import PHI_DIM, unfamiliar
 from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.model.options import LrSchedule
-from dresslog.spec import RotationRange, Task, task_of
+from dresslog.spec import RotationRange, Task, TrialSpec, task_of
 
 WEIGHTS_FILE = "model.safetensors"
 CARD_FILE = "card.json"
@@ -208,6 +208,14 @@ class ModelCard(BaseModel):
         norm = self.normalisation
         if norm is not None and not len(norm.mean) == len(norm.std) == width:
             raise ValueError(f"normalisation is not {width}-D")
+        for folder in self.trained_folders():  # what `sweep` and `info` read them as
+            if folder.overrides is not None:
+                try:
+                    TrialSpec.model_validate({"task": self.task, **folder.overrides})
+                except ValidationError as err:
+                    raise ValueError(
+                        f"{folder.folder}'s fixed spec fields: {first_problem(err)}"
+                    ) from None
         return self
 
     def trained_folders(self) -> list[TrainingFolder]:

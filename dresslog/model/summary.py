@@ -39,7 +39,8 @@ def _conditions(folder: TrainingFolder) -> str:
             said.append(_FIXED.get(field, f"{field} {{}}").format(value))
     if folder.rotation_range is not None:
         said.append(f"rotation {folder.rotation_range} drawn per trial")
-    return f"{folder.folder}: {trials}{', '.join(said) or 'generate defaults'}"
+    held = ", ".join(said) or "generate's defaults"
+    return f"{folder.folder}: {trials}{held}"
 
 
 def format_card(path: Path, card: ModelCard, verified: bool) -> str:
