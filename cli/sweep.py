@@ -79,4 +79,5 @@ def sweep(
         progress=not quiet, **options,
     )  # fmt: skip
     click.echo(report.table())
+    click.echo(report.trained())
     click.echo(f"wrote {out}: sweep.csv, sweep.json and sweep.png")

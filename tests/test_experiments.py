@@ -395,6 +395,7 @@ def test_sweep_writes_a_table_and_a_plot(
         "--duration", "0.3", "--workers", "2", "-q",
     )  # fmt: skip
     assert code == 0, output
+    assert "trained at speeds 0.1-0.15 m/s, the limb never turned\n" in output  # the card's
     assert f"wrote {model.name}-sweep: sweep.csv, sweep.json and sweep.png" in output
     assert not model.with_name(f"{model.name}-sweep").exists()
     assert "in-range" in output and "speed:0.2" in output and "rot:z:10" in output
@@ -986,6 +987,10 @@ def test_sweep_plot_names_its_model_and_marks_the_training_speeds_and_the_papers
         list(fixed.get_xdata()) == [-5, -5] and fixed.get_color() == colour["about y (paper's Z)"]
     )
     assert list(rotation.get_xticks()) == [-15, -5, 0, 15]
+    assert report.trained() == (
+        "trained at speeds 0.1-0.15 m/s; the limb turned about x +0...+10, about y -5, "
+        "about z -15...+15 deg"
+    )
     right = [a.get_ylabel() for ax in (speed, rotation) for a in ax.child_axes]
     assert right == ["x in-range RMSE"] * 2  # a scale in x in-range beside each panel
     matplotlib.pyplot.close(fig)

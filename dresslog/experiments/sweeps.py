@@ -82,6 +82,19 @@ class SweepReport:
         assert setting.scores is not None
         return setting.scores.rmse / self.baseline_rmse if self.baseline_rmse else math.nan
 
+    def trained(self) -> str:
+        """What the model was trained on, as the plot shades it: one line under the table."""
+        speeds = ", ".join(
+            f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}" for lo, hi in self.trained_speeds
+        )
+        turned = ", ".join(
+            f"about {axis} {lo:+g}" + ("" if lo == hi else f"...{hi:+g}")
+            for axis, lo, hi in self.trained_rotations
+        )
+        return f"trained at speeds {speeds} m/s" + (
+            f"; the limb turned {turned} deg" if turned else ", the limb never turned"
+        )
+
     def table(self) -> str:
         """Per setting: RMSE, all-zero RMSE, their ratio and x in-range. The ratio tells a
         setting that only puts more force on the limb (ratio steady) from one the model
