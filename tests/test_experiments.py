@@ -39,6 +39,7 @@ from dresslog.model.files import (
     CARD_FILE,
     EpochRecord,
     Hyperparameters,
+    InitialModel,
     ModelCard,
     TrainingFolder,
     load_model,
@@ -788,6 +789,20 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     bundled = load_model(SAMPLES / "models" / "gown").card  # format 3: conditions not kept
     assert bundled.trained_folders() == [TrainingFolder(folder="data/gown", trials=3000)]
     assert trained_conditions(bundled) == ([(0.10, 0.15)], [])  # generate's defaults
+
+
+def test_a_card_before_format_4_gives_its_data_and_its_initial_models_as_not_recorded() -> None:
+    """The bundled cards (format 3) name their data by path only; so does a format-3 card
+    of a fine-tuned model, whose initial model's data it names not at all."""
+    bundled = load_model(SAMPLES / "models" / "gown").card
+    tuned = bundled.model_copy(
+        update={"init": InitialModel(description="runs/first", weights_sha256="0" * 64)}
+    )
+    assert tuned.trained_folders() == [
+        TrainingFolder(folder="data/gown", trials=3000),
+        TrainingFolder(folder="the data of runs/first"),
+    ]
+    assert trained_conditions(tuned) == ([(0.10, 0.15)], [])  # as generate's defaults
 
 
 def test_train_init_refuses_a_model_for_the_other_task_or_a_tampered_one(
