@@ -176,7 +176,7 @@ def _mark_trained(ax: Any, report: SweepReport, kind: str, colours: dict[str, st
         label = "training speeds" if kind == "speed" else f"training rotations about {axis}"
         if label in ax.get_legend_handles_labels()[1]:
             label = "_nolegend_"  # two spans about one axis: named once
-        colour = colours.get(axis, "gray") if axis else "gray"
+        colour = colours[axis] if axis else "gray"  # speed: not the model line's colour
         if high > low:
             ax.axvspan(low, high, color=colour, alpha=0.12, lw=0, label=label)
         else:

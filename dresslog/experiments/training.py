@@ -151,7 +151,7 @@ def train_dataset(
             folders=[
                 TrainingFolder(
                     folder=printable(folder),
-                    trials=sum(t.split is Split.TRAIN for t in manifest.trials),
+                    trials=len(manifest.split(Split.TRAIN)),
                     overrides=manifest.overrides,
                     rotation_range=manifest.rotation_range,
                 )
