@@ -23,7 +23,7 @@ import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
-from dresslog.dataset import generate, load_dataset, load_manifest
+from dresslog.dataset import Manifest, generate, load_dataset, load_manifest
 from dresslog.errors import DatasetError, DresslogWarning, ModelError
 from dresslog.experiments import (
     Scores,
@@ -32,7 +32,7 @@ from dresslog.experiments import (
     sweep_settings,
     train_dataset,
 )
-from dresslog.experiments.sweeps import trained_conditions
+from dresslog.experiments.conditions import Conditions, data_conditions, trained_conditions
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.files import (
@@ -181,6 +181,8 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     assert all(s["rmse"] is None and s["ratio"] is None for s in absent)
     code, output = invoke("eval", model, data, "-q")
     assert code == 0 and f"{overall['rmse']:.5f}" in output
+    said = "trials    speeds 0.1-0.15 m/s, the limb never turned, as the model was trained on"
+    assert said in output and "outside" not in output  # trained on this very folder
     code, output = invoke("eval", model, data, "--bounds", "--json")
     assert code == 0, output
     bounds = json.loads(output)["bounds"]
@@ -773,7 +775,8 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     card = load_model(tuned).card
     assert card.init is not None and card.init.folders == folders
     assert card.trained_folders() == [folders[0], *folders]
-    assert trained_conditions(card) == ([(0.10, 0.15), (0.2, 0.2)], [("z", -15, 15)])
+    seen = trained_conditions(card)
+    assert seen == Conditions(((0.10, 0.15), (0.2, 0.2)), (("z", -15, 15),), unturned=True)
     code, output = invoke("info", tuned)
     assert (
         code == 0
@@ -788,7 +791,11 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     ), output
     bundled = load_model(SAMPLES / "models" / "gown").card  # format 3: conditions not kept
     assert bundled.trained_folders() == [TrainingFolder(folder="data/gown", trials=3000)]
-    assert trained_conditions(bundled) == ([(0.10, 0.15)], [])  # generate's defaults
+    assert trained_conditions(bundled) == DEFAULTS  # generate's
+
+
+#: The conditions of `generate`'s gown trials: speeds drawn over 10-15 cm/s, no rotation.
+DEFAULTS = Conditions(((0.10, 0.15),), (), True)
 
 
 def test_a_card_before_format_4_gives_its_data_and_its_initial_models_as_not_recorded() -> None:
@@ -802,7 +809,53 @@ def test_a_card_before_format_4_gives_its_data_and_its_initial_models_as_not_rec
         TrainingFolder(folder="data/gown", trials=3000),
         TrainingFolder(folder="the data of runs/first"),
     ]
-    assert trained_conditions(tuned) == ([(0.10, 0.15)], [])  # as generate's defaults
+    assert trained_conditions(tuned) == DEFAULTS  # as generate's
+
+
+def held(overrides: dict | None = None, span: RotationRange | None = None) -> Conditions:
+    """The conditions of a gown dataset whose manifest fixed `overrides` and drew `span`."""
+    manifest = Manifest(task=Task.GOWN, n_train=0, n_test=0, overrides=overrides or {},
+                        rotation_range=span)  # fmt: skip
+    return data_conditions(manifest)
+
+
+def test_the_conditions_a_model_was_not_trained_on_are_named() -> None:
+    """What `eval` tells apart: data at a speed or rotation the model never saw, from
+    data within its training's spans (a 0 deg rotation is the unturned limb)."""
+    z15 = {"limb_rotation": {"axis": "z", "degrees": -15}}
+    span = RotationRange(axis="z", low=-15, high=15)
+    assert held() == DEFAULTS == held({"limb_rotation": {"axis": "y", "degrees": 0}})
+    assert held({"speed": 0.2}).outside(DEFAULTS) == ["speed 0.2 m/s"]
+    assert held({"speed": 0.12}).outside(DEFAULTS) == []
+    assert held(z15).outside(DEFAULTS) == ["rotation about z -15 deg"]
+    assert held(z15).outside(held(span=span)) == held().outside(held(span=span)) == []
+    assert held().outside(held(z15)) == ["the limb unturned"]
+    assert held(span=span).outside(held(z15)) == ["rotation about z -15...+15 deg"]
+    assert held({"speed": 0.2}, span).outside(DEFAULTS) == [
+        "speed 0.2 m/s", "rotation about z -15...+15 deg",
+    ]  # fmt: skip
+    assert held(z15).describe() == "speeds 0.1-0.15 m/s; the limb turned about z -15 deg"
+
+
+@pytest.mark.slow
+def test_eval_says_when_the_data_lie_outside_what_the_model_was_trained_on(
+    model: Path, tmp_path: Path
+) -> None:
+    """A model scored on faster trials than it was trained on gave a worse ratio with
+    nothing to say that it measured generalisation, not the model's fit."""
+    faster = tmp_path / "faster"
+    near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05), "speed": 0.2}
+    generate("gown", 1, faster, workers=1, seed=3, splits={"test": 1}, overrides=near)
+    code, output = invoke("eval", model, faster, "-q")
+    assert code == 0, output
+    assert (
+        "trials    speeds 0.2 m/s, the limb never turned\n"
+        "trained   speeds 0.1-0.15 m/s, the limb never turned\n"
+        "outside   speed 0.2 m/s: these figures measure how the model generalises "
+        "(as `dresslog sweep` does)\n"
+    ) in output, output
+    code, output = invoke("eval", model, faster, "--json")
+    assert code == 0 and json.loads(output)["outside"] == ["speed 0.2 m/s"], output
 
 
 def test_train_init_refuses_a_model_for_the_other_task_or_a_tampered_one(

@@ -19,7 +19,9 @@ on_epoch=None) -> ModelCard``
 ``evaluate_dataset(model, data, *, split="test", bounds=False, workers=None, progress=True)
 -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome
-    (each a ``Scores``), with contact-map precision and recall; with ``bounds``, the
+    (each a ``Scores``), with contact-map precision and recall, and the data's speeds and
+    rotations beside the model's training ones (`conditions`), naming those outside
+    them (``EvalReport.outside``); with ``bounds``, the
     oracle ratios too (none when the split carries no force, which a ``DresslogWarning``
     naming `data` explains: the all-zero RMSE is 0, so the ratios are nan). ``.table()``
     is what ``eval`` prints, ``.to_json()`` what ``eval --json`` prints.

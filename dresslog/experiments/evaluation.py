@@ -14,6 +14,7 @@ import numpy as np
 from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
 from dresslog.dataset.manifest import as_split
 from dresslog.errors import DatasetError, DresslogWarning
+from dresslog.experiments.conditions import data_conditions, trained_conditions
 from dresslog.io.files import printable
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.evaluate import Scores, evaluate
@@ -40,6 +41,12 @@ class EvalReport:
     #: oracle name -> its ratio on the same split (`dresslog.model.bounds`), if asked
     #: for (None if not; empty if the split has no force, so nothing to place)
     bounds: dict[str, float] | None = None
+    #: the data's speeds and rotations, and the model's training trials', in words
+    #: (`dresslog.experiments.conditions`)
+    conditions: str = ""
+    trained: str = ""
+    #: what of the data's conditions the model was not trained on, one phrase each
+    outside: list[str] = field(default_factory=list)
 
     def to_json(self) -> str:
         """JSON with nan as null (JSON has no nan)."""
@@ -51,7 +58,17 @@ class EvalReport:
             f"{'prec':>7}{'rec':>7}"
         )
         rows = [("all", self.overall), *((o, s) for o, s in self.per_outcome.items() if s.n)]
-        lines = [f"{self.task} model {self.model} on {self.data} ({self.split} split)", head]
+        lines = [f"{self.task} model {self.model} on {self.data} ({self.split} split)"]
+        if self.conditions == self.trained:
+            lines.append(f"trials    {self.conditions}, as the model was trained on")
+        else:
+            lines += [f"trials    {self.conditions}", f"trained   {self.trained}"]
+        if self.outside:
+            lines.append(
+                f"outside   {'; '.join(self.outside)}: these figures measure how the model "
+                "generalises (as `dresslog sweep` does)"
+            )
+        lines.append(head)
         for name, s in rows:
             lines.append(
                 f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
@@ -135,6 +152,7 @@ def evaluate_dataset(
     manifest = load_manifest(data)
     check_data_task(loaded, manifest.task)
     _check_held(data, manifest, split)
+    held, trained = data_conditions(manifest), trained_conditions(loaded.card)
     arrays = load_dataset(data, workers=workers, progress=progress)
     check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
@@ -161,6 +179,9 @@ def evaluate_dataset(
         overall=overall,
         per_outcome=per_outcome,
         bounds=_bounds(arrays, rows) if bounds else None,
+        conditions=held.describe(),
+        trained=trained.describe(),
+        outside=held.outside(trained),
     )
 
 

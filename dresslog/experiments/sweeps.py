@@ -19,6 +19,7 @@ from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE, SWEEP_FILE, Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
+from dresslog.experiments.conditions import describe, trained_conditions
 from dresslog.experiments.evaluation import (
     check_data_task,
     finite,
@@ -31,13 +32,11 @@ from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,
     LoadedModel,
-    ModelCard,
     load_model,
 )
 from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.plots import plot_sweep
-from dresslog.sim.specs import SPEED_RANGE
-from dresslog.spec import LimbRotation, Task, TrialSpec, task_of
+from dresslog.spec import Task, TrialSpec, task_of
 
 #: The kinds of setting, in the order the table lists them.
 _KINDS = ("baseline", "speed", "rotation")
@@ -84,16 +83,7 @@ class SweepReport:
 
     def trained(self) -> str:
         """What the model was trained on, as the plot shades it: one line under the table."""
-        speeds = ", ".join(
-            f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}" for lo, hi in self.trained_speeds
-        )
-        turned = ", ".join(
-            f"about {axis} {lo:+g}" + ("" if lo == hi else f"...{hi:+g}")
-            for axis, lo, hi in self.trained_rotations
-        )
-        return f"trained at speeds {speeds} m/s" + (
-            f"; the limb turned {turned} deg" if turned else ", the limb never turned"
-        )
+        return f"trained at {describe(self.trained_speeds, self.trained_rotations)}"
 
     def table(self) -> str:
         """Per setting: RMSE, all-zero RMSE, their ratio and x in-range. The ratio tells a
@@ -110,31 +100,6 @@ class SweepReport:
                 f"{s.scores.zero_rmse:>12.5f}{s.scores.ratio:>8.3f}{self.ratio(s):>12.2f}"
             )
         return "\n".join(lines)
-
-
-def trained_conditions(
-    card: ModelCard,
-) -> tuple[list[tuple[float, float]], list[tuple[str, float, float]]]:
-    """The speeds and limb rotations of the model's training trials, as spans (low == high
-    for one fixed value), from the folders its card names (`ModelCard.trained_folders`).
-
-    A folder whose conditions the card does not record (one older than format 4, as the
-    bundled models') is taken as `generate`'s defaults: speeds drawn over the task's
-    range, no rotation. Trials with no rotation add none: the in-range line stands for 0 deg.
-    """
-    speeds: set[tuple[float, float]] = set()
-    rotations: set[tuple[str, float, float]] = set()
-    for folder in card.trained_folders():
-        fixed = folder.overrides or {}
-        speed = fixed.get("speed")
-        speeds.add(SPEED_RANGE[card.task] if speed is None else (speed, speed))
-        if "limb_rotation" in fixed:
-            turned = LimbRotation.model_validate(fixed["limb_rotation"])
-            if turned.degrees:
-                rotations.add((turned.axis, turned.degrees, turned.degrees))
-        if (drawn := folder.rotation_range) is not None:
-            rotations.add((drawn.axis, drawn.low, drawn.high))
-    return sorted(speeds), sorted(rotations)
 
 
 def parse_rotation(text: str) -> tuple[str, float]:
@@ -288,9 +253,9 @@ def sweep(
     done.sort(key=lambda s: s.order)
     baseline = done[0].scores
     assert baseline is not None
-    speeds_seen, rotations_seen = trained_conditions(loaded.card)
+    seen = trained_conditions(loaded.card)
     report = SweepReport(
-        task.value, str(model), n, baseline.rmse, done, speeds_seen, rotations_seen
+        task.value, str(model), n, baseline.rmse, done, list(seen.speeds), list(seen.rotations)
     )
     if empty := [s.name for s in done if s.scores is not None and s.scores.zero_rmse == 0]:
         in_range = ", as is x in-range, the in-range RMSE being 0 too" if baseline.rmse == 0 else ""

@@ -1,0 +1,124 @@
+"""The speeds and limb rotations of a model's training trials, and of a dataset's trials.
+
+`sweep` shades the model's on its plot; `eval` says when a dataset's lie outside them,
+so a ratio measured on rotated or faster trials is not read as the model's fit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from dresslog.dataset import Manifest
+from dresslog.model.files import ModelCard
+from dresslog.sim.specs import SPEED_RANGE
+from dresslog.spec import LimbRotation, RotationRange, Task
+
+#: a speed span, m/s (low == high for one fixed speed)
+Speeds = tuple[float, float]
+#: a rotation span about an axis, degrees (low == high for one fixed rotation)
+Turn = tuple[str, float, float]
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """What a set of trials held: speed spans, rotation spans, and whether some trials
+    had the limb unturned (a span through 0 deg holds those too)."""
+
+    speeds: tuple[Speeds, ...]
+    rotations: tuple[Turn, ...]
+    unturned: bool
+
+    def describe(self) -> str:
+        """`speeds 0.1-0.15 m/s, the limb never turned`, as a sweep's line and eval say it."""
+        return describe(self.speeds, self.rotations)
+
+    def outside(self, trained: Conditions) -> list[str]:
+        """What of these conditions `trained` does not cover, one phrase each."""
+        missing = [
+            f"speed {_span(lo, hi)} m/s"
+            for lo, hi in self.speeds
+            if not any(a <= lo and hi <= b for a, b in trained.speeds)
+        ]
+        if self.unturned and not trained.holds_unturned:
+            missing.append("the limb unturned")
+        missing += [
+            f"rotation about {axis} {_turn(lo, hi)} deg"
+            for axis, lo, hi in self.rotations
+            if not trained.turns(axis, lo, hi)
+        ]
+        return missing
+
+    @property
+    def holds_unturned(self) -> bool:
+        """Whether some trials had the limb unturned: 0 deg about any axis counts."""
+        return self.unturned or any(lo <= 0 <= hi for _, lo, hi in self.rotations)
+
+    def turns(self, axis: str, low: float, high: float) -> bool:
+        """Whether one rotation span here holds `low`...`high` about `axis`."""
+        return any(a == axis and lo <= low and high <= hi for a, lo, hi in self.rotations)
+
+
+def describe(speeds: Iterable[Speeds], rotations: Iterable[Turn]) -> str:
+    """Speed and rotation spans in words: `speeds 0.1-0.15 m/s; the limb turned about z
+    -15...+15 deg`, or `..., the limb never turned`."""
+    said = ", ".join(_span(lo, hi) for lo, hi in speeds)
+    turned = ", ".join(f"about {axis} {_turn(lo, hi)}" for axis, lo, hi in rotations)
+    return f"speeds {said} m/s" + (
+        f"; the limb turned {turned} deg" if turned else ", the limb never turned"
+    )
+
+
+def _span(low: float, high: float) -> str:
+    return f"{low:g}" if low == high else f"{low:g}-{high:g}"
+
+
+def _turn(low: float, high: float) -> str:
+    return f"{low:+g}" if low == high else f"{low:+g}...{high:+g}"
+
+
+def folder_conditions(
+    task: Task, overrides: Mapping[str, Any] | None, rotation_range: RotationRange | None
+) -> Conditions:
+    """The conditions of one folder's trials from what its manifest fixed and drew. None
+    for `overrides` (a card before format 4, as the bundled models') reads as `generate`'s
+    defaults: speeds drawn over the task's range, no rotation."""
+    fixed = overrides or {}
+    speed = fixed.get("speed")
+    rotations: list[Turn] = []
+    if "limb_rotation" in fixed:
+        turned = LimbRotation.model_validate(fixed["limb_rotation"])
+        if turned.degrees:  # 0 deg is the unturned limb
+            rotations.append((turned.axis, turned.degrees, turned.degrees))
+    if rotation_range is not None:
+        rotations.append((rotation_range.axis, rotation_range.low, rotation_range.high))
+    return Conditions(
+        speeds=(SPEED_RANGE[task] if speed is None else (speed, speed),),
+        rotations=tuple(rotations),
+        unturned=not rotations,
+    )
+
+
+def combined(conditions: Iterable[Conditions]) -> Conditions:
+    """The conditions of several folders' trials together, each span once, sorted."""
+    parts = list(conditions)
+    return Conditions(
+        speeds=tuple(sorted({s for c in parts for s in c.speeds})),
+        rotations=tuple(sorted({r for c in parts for r in c.rotations})),
+        unturned=any(c.unturned for c in parts),
+    )
+
+
+def trained_conditions(card: ModelCard) -> Conditions:
+    """The conditions of every folder the model's weights have seen
+    (`ModelCard.trained_folders`), an initial model's included."""
+    return combined(
+        folder_conditions(card.task, folder.overrides, folder.rotation_range)
+        for folder in card.trained_folders()
+    )
+
+
+def data_conditions(manifest: Manifest) -> Conditions:
+    """The conditions of a dataset's trials, from its manifest."""
+    return folder_conditions(manifest.task, manifest.overrides, manifest.rotation_range)
