@@ -1,4 +1,5 @@
-"""`dresslog eval MODEL DATA [--bounds] [--json]`: the paper's RMSE on the test split, and more."""
+"""`dresslog eval MODEL DATA [--bounds] [--plot PNG] [--json]`: the paper's RMSE on the test
+split, and more."""
 
 from __future__ import annotations
 
@@ -20,13 +21,20 @@ from .common import reports_errors
     "the truth score (every force placed within 0.5-8 cm; each step's total spread by a "
     "profile; the truth's own flicker).",
 )
+@click.option("--plot", type=click.Path(dir_okay=False), metavar="PNG",
+              help="Also draw where along the limb the model errs, and at what total "
+              "force, as a PNG.")  # fmt: skip
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
-def evaluate(model: str, data: str, split: str, bounds: bool, as_json: bool, quiet: bool) -> None:
+def evaluate(
+    model: str, data: str, split: str, bounds: bool, plot: str | None, as_json: bool, quiet: bool
+) -> None:
     """RMSE after Eq. 2, the all-zero baseline, their ratio, per outcome; contact P/R."""
     from dresslog.experiments import evaluate_dataset
 
     report = evaluate_dataset(
-        model, data, split=split, bounds=bounds, progress=not quiet and not as_json
+        model, data, split=split, bounds=bounds, plot=plot, progress=not quiet and not as_json
     )
     click.echo(report.to_json() if as_json else report.table())
+    if plot and not as_json:
+        click.echo(f"wrote {plot}")

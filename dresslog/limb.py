@@ -10,7 +10,7 @@ tilted 45 degrees upward, as for a person seated with the leg stretched out.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -53,6 +53,9 @@ class Limb:
     distal: tuple[str, ...] = ()
     #: the joint the distal part rotates about
     pivot: str = ""
+    #: spheres along the limb's axis in the order a garment is drawn on (hand or foot
+    #: first), for `along_limb`
+    chain: tuple[str, ...] = ()
 
     def frustum_ends(self, f: Frustum) -> tuple[np.ndarray, float, np.ndarray, float]:
         sa, sb = self.spheres[f.a], self.spheres[f.b]
@@ -80,7 +83,8 @@ def _arm() -> Limb:
     }
     frustums = (Frustum("forearm", "wrist", "elbow"), Frustum("upper_arm", "elbow", "shoulder"))
     counts = {"fist": 36, "elbow": 17, "forearm": 101, "upper_arm": 146}
-    return Limb("arm", spheres, frustums, counts, distal=("fist", "wrist"), pivot="elbow")
+    chain = ("fist", "elbow", "shoulder")
+    return Limb("arm", spheres, frustums, counts, ("fist", "wrist"), "elbow", chain)
 
 
 def _leg() -> Limb:
@@ -113,7 +117,8 @@ def _leg() -> Limb:
         "foot": 45,
         "heel_link": 10,
     }
-    return Limb("leg", spheres, frustums, counts, distal=("heel", "toe"), pivot="ankle")
+    chain = ("toe", "ankle", "knee", "hip")
+    return Limb("leg", spheres, frustums, counts, ("heel", "toe"), "ankle", chain)
 
 
 def _rotation_matrix(axis: str, degrees: float) -> np.ndarray:
@@ -143,7 +148,34 @@ def build_limb(
         if name in limb.distal and rot.degrees != 0.0:
             c = pivot + r @ (c - pivot)
         spheres[name] = Sphere(name, c + off, s.radius)
-    return Limb(limb.name, spheres, limb.frustums, limb.points_per_part, limb.distal, limb.pivot)
+    return replace(limb, spheres=spheres)
+
+
+def along_limb(limb: Limb, points: np.ndarray) -> np.ndarray:
+    """Each point's distance (m) along the limb from the tip of the hand or foot: how far
+    a garment drawn on must go to reach it. A point is placed by its projection on the
+    nearest segment of the `chain` of joint centres, the end segments extended past
+    their joints (the fist, the toes, the shoulder's cap)."""
+    start, step, lengths = _chain_segments(limb)
+    t = np.einsum("psk,sk->ps", points[:, None] - start, step) / lengths**2  # (P, S)
+    t[:, 1:] = np.maximum(t[:, 1:], 0.0)
+    t[:, :-1] = np.minimum(t[:, :-1], 1.0)
+    nearest = np.linalg.norm(points[:, None] - (start + t[..., None] * step), axis=2).argmin(1)
+    joints = chain_joints(limb)
+    return joints[nearest] + t[np.arange(len(points)), nearest] * lengths[nearest]
+
+
+def chain_joints(limb: Limb) -> np.ndarray:
+    """Where each sphere of `limb.chain` lies along the limb (m, as `along_limb` counts)."""
+    tip = limb.spheres[limb.chain[0]].radius  # the fist's or toe's far side: 0
+    return tip + np.concatenate([[0.0], np.cumsum(_chain_segments(limb)[2])])
+
+
+def _chain_segments(limb: Limb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chain's segments: start points (S, 3), steps (S, 3) and lengths (S,)."""
+    centres = np.array([limb.spheres[name].center for name in limb.chain])
+    step = np.diff(centres, axis=0)
+    return centres[:-1], step, np.linalg.norm(step, axis=1)
 
 
 # ---------------------------------------------------------------------------

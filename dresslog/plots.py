@@ -10,10 +10,14 @@ Public API
 ``plot_training(path, card)``: training and validation loss per epoch from a model card's
     ``history``, log scale, the kept epoch marked when ``keep_best`` chose it (``dresslog
     train`` writes it beside the model as ``training.png``).
-``sweep_figure(report)``, ``training_figure(card)``: the same as matplotlib Figures, to
-    show in a notebook or read back.
-``plot_sweep`` and ``plot_training`` write atomically; all import matplotlib (Agg, no
-display) only when called.
+``plot_eval(path, profile, task, title)``: where along the limb a model errs (each
+    point's mean true and estimated force and its RMSE, by distance from the hand or
+    foot) and at what total force (estimated against true per step), from an
+    ``ErrorProfile`` (``dresslog eval --plot``).
+``sweep_figure(report)``, ``training_figure(card)``, ``eval_figure(...)``: the same as
+    matplotlib Figures, to show in a notebook or read back.
+``plot_sweep``, ``plot_training`` and ``plot_eval`` write atomically; all import matplotlib
+(Agg, no display) only when called.
 """
 
 from __future__ import annotations
@@ -39,7 +43,12 @@ PAPER_SWEEP: dict[str, dict[tuple[str, str, float], float]] = {
 
 if TYPE_CHECKING:
     from dresslog.experiments.sweeps import SweepReport
+    from dresslog.model.evaluate import ErrorProfile
     from dresslog.model.files import ModelCard
+    from dresslog.spec import Task
+
+#: Width (m) of the bands along the limb whose points `eval_figure` averages.
+ALONG_BIN = 0.02
 
 
 def _pyplot() -> Any:
@@ -204,3 +213,68 @@ def _swept(lines: dict[str, tuple[list[float], ...]], axis: str) -> set[float]:
 def plot_sweep(path: str | Path, report: SweepReport) -> None:
     """Write the sweep's figure (``sweep_figure``) as a PNG."""
     _save(sweep_figure(report), path)
+
+
+def eval_figure(profile: ErrorProfile, task: Task | str, title: str) -> Any:
+    """Where along the limb the model errs, and at what total force, as a matplotlib
+    Figure; ``plot_eval`` saves it. The left panel averages the points of each 2 cm band
+    along the limb; the right one shows each step's estimated total force against the
+    true one, with the mean estimate at each true total: an MSE estimate that cannot
+    tell a high total from a middling one bends away from the diagonal there."""
+    import numpy as np
+
+    from dresslog.limb import along_limb, build_limb, chain_joints, limb_points
+
+    plt = _pyplot()
+    limb = build_limb(task)
+    along = along_limb(limb, limb_points(limb).points) * 100  # cm
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.6))
+    bands = np.floor(along / (ALONG_BIN * 100)).astype(int)
+    held = np.unique(bands)
+    centres = (held + 0.5) * ALONG_BIN * 100
+    for values, label, style in (
+        (profile.mean_true, "true force", {"color": "black"}),
+        (profile.mean_estimate, "estimate", {"color": "C0"}),
+        (profile.rmse, "RMSE", {"color": "C3", "ls": "--"}),
+    ):
+        banded = [values[bands == b].mean() for b in held]
+        left.plot(centres, banded, label=label, **style)
+    for name, at in zip(limb.chain, chain_joints(limb) * 100, strict=True):
+        left.axvline(at, color="gray", ls=":", lw=0.8)
+        left.annotate(name, (at, 1), xycoords=("data", "axes fraction"), xytext=(2, -12),
+                      textcoords="offset points", fontsize="small", color="gray")  # fmt: skip
+    left.set_xlabel(f"along the {limb.name} from the tip of the {limb.chain[0]} (cm)")
+    left.set_ylabel("force per limb point (N), over every step")
+    if (top := float(profile.rmse.max())) > 0:  # log: the force at the hand would
+        left.set_yscale("log")  # flatten the rest to 0; below 1e-5 of the top, none
+        left.set_ylim(top * 1e-5, top * 2)
+    left.set_title("Where: mean force and RMSE per limb point", fontsize="medium")
+    left.legend(loc="best")
+    totals = profile.totals
+    true, estimate = totals[:, 0], totals[:, 1]
+    if len(true) and true.max() > 0:
+        top = float(max(true.max(), estimate.max()))
+        cells = right.hexbin(true, estimate, gridsize=40, bins="log", mincnt=1,
+                             extent=(0, top, 0, top), cmap="viridis")  # fmt: skip
+        fig.colorbar(cells, ax=right, label="steps")
+        right.plot([0, top], [0, top], color="gray", lw=0.8, label="estimate = truth")
+        edges = np.quantile(true[true > 0], np.linspace(0, 1, 21))
+        which = np.digitize(true, edges[1:-1])
+        means = [(true[which == b].mean(), estimate[which == b].mean())
+                 for b in range(len(edges) - 1) if np.any((which == b) & (true > 0))]  # fmt: skip
+        right.plot(*zip(*means, strict=True), "o-", color="C1", ms=3,
+                   label="mean estimate at that truth")  # fmt: skip
+        r = np.corrcoef(true, estimate)[0, 1] if estimate.std() > 0 else math.nan
+        right.set_title(f"How much: total force per step (r = {r:.2f})", fontsize="medium")
+        right.legend(loc="upper left")
+    else:
+        right.set_title("How much: no force on the limb in these steps", fontsize="medium")
+    right.set_xlabel("true total force on the limb (N)")
+    right.set_ylabel("estimated total force (N)")
+    fig.suptitle(title, fontsize="medium")
+    return fig
+
+
+def plot_eval(path: str | Path, profile: ErrorProfile, task: Task | str, title: str) -> None:
+    """Write ``eval_figure`` as a PNG."""
+    _save(eval_figure(profile, task, title), path)

@@ -35,6 +35,7 @@ from dresslog.experiments import (
 from dresslog.experiments.conditions import Conditions, data_conditions, trained_conditions
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
+from dresslog.model.evaluate import ErrorProfile, evaluate
 from dresslog.model.files import (
     CARD_FILE,
     EpochRecord,
@@ -46,7 +47,7 @@ from dresslog.model.files import (
     save_model,
 )
 from dresslog.model.numpy_lstm import expected_shapes
-from dresslog.plots import plot_sweep, sweep_figure, sweep_lines, training_figure
+from dresslog.plots import eval_figure, plot_sweep, sweep_figure, sweep_lines, training_figure
 from dresslog.spec import RotationRange, Task
 from tests.conftest import SAMPLES, prints_warnings
 
@@ -194,6 +195,47 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
         dataset_bounds(data, split="val")
     with pytest.raises(DatasetError, match="has no sweep trials; it holds train, test trials"):
         dataset_bounds(data, split="sweep")
+
+
+@pytest.mark.slow
+def test_eval_plots_where_along_the_limb_and_at_what_total_force_the_model_errs(
+    model: Path, data: Path, tmp_path: Path
+) -> None:
+    """The table gives one ratio per group; the plot shows where on the limb the error
+    lies and whether high totals are estimated too low, from every step's truth and
+    estimate after Eq. 2, as the model's own `run` gives them."""
+    plot = tmp_path / "figures" / "eval.png"
+    code, output = invoke("eval", model, data, "-q", "--plot", plot)
+    assert code == 0 and output.endswith(f"wrote {plot}\n"), output
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    arrays = load_dataset(data, progress=False)
+    rows = arrays.rows("test")
+    profile = ErrorProfile(arrays.n_points)
+    evaluate(load_model(model), arrays.sequences(rows), arrays.force_maps(rows), profile=profile)
+    estimator = load_model(model).estimator()
+    truths, estimates = [], []
+    for phi, truth in zip(arrays.sequences(rows), arrays.force_maps(rows), strict=True):
+        estimator.reset()
+        estimates.append(estimator.run(phi)[0])
+        truths.append(truth)
+    truth, estimate = (np.concatenate(maps).astype(np.float64) for maps in (truths, estimates))
+    assert profile.steps == len(truth) and truth.any()
+    np.testing.assert_allclose(profile.mean_true, truth.mean(axis=0), atol=1e-12)
+    np.testing.assert_allclose(profile.mean_estimate, estimate.mean(axis=0), atol=1e-6)
+    np.testing.assert_allclose(profile.rmse, np.sqrt(((estimate - truth) ** 2).mean(0)), atol=1e-6)
+    np.testing.assert_allclose(profile.totals[:, 0], truth.sum(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(profile.totals[:, 1], estimate.sum(axis=1), rtol=1e-5, atol=1e-6)
+    fig = eval_figure(profile, "gown", "title")
+    where, how_much = fig.axes[:2]
+    labels = [line.get_label() for line in where.get_lines()[:3]]
+    assert labels == ["true force", "estimate", "RMSE"]
+    r = np.corrcoef(truth.sum(axis=1), estimate.sum(axis=1))[0, 1]
+    assert how_much.get_title() == f"How much: total force per step (r = {r:.2f})"
+    matplotlib.pyplot.close(fig)
+    code, output = invoke("eval", model, data, "-q", "--plot", tmp_path / "eval.jpg")
+    assert (code, output) == (
+        1, f"Error: {tmp_path / 'eval.jpg'}: a plot is a PNG image; name it .png\n"
+    ), output  # fmt: skip
 
 
 @pytest.mark.slow

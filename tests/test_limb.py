@@ -5,7 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dresslog.limb import POINT_LIFT, build_limb, limb_points, limb_sdf, segment_of
+from dresslog.limb import (
+    POINT_LIFT,
+    along_limb,
+    build_limb,
+    chain_joints,
+    limb_points,
+    limb_sdf,
+    segment_of,
+)
 from dresslog.sim import random_spec
 from dresslog.sim.garments import garment_for
 from dresslog.sim.trajectory import constant_speed, keep_clear
@@ -98,6 +106,32 @@ def clearance(limb, path: np.ndarray, held: np.ndarray) -> np.ndarray:
 
 
 HELD = np.array([[0.0, 0.0, 0.0], [0.1, 0.04, 0.0], [0.2, -0.04, 0.0]])
+
+
+@pytest.mark.parametrize(
+    ("task", "order"),
+    [(Task.GOWN, ["fist", "forearm", "elbow", "upper_arm"]),
+     (Task.SHORTS, ["toe", "foot", "heel", "ankle", "shin", "knee", "thigh"])],
+)  # fmt: skip
+def test_along_the_limb_runs_from_the_hand_or_foot_as_a_garment_is_drawn_on(
+    task: Task, order: list[str]
+) -> None:
+    """`eval --plot` lays the limb out from the tip of the hand or foot: each part after
+    the one the garment reaches before it, every point between the tip and the shoulder's
+    or hip's far side, wherever the limb is placed."""
+    limb = build_limb(task)
+    points = limb_points(limb)
+    along = along_limb(limb, points.points)
+    names = list(points.segment_names)
+    means = [along[points.segment == names.index(part)].mean() for part in order]
+    assert means == sorted(means), dict(zip(order, means, strict=True))
+    last = limb.spheres[limb.chain[-1]]
+    assert -POINT_LIFT - 1e-9 <= along.min() < 0.01
+    assert along.max() <= chain_joints(limb)[-1] + last.radius + POINT_LIFT
+    moved = build_limb(task, offset=(0.3, -0.1, 0.05))
+    np.testing.assert_allclose(along_limb(moved, limb_points(moved).points), along, atol=1e-12)
+    joints = chain_joints(limb)
+    assert joints[0] == limb.spheres[limb.chain[0]].radius and np.all(np.diff(joints) > 0.1)
 
 
 def test_keep_clear_lifts_over_a_raised_arm_no_faster_than_the_path_moves() -> None:

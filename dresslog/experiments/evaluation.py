@@ -15,14 +15,15 @@ from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_
 from dresslog.dataset.manifest import as_split
 from dresslog.errors import DatasetError, DresslogWarning
 from dresslog.experiments.conditions import data_conditions, trained_conditions
-from dresslog.io.files import printable
+from dresslog.io.files import check_output, printable
 from dresslog.model.bounds import describe_oracle
-from dresslog.model.evaluate import Scores, evaluate
+from dresslog.model.evaluate import ErrorProfile, Scores, evaluate
 from dresslog.model.files import (
     LoadedModel,
     check_task,
     load_model,
 )
+from dresslog.plots import plot_eval
 from dresslog.spec import Outcome, Task
 
 #: The outcomes every report lists, with n 0 where a split has none (others where present).
@@ -52,13 +53,21 @@ class EvalReport:
         """JSON with nan as null (JSON has no nan)."""
         return json.dumps(finite(asdict(self)), indent=2)
 
+    def headline(self) -> str:
+        """What was scored on what, and how well: the table's first line, the plot's title."""
+        n = self.overall.n
+        return (
+            f"{self.task} model {self.model} on {self.data} ({self.split} split, "
+            f"{n} sequence{'s' * (n != 1)}): ratio {self.overall.ratio:.3f}"
+        )
+
     def table(self) -> str:
         head = (
             f"{'group':<10}{'n':>6}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}"
             f"{'prec':>7}{'rec':>7}"
         )
         rows = [("all", self.overall), *((o, s) for o, s in self.per_outcome.items() if s.n)]
-        lines = [f"{self.task} model {self.model} on {self.data} ({self.split} split)"]
+        lines = [self.headline()]
         if self.conditions == self.trained:
             lines.append(f"trials    {self.conditions}, as the model was trained on")
         else:
@@ -128,9 +137,14 @@ def warn_no_force(where: str | Path, sequences: str, consequence: str, cure: str
     )
 
 
-def score_rows(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
+def score_rows(
+    model: LoadedModel,
+    arrays: DatasetArrays,
+    rows: np.ndarray,
+    profile: ErrorProfile | None = None,
+) -> Scores:
     """The model's scores on these rows of the dataset (eval's groups, a sweep's setting)."""
-    return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
+    return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows), profile=profile)
 
 
 def evaluate_dataset(
@@ -139,15 +153,19 @@ def evaluate_dataset(
     *,
     split: Split | str = Split.TEST,
     bounds: bool = False,
+    plot: str | Path | None = None,
     workers: int | None = None,
     progress: bool = True,
 ) -> EvalReport:
     """Score `model` on one split of `data`, overall and per outcome (dressed/missed/caught).
 
     With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
-    so the model's ratio can be read against what the data allow.
+    so the model's ratio can be read against what the data allow. With `plot`, a PNG of
+    where along the limb and at what total force the model errs (`plot_eval`).
     """
     split = as_split(split)  # before anything is loaded
+    if plot is not None:
+        check_output(plot, suffix=".png")
     loaded = load_model(model)
     manifest = load_manifest(data)
     check_data_task(loaded, manifest.task)
@@ -162,7 +180,8 @@ def evaluate_dataset(
     for outcome in [*OUTCOMES, *sorted(present - set(OUTCOMES))]:
         chosen = arrays.rows(split, outcome)
         per_outcome[outcome] = score_rows(loaded, arrays, chosen) if len(chosen) else Scores.none()
-    overall = score_rows(loaded, arrays, rows)
+    profile = ErrorProfile(arrays.n_points) if plot is not None else None
+    overall = score_rows(loaded, arrays, rows, profile)
     if overall.zero_rmse == 0:  # every ratio divides by it: nan, which the table cannot explain
         warn_no_force(
             data,
@@ -170,7 +189,7 @@ def evaluate_dataset(
             "the all-zero RMSE is 0 and the ratios to it, as contact recall, are not numbers (nan)",
             "score the model on longer trials (generate --duration)",
         )
-    return EvalReport(
+    report = EvalReport(
         task=arrays.task.value,
         model=str(model),
         data=str(data),
@@ -183,6 +202,9 @@ def evaluate_dataset(
         trained=trained.describe(),
         outside=held.outside(trained),
     )
+    if profile is not None and plot is not None:
+        plot_eval(plot, profile, arrays.task, report.headline())
+    return report
 
 
 def dataset_bounds(

@@ -2,7 +2,7 @@
 
 Public API
 ----------
-``evaluate(model, sequences, forces, *, batch_size=32, progress=False) -> Scores``
+``evaluate(model, sequences, forces, *, batch_size=32, progress=False, profile=None) -> Scores``
     ``model``: a ``LoadedModel`` or ``NumpyEstimator``; ``sequences``: phi (T_i, 9);
     ``forces``: ground truth (T_i, N). Runs every sequence from a zero state (batched,
     zero-padded at the end, which cannot change earlier outputs), applies Eq. 2, then:
@@ -14,6 +14,8 @@ Public API
     or its shape replaced by the truth's, `dresslog.model.bounds.error_split`); ratios,
     precision and recall are nan where undefined (no force in the truth, no contact);
     ``as_metrics()`` gives the finite ones as a dict for ``ModelCard.metrics``.
+    With ``profile`` (an ``ErrorProfile``), every step's truth and estimate are also added
+    to it: where along the limb and at what total force the model errs (``eval --plot``).
 """
 
 from __future__ import annotations
@@ -67,6 +69,47 @@ class Scores:
         return {k: v for k, v in values.items() if math.isfinite(v)}
 
 
+class ErrorProfile:
+    """Where and how much a model errs over every step of a group of sequences: per limb
+    point the mean true and estimated force and the RMSE; per step the true and
+    estimated total force (what `dresslog.plots.plot_eval` draws)."""
+
+    def __init__(self, n_points: int) -> None:
+        self.steps = 0
+        self._true = np.zeros(n_points)
+        self._estimate = np.zeros(n_points)
+        self._squared_error = np.zeros(n_points)
+        self._totals: list[np.ndarray] = []
+
+    def add(self, truth: np.ndarray, estimate: np.ndarray) -> None:
+        """One sequence's maps (T, N), after Eq. 2."""
+        truth, estimate = np.asarray(truth, np.float64), np.asarray(estimate, np.float64)
+        self.steps += len(truth)
+        self._true += truth.sum(axis=0)
+        self._estimate += estimate.sum(axis=0)
+        self._squared_error += ((estimate - truth) ** 2).sum(axis=0)
+        self._totals.append(np.stack([truth.sum(axis=1), estimate.sum(axis=1)], axis=1))
+
+    @property
+    def mean_true(self) -> np.ndarray:
+        """(N,) N: each point's true force, averaged over every step."""
+        return self._true / max(self.steps, 1)
+
+    @property
+    def mean_estimate(self) -> np.ndarray:
+        return self._estimate / max(self.steps, 1)
+
+    @property
+    def rmse(self) -> np.ndarray:
+        """(N,) N: each point's RMSE over every step."""
+        return np.sqrt(self._squared_error / max(self.steps, 1))
+
+    @property
+    def totals(self) -> np.ndarray:
+        """(steps, 2) N: each step's true and estimated total force over the limb."""
+        return np.concatenate(self._totals) if self._totals else np.zeros((0, 2))
+
+
 def _ratio(a: float, b: float) -> float:
     return a / b if b else math.nan
 
@@ -78,6 +121,7 @@ def evaluate(
     *,
     batch_size: int = 32,
     progress: bool = False,
+    profile: ErrorProfile | None = None,
 ) -> Scores:
     """RMSE after Eq. 2, the all-zero baseline, their ratio and contact precision/recall."""
     from tqdm import tqdm
@@ -105,6 +149,8 @@ def evaluate(
             truth = np.asarray(forces[k], np.float32)
             estimate = apply_contact(forces_u, contact)
             per_seq[k] = sequence_rmse(truth, estimate)
+            if profile is not None:
+                profile.add(truth, estimate)
             at_true_total[k], true_shape[k] = error_split(truth, estimate)
             zero[k] = sequence_rmse(truth, np.zeros_like(truth))
             said, real = contact > 0, truth > 0
