@@ -49,6 +49,8 @@ if TYPE_CHECKING:
 
 #: Width (m) of the bands along the limb whose points `eval_figure` averages.
 ALONG_BIN = 0.02
+#: Steps a bin of true total force needs for `eval_figure` to draw its mean estimate.
+MIN_STEPS = 20
 
 
 def _pyplot() -> Any:
@@ -258,10 +260,9 @@ def eval_figure(profile: ErrorProfile, task: Task | str, title: str) -> Any:
                              extent=(0, top, 0, top), cmap="viridis")  # fmt: skip
         fig.colorbar(cells, ax=right, label="steps")
         right.plot([0, top], [0, top], color="gray", lw=0.8, label="estimate = truth")
-        edges = np.quantile(true[true > 0], np.linspace(0, 1, 21))
-        which = np.digitize(true, edges[1:-1])
+        which = np.minimum((true / true.max() * 20).astype(int), 19)  # 20 bins of truth
         means = [(true[which == b].mean(), estimate[which == b].mean())
-                 for b in range(len(edges) - 1) if np.any((which == b) & (true > 0))]  # fmt: skip
+                 for b in range(20) if np.count_nonzero(which == b) >= MIN_STEPS]  # fmt: skip
         right.plot(*zip(*means, strict=True), "o-", color="C1", ms=3,
                    label="mean estimate at that truth")  # fmt: skip
         r = np.corrcoef(true, estimate)[0, 1] if estimate.std() > 0 else math.nan
