@@ -32,7 +32,12 @@ from dresslog.experiments import (
     sweep_settings,
     train_dataset,
 )
-from dresslog.experiments.conditions import Conditions, data_conditions, trained_conditions
+from dresslog.experiments.conditions import (
+    Conditions,
+    combined,
+    data_conditions,
+    trained_conditions,
+)
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.evaluate import ErrorProfile, evaluate
@@ -463,6 +468,7 @@ def test_sweep_writes_a_table_and_a_plot(
     assert [s["ratio_to_in_range"] for s in saved["settings"]] == pytest.approx(ratios, 1e-3)
     # what the model was trained on, from its card: the `data` fixture drew its speeds
     assert (saved["trained_speeds"], saved["trained_rotations"]) == ([[0.10, 0.15]], [])
+    assert saved["trained_unturned"] is True
     speeds = {e.spec.speed for e in load_manifest(out / "speed_0.2").trials}
     assert speeds == {0.2}
     # every setting re-simulates the same sequences: same seeds, same paths
@@ -882,6 +888,9 @@ def test_the_conditions_a_model_was_not_trained_on_are_named() -> None:
         "speed 0.2 m/s", "rotation about z -15...+15 deg",
     ]  # fmt: skip
     assert held(z15).describe() == "speeds 0.1-0.15 m/s; the limb turned about z -15 deg"
+    assert combined([held(), held(z15)]).describe() == (  # the README's fine-tuning
+        "speeds 0.1-0.15 m/s; the limb unturned or turned about z -15 deg"
+    )
 
 
 @pytest.mark.slow
@@ -1102,7 +1111,11 @@ def test_sweep_plot_names_its_model_and_marks_the_training_speeds_and_the_papers
         list(fixed.get_xdata()) == [-5, -5] and fixed.get_color() == colour["about y (paper's Z)"]
     )
     assert list(rotation.get_xticks()) == [-15, -5, 0, 15]
-    assert report.trained() == (
+    assert report.trained() == (  # fine-tuned from a model of the unturned limb
+        "trained at speeds 0.1-0.15 m/s; the limb unturned or turned about x +0...+10, "
+        "about y -5, about z -15...+15 deg"
+    )
+    assert replace(report, trained_unturned=False).trained() == (
         "trained at speeds 0.1-0.15 m/s; the limb turned about x +0...+10, about y -5, "
         "about z -15...+15 deg"
     )

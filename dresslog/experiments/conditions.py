@@ -32,7 +32,7 @@ class Conditions:
 
     def describe(self) -> str:
         """`speeds 0.1-0.15 m/s, the limb never turned`, as a sweep's line and eval say it."""
-        return describe(self.speeds, self.rotations)
+        return describe(self.speeds, self.rotations, unturned=self.unturned)
 
     def outside(self, trained: Conditions) -> list[str]:
         """What of these conditions `trained` does not cover, one phrase each."""
@@ -60,14 +60,15 @@ class Conditions:
         return any(a == axis and lo <= low and high <= hi for a, lo, hi in self.rotations)
 
 
-def describe(speeds: Iterable[Speeds], rotations: Iterable[Turn]) -> str:
+def describe(speeds: Iterable[Speeds], rotations: Iterable[Turn], *, unturned: bool) -> str:
     """Speed and rotation spans in words: `speeds 0.1-0.15 m/s; the limb turned about z
-    -15...+15 deg`, or `..., the limb never turned`."""
+    -15...+15 deg` (`unturned or turned` when some trials had no rotation), or `...,
+    the limb never turned`."""
     said = ", ".join(_span(lo, hi) for lo, hi in speeds)
     turned = ", ".join(f"about {axis} {_turn(lo, hi)}" for axis, lo, hi in rotations)
-    return f"speeds {said} m/s" + (
-        f"; the limb turned {turned} deg" if turned else ", the limb never turned"
-    )
+    if not turned:
+        return f"speeds {said} m/s, the limb never turned"
+    return f"speeds {said} m/s; the limb {'unturned or ' * unturned}turned {turned} deg"
 
 
 def _span(low: float, high: float) -> str:

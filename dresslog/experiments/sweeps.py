@@ -76,6 +76,8 @@ class SweepReport:
     #: rotation spans, (axis, low, high) deg; low == high for one fixed condition
     trained_speeds: list[tuple[float, float]] = field(default_factory=list)
     trained_rotations: list[tuple[str, float, float]] = field(default_factory=list)
+    #: whether some training trials had the limb unturned
+    trained_unturned: bool = True
 
     def ratio(self, setting: Setting) -> float:
         assert setting.scores is not None
@@ -83,7 +85,10 @@ class SweepReport:
 
     def trained(self) -> str:
         """What the model was trained on, as the plot shades it: one line under the table."""
-        return f"trained at {describe(self.trained_speeds, self.trained_rotations)}"
+        turned = describe(
+            self.trained_speeds, self.trained_rotations, unturned=self.trained_unturned
+        )
+        return f"trained at {turned}"
 
     def table(self) -> str:
         """Per setting: RMSE, all-zero RMSE, their ratio and x in-range. The ratio tells a
@@ -255,8 +260,9 @@ def sweep(
     assert baseline is not None
     seen = trained_conditions(loaded.card)
     report = SweepReport(
-        task.value, str(model), n, baseline.rmse, done, list(seen.speeds), list(seen.rotations)
-    )
+        task.value, str(model), n, baseline.rmse, done,
+        list(seen.speeds), list(seen.rotations), seen.unturned,
+    )  # fmt: skip
     if empty := [s.name for s in done if s.scores is not None and s.scores.zero_rmse == 0]:
         in_range = ", as is x in-range, the in-range RMSE being 0 too" if baseline.rmse == 0 else ""
         warn_no_force(
