@@ -1,5 +1,5 @@
-"""`dresslog eval MODEL DATA [--bounds] [--plot PNG] [--json]`: the paper's RMSE on the test
-split, and more."""
+"""`dresslog eval MODEL DATA [--bounds] [--plot PNG] [--per-sequence CSV] [--json]`: the
+paper's RMSE on the test split, and more."""
 
 from __future__ import annotations
 
@@ -24,17 +24,28 @@ from .common import reports_errors
 @click.option("--plot", type=click.Path(dir_okay=False), metavar="PNG",
               help="Also draw where along the limb the model errs, and at what total "
               "force, as a PNG.")  # fmt: skip
+@click.option("--per-sequence", type=click.Path(dir_okay=False), metavar="CSV",
+              help="Also write each sequence's spec, outcome and scores as a CSV.")  # fmt: skip
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
 def evaluate(
-    model: str, data: str, split: str, bounds: bool, plot: str | None, as_json: bool, quiet: bool
+    model: str,
+    data: str,
+    split: str,
+    bounds: bool,
+    plot: str | None,
+    per_sequence: str | None,
+    as_json: bool,
+    quiet: bool,
 ) -> None:
     """RMSE after Eq. 2, the all-zero baseline, their ratio, per outcome; contact P/R."""
     from dresslog.experiments import evaluate_dataset
 
     report = evaluate_dataset(
-        model, data, split=split, bounds=bounds, plot=plot, progress=not quiet and not as_json
-    )
+        model, data, split=split, bounds=bounds, plot=plot, per_sequence=per_sequence,
+        progress=not quiet and not as_json,
+    )  # fmt: skip
     click.echo(report.to_json() if as_json else report.table())
-    if plot and not as_json:
-        click.echo(f"wrote {plot}")
+    for written in (plot, per_sequence):
+        if written and not as_json:
+            click.echo(f"wrote {written}")

@@ -244,6 +244,39 @@ def test_eval_plots_where_along_the_limb_and_at_what_total_force_the_model_errs(
 
 
 @pytest.mark.slow
+def test_eval_writes_each_sequences_spec_outcome_and_scores(
+    model: Path, data: Path, tmp_path: Path
+) -> None:
+    """Which trials the model gets wrong, and what their specs share: one row per
+    sequence of the split, whose RMSEs average to the report's."""
+    import csv
+
+    table = tmp_path / "per-sequence.csv"
+    for split in ("train", "test"):
+        code, output = invoke("eval", model, data, "--split", split, "--per-sequence", table,
+                              "--json")  # fmt: skip
+        assert code == 0, output
+        overall = json.loads(output)["overall"]
+        rows = list(csv.DictReader(table.open()))
+        entries = load_manifest(data).split(split)
+        assert [r["file"] for r in rows] == [e.file for e in entries]
+        assert [(r["outcome"], int(r["steps"]), int(r["seed"])) for r in rows] == [
+            (e.outcome.value, e.steps, e.spec.seed) for e in entries
+        ]
+        speeds = [e.spec.speed for e in entries]
+        assert [float(r["speed"]) for r in rows] == pytest.approx(speeds, rel=1e-5)
+        assert float(rows[0]["limb_offset_x"]) == pytest.approx(0.30)  # the fixture's
+        assert np.mean([float(r["rmse"]) for r in rows]) == pytest.approx(overall["rmse"], 1e-5)
+        zero = np.mean([float(r["zero_rmse"]) for r in rows])
+        assert zero == pytest.approx(overall["zero_rmse"], 1e-5)
+    code, output = invoke("eval", model, data, "-q", "--per-sequence", tmp_path / "s.txt")
+    assert (code, output) == (
+        1, f"Error: {tmp_path / 's.txt'}: a table is a CSV file; name it .csv\n"
+    ), output  # fmt: skip
+    assert not (tmp_path / "s.txt").exists()
+
+
+@pytest.mark.slow
 @prints_warnings
 def test_training_on_trials_that_never_touch_the_limb_is_warned_about(
     data: Path, tmp_path: Path

@@ -16,13 +16,14 @@ on_epoch=None) -> ModelCard``
     the test split, and saves a model folder whose card names the data by its manifest
     hash and keeps the per-epoch losses, with their plot (``TRAINING_PLOT``,
     ``training.png``). Resumes from ``.<out>.checkpoint.safetensors`` beside `out`.
-``evaluate_dataset(model, data, *, split="test", bounds=False, plot=None, workers=None,
-progress=True) -> EvalReport``
+``evaluate_dataset(model, data, *, split="test", bounds=False, plot=None, per_sequence=None,
+workers=None, progress=True) -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome
     (each a ``Scores``), with contact-map precision and recall, and the data's speeds and
     rotations beside the model's training ones (`conditions`), naming those outside
     them (``EvalReport.outside``); with ``plot``, a PNG of where along the limb and at
-    what total force the model errs (`dresslog.plots.plot_eval`); with ``bounds``, the
+    what total force the model errs (`dresslog.plots.plot_eval`); with ``per_sequence``, a
+    CSV of each sequence's spec, outcome and scores; with ``bounds``, the
     oracle ratios too (none when the split carries no force, which a ``DresslogWarning``
     naming `data` explains: the all-zero RMSE is 0, so the ratios are nan). ``.table()``
     is what ``eval`` prints, ``.to_json()`` what ``eval --json`` prints.

@@ -15,7 +15,7 @@ from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_
 from dresslog.dataset.manifest import as_split
 from dresslog.errors import DatasetError, DresslogWarning
 from dresslog.experiments.conditions import data_conditions, trained_conditions
-from dresslog.io.files import check_output, printable
+from dresslog.io.files import atomic_path, check_output, printable
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.evaluate import ErrorProfile, Scores, evaluate
 from dresslog.model.files import (
@@ -154,6 +154,7 @@ def evaluate_dataset(
     split: Split | str = Split.TEST,
     bounds: bool = False,
     plot: str | Path | None = None,
+    per_sequence: str | Path | None = None,
     workers: int | None = None,
     progress: bool = True,
 ) -> EvalReport:
@@ -161,11 +162,14 @@ def evaluate_dataset(
 
     With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
     so the model's ratio can be read against what the data allow. With `plot`, a PNG of
-    where along the limb and at what total force the model errs (`plot_eval`).
+    where along the limb and at what total force the model errs (`plot_eval`); with
+    `per_sequence`, a CSV of each sequence's spec, outcome and scores (`PER_SEQUENCE`).
     """
     split = as_split(split)  # before anything is loaded
     if plot is not None:
         check_output(plot, suffix=".png")
+    if per_sequence is not None:
+        check_output(per_sequence, suffix=".csv")
     loaded = load_model(model)
     manifest = load_manifest(data)
     check_data_task(loaded, manifest.task)
@@ -180,7 +184,8 @@ def evaluate_dataset(
     for outcome in [*OUTCOMES, *sorted(present - set(OUTCOMES))]:
         chosen = arrays.rows(split, outcome)
         per_outcome[outcome] = score_rows(loaded, arrays, chosen) if len(chosen) else Scores.none()
-    profile = ErrorProfile(arrays.n_points) if plot is not None else None
+    wanted = plot is not None or per_sequence is not None
+    profile = ErrorProfile(arrays.n_points) if wanted else None
     overall = score_rows(loaded, arrays, rows, profile)
     if overall.zero_rmse == 0:  # every ratio divides by it: nan, which the table cannot explain
         warn_no_force(
@@ -204,7 +209,38 @@ def evaluate_dataset(
     )
     if profile is not None and plot is not None:
         plot_eval(plot, profile, arrays.task, report.headline())
+    if profile is not None and per_sequence is not None:
+        _write_per_sequence(per_sequence, manifest, arrays.files[rows], profile)
     return report
+
+
+#: The columns of `eval --per-sequence`: a sequence's trial, what its spec drew, its scores.
+PER_SEQUENCE = (
+    "file", "outcome", "steps", "seed", "speed", "limb_offset_x", "limb_offset_y",
+    "limb_offset_z", "limb_rotation", "rmse", "zero_rmse", "ratio",
+)  # fmt: skip
+
+
+def _write_per_sequence(
+    path: str | Path, manifest: Manifest, files: np.ndarray, profile: ErrorProfile
+) -> None:
+    """One row per scored sequence, in the split's order: which trials the model gets
+    wrong, and what their specs (speed, limb pose) have in common."""
+    import csv
+
+    entries = {entry.file: entry for entry in manifest.trials}
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(PER_SEQUENCE)
+        for k, file in enumerate(files):
+            entry, (rmse, zero) = entries[str(file)], profile.sequences[k]
+            spec, turned = entry.spec, entry.spec.limb_rotation
+            writer.writerow([
+                file, entry.outcome.value, entry.steps, spec.seed, f"{spec.speed:.6g}",
+                *(f"{v:.6g}" for v in spec.limb_offset),
+                f"{turned.axis} {turned.degrees:+g}" if turned.degrees else "",
+                f"{rmse:.6g}", f"{zero:.6g}", f"{rmse / zero:.4g}" if zero else "",
+            ])  # fmt: skip
 
 
 def dataset_bounds(

@@ -22,6 +22,7 @@ _NAMES = {
     ".mcap": "a trial is an MCAP file; name it .mcap (.rrd is a Rerun recording)",
     ".rrd": "a Rerun recording is named .rrd (.mcap is a trial)",
     ".png": "a plot is a PNG image; name it .png",
+    ".csv": "a table is a CSV file; name it .csv",
 }
 #: Names of recordings (a trial, a Rerun recording, ROS bags): `-o x.mcap` for a folder
 #: (a model, a dataset, a sweep) is a slip for the trial or recording meant elsewhere.
@@ -49,10 +50,10 @@ def check_output(
 ) -> None:
     """Fail before any work if the output cannot be written or would replace `source`.
 
-    `suffix` (".mcap", ".rrd" or ".png") is the name the output must have: tools open a file by
-    it. Without `overwrite` an existing file is refused (what took time to make). Missing
-    folders above it are fine: the writer makes them (`make_folders`), so the nearest one
-    that exists is checked.
+    `suffix` (".mcap", ".rrd", ".png" or ".csv") is the name the output must have: tools
+    open a file by it. Without `overwrite` an existing file is refused (what took time to
+    make). Missing folders above it are fine: the writer makes them (`make_folders`), so
+    the nearest one that exists is checked.
     """
     path, source = Path(path), None if source is None else Path(source)
     folder = nearest_folder(path)

@@ -72,7 +72,8 @@ class Scores:
 class ErrorProfile:
     """Where and how much a model errs over every step of a group of sequences: per limb
     point the mean true and estimated force and the RMSE; per step the true and
-    estimated total force (what `dresslog.plots.plot_eval` draws)."""
+    estimated total force (what `dresslog.plots.plot_eval` draws); per sequence its
+    RMSE and all-zero RMSE (`eval --per-sequence`)."""
 
     def __init__(self, n_points: int) -> None:
         self.steps = 0
@@ -80,9 +81,14 @@ class ErrorProfile:
         self._estimate = np.zeros(n_points)
         self._squared_error = np.zeros(n_points)
         self._totals: list[np.ndarray] = []
+        #: sequence index (in the order given to `evaluate`) -> (RMSE, all-zero RMSE), N
+        self.sequences: dict[int, tuple[float, float]] = {}
 
-    def add(self, truth: np.ndarray, estimate: np.ndarray) -> None:
-        """One sequence's maps (T, N), after Eq. 2."""
+    def add(
+        self, k: int, truth: np.ndarray, estimate: np.ndarray, rmse: float, zero_rmse: float
+    ) -> None:
+        """Sequence `k`'s maps (T, N), after Eq. 2, and its RMSE and all-zero RMSE."""
+        self.sequences[k] = rmse, zero_rmse
         truth, estimate = np.asarray(truth, np.float64), np.asarray(estimate, np.float64)
         self.steps += len(truth)
         self._true += truth.sum(axis=0)
@@ -149,10 +155,10 @@ def evaluate(
             truth = np.asarray(forces[k], np.float32)
             estimate = apply_contact(forces_u, contact)
             per_seq[k] = sequence_rmse(truth, estimate)
-            if profile is not None:
-                profile.add(truth, estimate)
             at_true_total[k], true_shape[k] = error_split(truth, estimate)
             zero[k] = sequence_rmse(truth, np.zeros_like(truth))
+            if profile is not None:
+                profile.add(int(k), truth, estimate, per_seq[k], zero[k])
             said, real = contact > 0, truth > 0
             tp += int(np.count_nonzero(said & real))
             fp += int(np.count_nonzero(said & ~real))
