@@ -136,8 +136,8 @@ def test_robot_sample_is_what_its_script_makes(tmp_path: Path) -> None:
     byte for byte, and the bag's metadata.yaml too; its MCAP storage message for message
     (topic, log time, every field), as its file's bytes also hang on the zstd library and
     name rosbags' version, which an upgrade changes with no message changing. Fields are
-    compared to 1e-12, not bit for bit: numpy 2.4.6's trigonometry moves the last bit of
-    a /tf quaternion in 32 of the bag's 1,600 TFMessages."""
+    compared to 1e-12, not bit for bit: on a fresh install (numpy 2.4.6) the script moved
+    the last bit of a /tf quaternion in 32 of the bag's 1,600 TFMessages."""
     from mcap.reader import make_reader
     from rosbags.typesys import Stores, get_typestore
 
