@@ -32,14 +32,10 @@ from dresslog.experiments import (
     sweep_settings,
     train_dataset,
 )
-from dresslog.experiments.conditions import (
-    Conditions,
-    combined,
-    data_conditions,
-    trained_conditions,
-)
+from dresslog.experiments.evaluation import data_conditions
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
+from dresslog.model.conditions import Conditions, combined, trained_conditions
 from dresslog.model.evaluate import ErrorProfile, evaluate
 from dresslog.model.files import (
     CARD_FILE,

@@ -474,6 +474,35 @@ def test_a_simulated_trial_far_from_a_models_training_names_the_training(tmp_pat
     assert "convert" not in warning and len(warning.splitlines()) == 1
 
 
+@prints_warnings
+def test_a_simulated_trial_at_a_speed_or_pose_the_model_never_saw_is_warned_about(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """`record --speed 0.2` or `--rotation z -15`, then `infer` with the bundled model:
+    the signal lies in range, so nothing said that the estimate is a generalisation; the
+    sample trial, drawn as the model's own training trials, gets no warning."""
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+    runner = CliRunner()
+    trained = "speeds 0.1-0.15 m/s, the limb never turned"
+    for name, option, outside in (
+        ("fast", ["--speed", "0.2"], "speed 0.2 m/s"),
+        ("turned", ["--rotation", "z", "-15"], "rotation about z -15 deg"),
+    ):
+        trial = tmp_path / f"{name}.mcap"
+        args = ["record", "--task", "gown", "--seed", "4", "--duration", "1", *option]
+        recorded = runner.invoke(main, [*args, "-o", str(trial)])
+        assert recorded.exit_code == 0, recorded.output
+        result = runner.invoke(main, ["infer", str(trial), "-o", str(tmp_path / f"{name}.rrd")])
+        assert result.exit_code == 0, result.output
+        assert result.stderr == (
+            f"Warning: {trial}: outside the model's training ({trained}): {outside}, so the "
+            "estimate measures how it generalises\n"
+        ), result.stderr
+    sample = ["infer", str(SAMPLES / "gown.mcap"), "-o", str(tmp_path / "s.rrd")]
+    result = runner.invoke(main, sample)
+    assert result.exit_code == 0 and result.stderr == "", result.output
+
+
 def test_a_knock_or_a_channel_constant_in_training_is_not_called_far() -> None:
     """A 30 N knock over 8 steps, 10% of a short trial, is not a recording far from the
     training data; nor is any value of a channel that never varied in training."""

@@ -14,9 +14,9 @@ import numpy as np
 from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
 from dresslog.dataset.manifest import as_split
 from dresslog.errors import DatasetError, DresslogWarning
-from dresslog.experiments.conditions import data_conditions, trained_conditions
 from dresslog.io.files import atomic_path, check_output, printable
 from dresslog.model.bounds import describe_oracle
+from dresslog.model.conditions import Conditions, folder_conditions, trained_conditions
 from dresslog.model.evaluate import ErrorProfile, Scores, evaluate
 from dresslog.model.files import (
     LoadedModel,
@@ -43,7 +43,7 @@ class EvalReport:
     #: for (None if not; empty if the split has no force, so nothing to place)
     bounds: dict[str, float] | None = None
     #: the data's speeds and rotations, and the model's training trials', in words
-    #: (`dresslog.experiments.conditions`)
+    #: (`dresslog.model.conditions`)
     conditions: str = ""
     trained: str = ""
     #: what of the data's conditions the model was not trained on, one phrase each
@@ -117,6 +117,11 @@ def finite(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return [finite(v) for v in value]
     return value
+
+
+def data_conditions(manifest: Manifest) -> Conditions:
+    """The conditions of a dataset's trials, from its manifest."""
+    return folder_conditions(manifest.task, manifest.overrides, manifest.rotation_range)
 
 
 def check_data_task(model: LoadedModel, task: Task, n_points: int | None = None) -> None:

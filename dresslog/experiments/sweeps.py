@@ -19,7 +19,6 @@ from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import MANIFEST_FILE, SWEEP_FILE, Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
-from dresslog.experiments.conditions import describe, trained_conditions
 from dresslog.experiments.evaluation import (
     check_data_task,
     finite,
@@ -28,6 +27,7 @@ from dresslog.experiments.evaluation import (
 )
 from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
+from dresslog.model.conditions import describe, trained_conditions
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,

@@ -1,7 +1,8 @@
-"""The speeds and limb rotations of a model's training trials, and of a dataset's trials.
+"""The speeds and limb rotations of a model's training trials, and of other trials.
 
 `sweep` shades the model's on its plot; `eval` says when a dataset's lie outside them,
-so a ratio measured on rotated or faster trials is not read as the model's fit.
+and `infer` when a simulated trial's does, so an error measured on rotated or faster
+trials is not read as the model's fit.
 """
 
 from __future__ import annotations
@@ -10,10 +11,9 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from dresslog.dataset import Manifest
 from dresslog.model.files import ModelCard
 from dresslog.sim.specs import SPEED_RANGE
-from dresslog.spec import LimbRotation, RotationRange, Task
+from dresslog.spec import LimbRotation, RotationRange, Task, TrialSpec
 
 #: a speed span, m/s (low == high for one fixed speed)
 Speeds = tuple[float, float]
@@ -120,6 +120,7 @@ def trained_conditions(card: ModelCard) -> Conditions:
     )
 
 
-def data_conditions(manifest: Manifest) -> Conditions:
-    """The conditions of a dataset's trials, from its manifest."""
-    return folder_conditions(manifest.task, manifest.overrides, manifest.rotation_range)
+def spec_conditions(spec: TrialSpec) -> Conditions:
+    """The conditions of one simulated trial, from its spec."""
+    turned = spec.limb_rotation.model_dump()
+    return folder_conditions(spec.task, {"speed": spec.speed, "limb_rotation": turned}, None)
