@@ -733,6 +733,16 @@ def test_info_summarises_a_model_folder_and_a_dataset_folder(model: Path, data: 
     assert code == 0, output
     assert "gown, 300 limb points" in output and "1x4 LSTM" in output
     assert "2 epochs in" in output and "weights   sha256" in output
+    assert "  trained   speeds 0.1-0.15 m/s, the limb never turned\n" in output  # as eval's
+    code, output = invoke("info", SAMPLES / "models" / "gown")  # a card before format 4
+    assert (
+        code == 0
+        and (
+            "  trained   speeds 0.1-0.15 m/s, the limb never turned (generate's defaults taken "
+            "where the card does not record them)\n"
+        )
+        in output
+    ), output
     code, output = invoke("info", model, "--json")
     assert code == 0 and ModelCard.model_validate_json(output) == load_model(model).card
     code, output = invoke("info", data)
@@ -868,6 +878,8 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
             f"            {data}: 3 trials; 1.5 s long, limb_offset [0.3, 0.0, 0.05]\n"
             f"            {turned}: 2 trials; 1.5 s long, limb_offset [0.3, 0.0, 0.05], "
             "speed 0.2 m/s, rotation z -15...+15 deg drawn per trial\n"
+            "  trained   speeds 0.1-0.15, 0.2 m/s; the limb unturned or turned about z "
+            "-15...+15 deg\n"
         )
         in output
     ), output

@@ -4,7 +4,8 @@ Public API
 ----------
 ``format_card(path, card, verified) -> str``
     Task and sizes, input normalisation, how it was trained (hyperparameters, data, the
-    model it was fine-tuned from, the epochs run and the one kept), its recorded test
+    model it was fine-tuned from, the speeds and rotations of all its training trials as
+    `eval` and `sweep` read them, the epochs run and the one kept), its recorded test
     metrics and the weights hash, and whether the model loads, as `dresslog info` prints
     it (``--json`` prints the card itself).
 """
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from dresslog.model.conditions import trained_conditions
 from dresslog.model.files import ModelCard, TrainingFolder
 from dresslog.spec import LimbRotation
 
@@ -76,6 +78,11 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
             f"(weights {init.weights_sha256[:12]}{scored})"
         )
         lines += [f"{'':12}{_conditions(folder)}" for folder in init.folders]
+    assumed = any(folder.overrides is None for folder in card.trained_folders())
+    lines.append(
+        f"  trained   {trained_conditions(card).describe()}"
+        + (" (generate's defaults taken where the card does not record them)" if assumed else "")
+    )
     if card.history:
         last = card.history[-1]
         kept = card.metrics.get("kept_epoch", last.epoch)
