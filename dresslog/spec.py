@@ -58,6 +58,11 @@ class Task(StrEnum):
     SHORTS = "shorts"
 
 
+#: End-effector speeds (m/s) drawn per trial, the paper's ranges (`random_spec`): what a
+#: model trained on `generate`'s defaults has seen, which `infer` checks a trial against.
+SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
+
+
 def task_of(value: Task | str, error: type[DresslogError]) -> Task:
     """`value` as a Task; otherwise `error` (the caller's family) naming it and the tasks."""
     try:

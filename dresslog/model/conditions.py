@@ -12,8 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from dresslog.model.files import ModelCard
-from dresslog.sim.specs import SPEED_RANGE
-from dresslog.spec import LimbRotation, RotationRange, Task, TrialSpec
+from dresslog.spec import SPEED_RANGE, LimbRotation, RotationRange, Task, TrialSpec
 
 #: a speed span, m/s (low == high for one fixed speed)
 Speeds = tuple[float, float]
