@@ -247,9 +247,9 @@ def eval_figure(profile: ErrorProfile, task: Task | str, title: str) -> Any:
                       textcoords="offset points", fontsize="small", color="gray")  # fmt: skip
     left.set_xlabel(f"along the {limb.name} from the tip of the {limb.chain[0]} (cm)")
     left.set_ylabel("force per limb point (N), over every step")
-    if (top := float(profile.rmse.max())) > 0:  # log: the force at the hand would
-        left.set_yscale("log")  # flatten the rest to 0; below 1e-5 of the top, none
-        left.set_ylim(top * 1e-5, top * 2)
+    if (worst := float(profile.rmse.max())) > 0:  # log: the force at the hand would
+        left.set_yscale("log")  # flatten the rest to 0; below 1e-5 of the worst, none
+        left.set_ylim(worst * 1e-5, worst * 2)
     left.set_title("Where: mean force and RMSE per limb point", fontsize="medium")
     left.legend(loc="best")
     totals = profile.totals
