@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 import warnings
+from dataclasses import asdict
 from pathlib import Path
 
 import matplotlib.image
@@ -30,7 +31,7 @@ from dresslog.model import (
     zero_baseline_rmse,
 )
 from dresslog.model.bounds import error_split
-from dresslog.model.evaluate import evaluate
+from dresslog.model.evaluate import evaluate, score_sequences
 from dresslog.model.files import (
     FORMAT_VERSION,
     EpochRecord,
@@ -448,6 +449,21 @@ def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
     assert result.n == 5
     assert set(result.as_metrics()) >= {"rmse", "zero_rmse", "ratio"}
 
+
+
+def test_a_group_scored_from_one_pass_is_the_group_scored_alone(trained):
+    """`eval` runs the split through the network once and scores each outcome from the
+    sequences' kept figures: the same as running that group by itself."""
+    est = NumpyEstimator(trained[0])
+    phis, forces = synthetic(6, seed=11)
+    each = score_sequences(est, phis, forces, batch_size=4)
+    assert each.scores() == evaluate(est, phis, forces, batch_size=4)
+    for which in ([0, 2, 5], [1], [3, 4]):
+        alone = evaluate(est, [phis[k] for k in which], [forces[k] for k in which])
+        mask = np.isin(np.arange(6), which)
+        for name, value in asdict(each.scores(mask)).items():
+            assert value == pytest.approx(getattr(alone, name), rel=1e-6), name
+    assert each.scores(np.zeros(6, bool)).n == 0
 
 # -- model files -------------------------------------------------------------------------
 @pytest.fixture

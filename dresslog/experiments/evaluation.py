@@ -17,7 +17,7 @@ from dresslog.errors import DatasetError, DresslogWarning
 from dresslog.io.files import atomic_path, check_output, printable
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, folder_conditions, trained_conditions
-from dresslog.model.evaluate import ErrorProfile, Scores, evaluate
+from dresslog.model.evaluate import ErrorProfile, Scores, SequenceScores, evaluate, score_sequences
 from dresslog.model.files import (
     LoadedModel,
     check_task,
@@ -142,14 +142,9 @@ def warn_no_force(where: str | Path, sequences: str, consequence: str, cure: str
     )
 
 
-def score_rows(
-    model: LoadedModel,
-    arrays: DatasetArrays,
-    rows: np.ndarray,
-    profile: ErrorProfile | None = None,
-) -> Scores:
-    """The model's scores on these rows of the dataset (eval's groups, a sweep's setting)."""
-    return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows), profile=profile)
+def score_rows(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
+    """The model's scores on these rows of the dataset (a sweep's setting)."""
+    return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
 
 
 def evaluate_dataset(
@@ -183,15 +178,15 @@ def evaluate_dataset(
     arrays = load_dataset(data, workers=workers, progress=progress)
     check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
+    profile = ErrorProfile(arrays.n_points) if plot is not None else None
+    each = score_sequences(loaded, arrays.sequences(rows), arrays.force_maps(rows), profile=profile)
+    overall, outcomes = each.scores(), arrays.outcomes[rows]
     # the three outcomes always, empty ones with n 0 (a script's keys do not come and go)
-    present = set(arrays.outcomes[rows].tolist())
-    per_outcome = {}
-    for outcome in [*OUTCOMES, *sorted(present - set(OUTCOMES))]:
-        chosen = arrays.rows(split, outcome)
-        per_outcome[outcome] = score_rows(loaded, arrays, chosen) if len(chosen) else Scores.none()
-    wanted = plot is not None or per_sequence is not None
-    profile = ErrorProfile(arrays.n_points) if wanted else None
-    overall = score_rows(loaded, arrays, rows, profile)
+    present = set(outcomes.tolist())
+    per_outcome = {
+        outcome: each.scores(outcomes == outcome)
+        for outcome in [*OUTCOMES, *sorted(present - set(OUTCOMES))]
+    }
     if overall.zero_rmse == 0:  # every ratio divides by it: nan, which the table cannot explain
         warn_no_force(
             data,
@@ -214,8 +209,8 @@ def evaluate_dataset(
     )
     if profile is not None and plot is not None:
         plot_eval(plot, profile, arrays.task, report.headline())
-    if profile is not None and per_sequence is not None:
-        _write_per_sequence(per_sequence, manifest, arrays.files[rows], profile)
+    if per_sequence is not None:
+        _write_per_sequence(per_sequence, manifest, arrays.files[rows], each)
     return report
 
 
@@ -227,7 +222,7 @@ PER_SEQUENCE = (
 
 
 def _write_per_sequence(
-    path: str | Path, manifest: Manifest, files: np.ndarray, profile: ErrorProfile
+    path: str | Path, manifest: Manifest, files: np.ndarray, each: SequenceScores
 ) -> None:
     """One row per scored sequence, in the split's order: which trials the model gets
     wrong, and what their specs (speed, limb pose) have in common."""
@@ -238,7 +233,7 @@ def _write_per_sequence(
         writer = csv.writer(stream)
         writer.writerow(PER_SEQUENCE)
         for k, file in enumerate(files):
-            entry, (rmse, zero) = entries[str(file)], profile.sequences[k]
+            entry, rmse, zero = entries[str(file)], each.rmse[k], each.zero_rmse[k]
             spec, turned = entry.spec, entry.spec.limb_rotation
             writer.writerow([
                 file, entry.outcome.value, entry.steps, spec.seed, f"{spec.speed:.6g}",

@@ -16,6 +16,9 @@ Public API
     ``as_metrics()`` gives the finite ones as a dict for ``ModelCard.metrics``.
     With ``profile`` (an ``ErrorProfile``), every step's truth and estimate are also added
     to it: where along the limb and at what total force the model errs (``eval --plot``).
+``score_sequences(...) -> SequenceScores``: the same pass, each sequence's figures kept, so
+    that any group of them is scored without running the network again
+    (``SequenceScores.scores(which)``; ``eval``'s outcomes, ``eval --per-sequence``).
 """
 
 from __future__ import annotations
@@ -72,8 +75,7 @@ class Scores:
 class ErrorProfile:
     """Where and how much a model errs over every step of a group of sequences: per limb
     point the mean true and estimated force and the RMSE; per step the true and
-    estimated total force (what `dresslog.plots.plot_eval` draws); per sequence its
-    RMSE and all-zero RMSE (`eval --per-sequence`)."""
+    estimated total force (what `dresslog.plots.plot_eval` draws)."""
 
     def __init__(self, n_points: int) -> None:
         self.steps = 0
@@ -81,14 +83,9 @@ class ErrorProfile:
         self._estimate = np.zeros(n_points)
         self._squared_error = np.zeros(n_points)
         self._totals: list[np.ndarray] = []
-        #: sequence index (in the order given to `evaluate`) -> (RMSE, all-zero RMSE), N
-        self.sequences: dict[int, tuple[float, float]] = {}
 
-    def add(
-        self, k: int, truth: np.ndarray, estimate: np.ndarray, rmse: float, zero_rmse: float
-    ) -> None:
-        """Sequence `k`'s maps (T, N), after Eq. 2, and its RMSE and all-zero RMSE."""
-        self.sequences[k] = rmse, zero_rmse
+    def add(self, truth: np.ndarray, estimate: np.ndarray) -> None:
+        """One sequence's maps (T, N), after Eq. 2."""
         truth, estimate = np.asarray(truth, np.float64), np.asarray(estimate, np.float64)
         self.steps += len(truth)
         self._true += truth.sum(axis=0)
@@ -120,6 +117,37 @@ def _ratio(a: float, b: float) -> float:
     return a / b if b else math.nan
 
 
+@dataclass(frozen=True)
+class SequenceScores:
+    """Each sequence's figures, in the order given to `score_sequences`."""
+
+    rmse: np.ndarray  # (S,) N, after Eq. 2
+    zero_rmse: np.ndarray  # (S,) N, of the all-zero estimate
+    at_true_total: np.ndarray  # (S,) N, RMSE of the estimate rescaled to the true totals
+    true_shape: np.ndarray  # (S,) N, RMSE of the true map rescaled to the estimate's totals
+    contacts: np.ndarray  # (S, 3) int: contact true positives, false positives, false negatives
+
+    def scores(self, which: np.ndarray | None = None) -> Scores:
+        """The paper's numbers for the sequences `which` selects (a mask or indices; all
+        if None): means over sequences, counts summed."""
+        chosen = slice(None) if which is None else which
+        rmse, zero = self.rmse[chosen], self.zero_rmse[chosen]
+        if not len(rmse):
+            return Scores.none()
+        tp, fp, fn = (int(n) for n in self.contacts[chosen].sum(axis=0))
+        mean_rmse, mean_zero = float(np.mean(rmse)), float(np.mean(zero))
+        return Scores(
+            n=len(rmse),
+            rmse=mean_rmse,
+            zero_rmse=mean_zero,
+            ratio=_ratio(mean_rmse, mean_zero),
+            contact_precision=_ratio(tp, tp + fp),
+            contact_recall=_ratio(tp, tp + fn),
+            ratio_at_true_total=_ratio(float(np.mean(self.at_true_total[chosen])), mean_zero),
+            ratio_true_shape=_ratio(float(np.mean(self.true_shape[chosen])), mean_zero),
+        )
+
+
 def evaluate(
     model: LoadedModel | NumpyEstimator,
     sequences: Sequence[np.ndarray],
@@ -130,6 +158,21 @@ def evaluate(
     profile: ErrorProfile | None = None,
 ) -> Scores:
     """RMSE after Eq. 2, the all-zero baseline, their ratio and contact precision/recall."""
+    return score_sequences(
+        model, sequences, forces, batch_size=batch_size, progress=progress, profile=profile
+    ).scores()
+
+
+def score_sequences(
+    model: LoadedModel | NumpyEstimator,
+    sequences: Sequence[np.ndarray],
+    forces: Sequence[np.ndarray],
+    *,
+    batch_size: int = 32,
+    progress: bool = False,
+    profile: ErrorProfile | None = None,
+) -> SequenceScores:
+    """`evaluate`'s pass, each sequence's figures kept: groups scored from one run."""
     from tqdm import tqdm
 
     est = model.estimator() if isinstance(model, LoadedModel) else model
@@ -141,11 +184,9 @@ def evaluate(
                 f"sequence {k}: force map {f.shape} does not fit {len(phi)} steps and "
                 f"the model's {est.n_points} limb points"
             )
-    per_seq = [0.0] * len(sequences)
-    zero = [0.0] * len(sequences)
-    at_true_total = [0.0] * len(sequences)
-    true_shape = [0.0] * len(sequences)
-    tp = fp = fn = 0
+    n = len(sequences)
+    rmse, zero, at_true_total, true_shape = (np.zeros(n) for _ in range(4))
+    contacts = np.zeros((n, 3), np.int64)
     order = np.argsort([len(p) for p in sequences])  # similar lengths together
     for start in tqdm(range(0, len(order), batch_size), disable=not progress, unit="batch"):
         idx = order[start : start + batch_size]
@@ -154,23 +195,11 @@ def evaluate(
             forces_u, contact = split_output(out[row, : len(sequences[k])])
             truth = np.asarray(forces[k], np.float32)
             estimate = apply_contact(forces_u, contact)
-            per_seq[k] = sequence_rmse(truth, estimate)
+            rmse[k] = sequence_rmse(truth, estimate)
             at_true_total[k], true_shape[k] = error_split(truth, estimate)
             zero[k] = sequence_rmse(truth, np.zeros_like(truth))
             if profile is not None:
-                profile.add(int(k), truth, estimate, per_seq[k], zero[k])
+                profile.add(truth, estimate)
             said, real = contact > 0, truth > 0
-            tp += int(np.count_nonzero(said & real))
-            fp += int(np.count_nonzero(said & ~real))
-            fn += int(np.count_nonzero(~said & real))
-    rmse, zero_rmse = float(np.mean(per_seq)), float(np.mean(zero))
-    return Scores(
-        n=len(sequences),
-        rmse=rmse,
-        zero_rmse=zero_rmse,
-        ratio=_ratio(rmse, zero_rmse),
-        contact_precision=_ratio(tp, tp + fp),
-        contact_recall=_ratio(tp, tp + fn),
-        ratio_at_true_total=_ratio(float(np.mean(at_true_total)), zero_rmse),
-        ratio_true_shape=_ratio(float(np.mean(true_shape)), zero_rmse),
-    )
+            contacts[k] = [np.count_nonzero(m) for m in (said & real, said & ~real, ~said & real)]
+    return SequenceScores(rmse, zero, at_true_total, true_shape, contacts)
