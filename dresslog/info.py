@@ -88,6 +88,7 @@ def _dataset(path: Path, as_json: bool) -> Description:
         remaking,
         warn_if_incomplete,
     )
+    from dresslog.model.conditions import CONDITIONS, folder_conditions
 
     manifest = load_manifest(path)
     warn_if_incomplete(path, manifest)
@@ -99,12 +100,13 @@ def _dataset(path: Path, as_json: bool) -> Description:
         listed["content_sha256"] = manifest.content_hash()
         listed["damaged"] = [{"file": file, "problem": how} for file, how in damaged]
         return Description(json.dumps(listed, indent=1), problem)
-    lines = [f"{path}: {manifest.describe()}"]
-    if manifest.overrides:  # what sets this dataset apart (short trials, a sweep's speed)
-        fixed = ", ".join(f"{k}={json.dumps(v)}" for k, v in manifest.overrides.items())
+    held = folder_conditions(manifest.task, manifest.overrides, manifest.rotation_range)
+    # the speeds and rotations in the words `info MODEL`'s `trained` line and `eval` use
+    lines = [f"{path}: {manifest.describe()}", f"  trials    {held.describe()}"]
+    others = {k: v for k, v in manifest.overrides.items() if k not in CONDITIONS}
+    if others:  # what else sets this dataset apart (short trials)
+        fixed = ", ".join(f"{k}={json.dumps(v)}" for k, v in others.items())
         lines.append(f"  fixed for every trial: {fixed}")
-    if manifest.rotation_range is not None:
-        lines.append(f"  drawn per trial: limb rotation {manifest.rotation_range}")
     if damaged:
         names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
         more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""

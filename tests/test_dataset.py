@@ -547,7 +547,10 @@ def test_cli_generate_rotation_range_draws_each_trials_rotation_within_it(tmp_pa
     with TrialReader(out / drawn[0].file) as trial:
         assert trial.metadata.spec == drawn[0].spec
     shown = CliRunner().invoke(main, ["info", str(out)])
-    assert shown.output.splitlines()[2] == "  drawn per trial: limb rotation z -15...+15 deg"
+    assert shown.output.splitlines()[1:] == [
+        "  trials    speeds 0.1-0.15 m/s; the limb turned about z -15...+15 deg",
+        "  fixed for every trial: duration=0.1",
+    ]
     result = CliRunner().invoke(main, [*args, "-o", out])  # not extended with fixed trials
     assert result.exit_code == 1
     assert result.output == (
@@ -606,18 +609,25 @@ def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
         generate("gown", 0, tmp_path / "s", workers=1, splits={"sweep": 1}, recorder=FAKE)
 
 
-def test_info_on_a_dataset_names_the_spec_fields_fixed_for_every_trial(tmp_path: Path) -> None:
-    """Two folders of 0.3 s and 7 s trials, or of two sweep speeds, read alike in `info`."""
-    fixed = {"duration": 0.3, "limb_rotation": {"axis": "z", "degrees": 10.0}}
+def test_info_on_a_dataset_names_its_conditions_and_the_spec_fields_fixed_for_every_trial(
+    tmp_path: Path,
+) -> None:
+    """Two folders of 0.3 s and 7 s trials, or of two sweep speeds, read alike in `info`;
+    the speeds and rotations in the words of `info MODEL`'s `trained` line, so a folder
+    can be read against a model's training at a glance."""
+    fixed = {"duration": 0.3, "limb_rotation": {"axis": "z", "degrees": 10.0}, "speed": 0.2}
     options = {"workers": 1, "test_fraction": 1 / 3, "recorder": FAKE}  # 2 train, 1 test
     generate("gown", 3, tmp_path / "d", overrides=fixed, **options)
     generate("gown", 3, tmp_path / "e", **options)
     shown = CliRunner().invoke(main, ["info", str(tmp_path / "d")])
     assert shown.exit_code == 0 and shown.output.splitlines()[1:] == [
-        '  fixed for every trial: duration=0.3, limb_rotation={"axis": "z", "degrees": 10.0}'
+        "  trials    speeds 0.2 m/s; the limb turned about z +10 deg",
+        "  fixed for every trial: duration=0.3",
     ], shown.output
     shown = CliRunner().invoke(main, ["info", str(tmp_path / "e")])  # none fixed: no line
-    assert shown.exit_code == 0 and len(shown.output.splitlines()) == 1, shown.output
+    assert shown.exit_code == 0 and shown.output.splitlines()[1:] == [
+        "  trials    speeds 0.1-0.15 m/s, the limb never turned"
+    ], shown.output
 
 
 def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkeypatch) -> None:

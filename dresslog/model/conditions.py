@@ -14,6 +14,8 @@ from typing import Any
 from dresslog.model.files import ModelCard
 from dresslog.spec import SPEED_RANGE, LimbRotation, RotationRange, Task, TrialSpec
 
+#: the spec fields a folder's conditions are made of (when fixed for every trial)
+CONDITIONS = ("speed", "limb_rotation")
 #: a speed span, m/s (low == high for one fixed speed)
 Speeds = tuple[float, float]
 #: a rotation span about an axis, degrees (low == high for one fixed rotation)
