@@ -450,7 +450,6 @@ def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
     assert set(result.as_metrics()) >= {"rmse", "zero_rmse", "ratio"}
 
 
-
 def test_a_group_scored_from_one_pass_is_the_group_scored_alone(trained):
     """`eval` runs the split through the network once and scores each outcome from the
     sequences' kept figures: the same as running that group by itself."""
@@ -464,6 +463,7 @@ def test_a_group_scored_from_one_pass_is_the_group_scored_alone(trained):
         for name, value in asdict(each.scores(mask)).items():
             assert value == pytest.approx(getattr(alone, name), rel=1e-6), name
     assert each.scores(np.zeros(6, bool)).n == 0
+
 
 # -- model files -------------------------------------------------------------------------
 @pytest.fixture
