@@ -62,6 +62,13 @@ class Task(StrEnum):
 #: model trained on `generate`'s defaults has seen, which `infer` checks a trial against.
 SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
 
+#: Limb offsets (m) drawn per trial, +- these per axis, the paper's ranges (`random_spec`).
+#: The paper's (x, y, z) numbers are applied to our (x, y, z), but its y is up
+#: (`PAPER_AXES`), so our lateral and vertical ranges are crossed: the gown's arm moves
+#: +-20 cm sideways where the paper moved it +-20 cm up and down. Kept so until a
+#: simulator version regenerates every dataset (docs/experiments.md, "The paper's axes").
+OFFSET_RANGE = {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)}
+
 
 def task_of(value: Task | str, error: type[DresslogError]) -> Task:
     """`value` as a Task; otherwise `error` (the caller's family) naming it and the tasks."""

@@ -868,7 +868,10 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     assert card.init is not None and card.init.folders == folders
     assert card.trained_folders() == [folders[0], *folders]
     seen = trained_conditions(card)
-    assert seen == Conditions(((0.10, 0.15), (0.2, 0.2)), (("z", -15, 15),), unturned=True)
+    near_box = ((0.30, 0.30), (0.0, 0.0), (0.05, 0.05))
+    assert seen == Conditions(
+        ((0.10, 0.15), (0.2, 0.2)), (("z", -15, 15),), unturned=True, offsets=(near_box,)
+    )
     code, output = invoke("info", tuned)
     assert (
         code == 0
@@ -888,8 +891,9 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     assert trained_conditions(bundled) == DEFAULTS  # generate's
 
 
-#: The conditions of `generate`'s gown trials: speeds drawn over 10-15 cm/s, no rotation.
-DEFAULTS = Conditions(((0.10, 0.15),), (), True)
+#: The conditions of `generate`'s gown trials: speeds drawn over 10-15 cm/s, no rotation,
+#: limb offsets drawn over the paper's ranges.
+DEFAULTS = Conditions(((0.10, 0.15),), (), True, (((-0.05, 0.05), (-0.2, 0.2), (-0.1, 0.1)),))
 
 
 def test_a_card_before_format_4_gives_its_data_and_its_initial_models_as_not_recorded() -> None:
@@ -928,6 +932,14 @@ def test_the_conditions_a_model_was_not_trained_on_are_named() -> None:
     assert held({"speed": 0.2}, span).outside(DEFAULTS) == [
         "speed 0.2 m/s", "rotation about z -15...+15 deg",
     ]  # fmt: skip
+    far = {"limb_offset": [0.01, 0.35, -0.02]}
+    assert held(far).outside(DEFAULTS) == ["limb offset y +0.35 m (trained on y -0.2...+0.2)"]
+    assert held({"limb_offset": [0.01, 0.15, -0.02]}).outside(DEFAULTS) == []
+    assert held().outside(held(far)) == [
+        "limb offset x -0.05...+0.05, y -0.2...+0.2, z -0.1...+0.1 m "
+        "(trained on x +0.01, y +0.35, z -0.02)"
+    ]
+    assert held(far).describe() == held().describe()  # named only when outside
     assert held(z15).describe() == "speeds 0.1-0.15 m/s; the limb turned about z -15 deg"
     assert combined([held(), held(z15)]).describe() == (  # the README's fine-tuning
         "speeds 0.1-0.15 m/s; the limb unturned or turned about z -15 deg"

@@ -478,15 +478,21 @@ def test_a_simulated_trial_far_from_a_models_training_names_the_training(tmp_pat
 def test_a_simulated_trial_at_a_speed_or_pose_the_model_never_saw_is_warned_about(
     tmp_path: Path, monkeypatch
 ) -> None:
-    """`record --speed 0.2` or `--rotation z -15`, then `infer` with the bundled model:
-    the signal lies in range, so nothing said that the estimate is a generalisation; the
-    sample trial, drawn as the model's own training trials, gets no warning."""
+    """`record --speed 0.2`, `--rotation z -15` or `--offset 0 0.35 0`, then `infer` with
+    the bundled model: the signal lies in range, so nothing said that the estimate is a
+    generalisation; the sample trial, drawn as the model's own training trials, gets no
+    warning."""
     monkeypatch.delenv(MODELS_ENV, raising=False)
     runner = CliRunner()
     trained = "speeds 0.1-0.15 m/s, the limb never turned"
     for name, option, outside in (
         ("fast", ["--speed", "0.2"], "speed 0.2 m/s"),
         ("turned", ["--rotation", "z", "-15"], "rotation about z -15 deg"),
+        (
+            "aside",
+            ["--offset", "0", "0.35", "0"],
+            "limb offset y +0.35 m (trained on y -0.2...+0.2)",
+        ),
     ):
         trial = tmp_path / f"{name}.mcap"
         args = ["record", "--task", "gown", "--seed", "4", "--duration", "1", *option]

@@ -68,7 +68,8 @@ class EvalReport:
         )
         rows = [("all", self.overall), *((o, s) for o, s in self.per_outcome.items() if s.n)]
         lines = [self.headline()]
-        if self.conditions == self.trained:
+        # an offset outside the training's is named on the `outside` line alone
+        if self.conditions == self.trained and not self.outside:
             lines.append(f"trials    {self.conditions}, as the model was trained on")
         else:
             lines += [f"trials    {self.conditions}", f"trained   {self.trained}"]

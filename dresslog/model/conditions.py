@@ -1,8 +1,9 @@
-"""The speeds and limb rotations of a model's training trials, and of other trials.
+"""The speeds, limb rotations and limb offsets of a model's training trials, and of others.
 
 `sweep` shades the model's on its plot; `eval` says when a dataset's lie outside them,
-and `infer` when a simulated trial's does, so an error measured on rotated or faster
-trials is not read as the model's fit.
+and `infer` when a simulated trial's does, so an error measured on rotated, faster or
+displaced trials is not read as the model's fit. Offsets are named only when outside:
+every folder `generate` makes draws them over the paper's ranges.
 """
 
 from __future__ import annotations
@@ -12,24 +13,35 @@ from dataclasses import dataclass
 from typing import Any
 
 from dresslog.model.files import ModelCard
-from dresslog.spec import SPEED_RANGE, LimbRotation, RotationRange, Task, TrialSpec
+from dresslog.spec import (
+    OFFSET_RANGE,
+    SPEED_RANGE,
+    LimbRotation,
+    RotationRange,
+    Task,
+    TrialSpec,
+)
 
-#: the spec fields a folder's conditions are made of (when fixed for every trial)
+#: the spec fields `describe` says when fixed for every trial (offsets are named only
+#: when outside)
 CONDITIONS = ("speed", "limb_rotation")
 #: a speed span, m/s (low == high for one fixed speed)
 Speeds = tuple[float, float]
 #: a rotation span about an axis, degrees (low == high for one fixed rotation)
 Turn = tuple[str, float, float]
+#: a limb offset box, m: (low, high) along x, y and z (low == high for a fixed offset)
+Box = tuple[tuple[float, float], ...]
 
 
 @dataclass(frozen=True)
 class Conditions:
-    """What a set of trials held: speed spans, rotation spans, and whether some trials
-    had the limb unturned (a span through 0 deg holds those too)."""
+    """What a set of trials held: speed spans, rotation spans, whether some trials had
+    the limb unturned (a span through 0 deg holds those too), and limb offset boxes."""
 
     speeds: tuple[Speeds, ...]
     rotations: tuple[Turn, ...]
     unturned: bool
+    offsets: tuple[Box, ...]
 
     def describe(self) -> str:
         """`speeds 0.1-0.15 m/s, the limb never turned`, as a sweep's line and eval say it."""
@@ -48,6 +60,11 @@ class Conditions:
             f"rotation about {axis} {_turn(lo, hi)} deg"
             for axis, lo, hi in self.rotations
             if not trained.turns(axis, lo, hi)
+        ]
+        missing += [
+            _offset_outside(box, trained.offsets)
+            for box in self.offsets
+            if not any(_within(box, other) for other in trained.offsets)
         ]
         return missing
 
@@ -72,12 +89,30 @@ def describe(speeds: Iterable[Speeds], rotations: Iterable[Turn], *, unturned: b
     return f"speeds {said} m/s; the limb {'unturned or ' * unturned}turned {turned} deg"
 
 
+def _within(box: Box, other: Box) -> bool:
+    return all(a <= lo and hi <= b for (lo, hi), (a, b) in zip(box, other, strict=True))
+
+
+def _offset_outside(box: Box, trained: tuple[Box, ...]) -> str:
+    """`limb offset y +0.35 m (trained on y -0.2...+0.2)`: the axes on which `box` leaves
+    the span of every trained box (all three if none alone holds it)."""
+    hull = [(min(b[k][0] for b in trained), max(b[k][1] for b in trained)) for k in range(3)]
+    out = [k for k in range(3) if box[k][0] < hull[k][0] or box[k][1] > hull[k][1]] or [0, 1, 2]
+    said = ", ".join(f"{'xyz'[k]} {_metres(*box[k])}" for k in out)
+    drew = ", ".join(f"{'xyz'[k]} {_metres(*hull[k])}" for k in out)
+    return f"limb offset {said} m (trained on {drew})"
+
+
 def _span(low: float, high: float) -> str:
     return f"{low:g}" if low == high else f"{low:g}-{high:g}"
 
 
 def _turn(low: float, high: float) -> str:
     return f"{low:+g}" if low == high else f"{low:+g}...{high:+g}"
+
+
+def _metres(low: float, high: float) -> str:
+    return f"{low:+.3g}" if low == high else f"{low:+.3g}...{high:+.3g}"
 
 
 def folder_conditions(
@@ -95,10 +130,15 @@ def folder_conditions(
             rotations.append((turned.axis, turned.degrees, turned.degrees))
     if rotation_range is not None:
         rotations.append((rotation_range.axis, rotation_range.low, rotation_range.high))
+    if (offset := fixed.get("limb_offset")) is None:  # drawn over the paper's ranges
+        box = tuple((-r, r) for r in OFFSET_RANGE[task])
+    else:
+        box = tuple((float(v), float(v)) for v in offset)
     return Conditions(
         speeds=(SPEED_RANGE[task] if speed is None else (speed, speed),),
         rotations=tuple(rotations),
         unturned=not rotations,
+        offsets=(box,),
     )
 
 
@@ -109,6 +149,7 @@ def combined(conditions: Iterable[Conditions]) -> Conditions:
         speeds=tuple(sorted({s for c in parts for s in c.speeds})),
         rotations=tuple(sorted({r for c in parts for r in c.rotations})),
         unturned=any(c.unturned for c in parts),
+        offsets=tuple(sorted({b for c in parts for b in c.offsets})),
     )
 
 
@@ -123,5 +164,6 @@ def trained_conditions(card: ModelCard) -> Conditions:
 
 def spec_conditions(spec: TrialSpec) -> Conditions:
     """The conditions of one simulated trial, from its spec."""
-    turned = spec.limb_rotation.model_dump()
-    return folder_conditions(spec.task, {"speed": spec.speed, "limb_rotation": turned}, None)
+    fixed = {"speed": spec.speed, "limb_rotation": spec.limb_rotation.model_dump(),
+             "limb_offset": spec.limb_offset}  # fmt: skip
+    return folder_conditions(spec.task, fixed, None)

@@ -11,14 +11,7 @@ from pydantic import ValidationError
 
 from dresslog.errors import SimulationError, first_problem
 from dresslog.sim.trajectory import random_control_points
-from dresslog.spec import SPEED_RANGE, Task, TrialSpec, task_of
-
-#: Limb offset ranges (m) of the paper, per axis (its speeds: `SPEED_RANGE`). The paper's
-#: (x, y, z) numbers are applied to our (x, y, z), but its y is up (`PAPER_AXES`), so
-#: our lateral and vertical ranges are crossed: the gown's arm moves +-20 cm sideways
-#: where the paper moved it +-20 cm up and down. Kept so until a simulator version
-#: regenerates every dataset (docs/experiments.md, "The paper's axes").
-OFFSET_RANGE = {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)}
+from dresslog.spec import OFFSET_RANGE, SPEED_RANGE, Task, TrialSpec, task_of
 
 
 def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
