@@ -35,7 +35,7 @@ from dresslog.experiments import (
 from dresslog.experiments.evaluation import data_conditions
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
-from dresslog.model.conditions import Conditions, combined, trained_conditions
+from dresslog.model.conditions import Conditions, combined, spec_conditions, trained_conditions
 from dresslog.model.evaluate import ErrorProfile, evaluate
 from dresslog.model.files import (
     CARD_FILE,
@@ -49,6 +49,7 @@ from dresslog.model.files import (
 )
 from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.plots import eval_figure, plot_sweep, sweep_figure, sweep_lines, training_figure
+from dresslog.sim.specs import random_spec
 from dresslog.spec import RotationRange, Task
 from tests.conftest import SAMPLES, prints_warnings
 
@@ -870,7 +871,7 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     seen = trained_conditions(card)
     near_box = ((0.30, 0.30), (0.0, 0.0), (0.05, 0.05))
     assert seen == Conditions(
-        ((0.10, 0.15), (0.2, 0.2)), (("z", -15, 15),), unturned=True, offsets=(near_box,)
+        ((0.10, 0.15), (0.2, 0.2)), (("z", -15, 15),), True, (near_box,), durations=(1.5,)
     )
     code, output = invoke("info", tuned)
     assert (
@@ -892,8 +893,10 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
 
 
 #: The conditions of `generate`'s gown trials: speeds drawn over 10-15 cm/s, no rotation,
-#: limb offsets drawn over the paper's ranges.
-DEFAULTS = Conditions(((0.10, 0.15),), (), True, (((-0.05, 0.05), (-0.2, 0.2), (-0.1, 0.1)),))
+#: limb offsets drawn over the paper's ranges, 7 s long.
+DEFAULTS = Conditions(
+    ((0.10, 0.15),), (), True, (((-0.05, 0.05), (-0.2, 0.2), (-0.1, 0.1)),), (7.0,)
+)
 
 
 def test_a_card_before_format_4_gives_its_data_and_its_initial_models_as_not_recorded() -> None:
@@ -940,6 +943,10 @@ def test_the_conditions_a_model_was_not_trained_on_are_named() -> None:
         "(trained on x +0.01, y +0.35, z -0.02)"
     ]
     assert held(far).describe() == held().describe()  # named only when outside
+    assert held({"duration": 20}).outside(DEFAULTS) == ["duration 20 s (trained on 7 s)"]
+    assert held({"duration": 1.5}).outside(DEFAULTS) == []  # a shorter trial: a prefix
+    long = spec_conditions(random_spec("gown", 4, duration=7.5))  # what `infer` checks
+    assert long.outside(DEFAULTS) == ["duration 7.5 s (trained on 7 s)"]
     assert held(z15).describe() == "speeds 0.1-0.15 m/s; the limb turned about z -15 deg"
     assert combined([held(), held(z15)]).describe() == (  # the README's fine-tuning
         "speeds 0.1-0.15 m/s; the limb unturned or turned about z -15 deg"

@@ -1,9 +1,11 @@
-"""The speeds, limb rotations and limb offsets of a model's training trials, and of others.
+"""The speeds, limb rotations, limb offsets and durations of a model's training trials,
+and of others.
 
 `sweep` shades the model's on its plot; `eval` says when a dataset's lie outside them,
-and `infer` when a simulated trial's does, so an error measured on rotated, faster or
-displaced trials is not read as the model's fit. Offsets are named only when outside:
-every folder `generate` makes draws them over the paper's ranges.
+and `infer` when a simulated trial's does, so an error measured on rotated, faster,
+displaced or longer trials is not read as the model's fit. Offsets and durations are
+named only when outside: every folder `generate` makes draws the offsets over the
+paper's ranges, and most keep the spec's 7 s.
 """
 
 from __future__ import annotations
@@ -22,13 +24,15 @@ from dresslog.spec import (
     TrialSpec,
 )
 
-#: the spec fields `describe` says when fixed for every trial (offsets are named only
-#: when outside)
+#: the spec fields `describe` says when fixed for every trial (offsets and durations are
+#: named only when outside)
 CONDITIONS = ("speed", "limb_rotation")
 #: a speed span, m/s (low == high for one fixed speed)
 Speeds = tuple[float, float]
 #: a rotation span about an axis, degrees (low == high for one fixed rotation)
 Turn = tuple[str, float, float]
+#: the duration of a trial whose spec does not set one, s
+DURATION: float = TrialSpec.model_fields["duration"].default
 #: a limb offset box, m: (low, high) along x, y and z (low == high for a fixed offset)
 Box = tuple[tuple[float, float], ...]
 
@@ -36,12 +40,14 @@ Box = tuple[tuple[float, float], ...]
 @dataclass(frozen=True)
 class Conditions:
     """What a set of trials held: speed spans, rotation spans, whether some trials had
-    the limb unturned (a span through 0 deg holds those too), and limb offset boxes."""
+    the limb unturned (a span through 0 deg holds those too), limb offset boxes, and
+    durations (s)."""
 
     speeds: tuple[Speeds, ...]
     rotations: tuple[Turn, ...]
     unturned: bool
     offsets: tuple[Box, ...]
+    durations: tuple[float, ...]
 
     def describe(self) -> str:
         """`speeds 0.1-0.15 m/s, the limb never turned`, as a sweep's line and eval say it."""
@@ -66,6 +72,8 @@ class Conditions:
             for box in self.offsets
             if not any(_within(box, other) for other in trained.offsets)
         ]
+        if max(self.durations) > (longest := max(trained.durations)):  # shorter: a prefix
+            missing.append(f"duration {max(self.durations):g} s (trained on {longest:g} s)")
         return missing
 
     @property
@@ -139,6 +147,7 @@ def folder_conditions(
         rotations=tuple(rotations),
         unturned=not rotations,
         offsets=(box,),
+        durations=(float(fixed.get("duration", DURATION)),),
     )
 
 
@@ -150,6 +159,7 @@ def combined(conditions: Iterable[Conditions]) -> Conditions:
         rotations=tuple(sorted({r for c in parts for r in c.rotations})),
         unturned=any(c.unturned for c in parts),
         offsets=tuple(sorted({b for c in parts for b in c.offsets})),
+        durations=tuple(sorted({d for c in parts for d in c.durations})),
     )
 
 
@@ -165,5 +175,5 @@ def trained_conditions(card: ModelCard) -> Conditions:
 def spec_conditions(spec: TrialSpec) -> Conditions:
     """The conditions of one simulated trial, from its spec."""
     fixed = {"speed": spec.speed, "limb_rotation": spec.limb_rotation.model_dump(),
-             "limb_offset": spec.limb_offset}  # fmt: skip
+             "limb_offset": spec.limb_offset, "duration": spec.duration}  # fmt: skip
     return folder_conditions(spec.task, fixed, None)
