@@ -88,7 +88,7 @@ def _dataset(path: Path, as_json: bool) -> Description:
         remaking,
         warn_if_incomplete,
     )
-    from dresslog.model.conditions import CONDITIONS, folder_conditions
+    from dresslog.model.conditions import DESCRIBED_FIELDS, folder_conditions
 
     manifest = load_manifest(path)
     warn_if_incomplete(path, manifest)
@@ -103,7 +103,7 @@ def _dataset(path: Path, as_json: bool) -> Description:
     held = folder_conditions(manifest.task, manifest.overrides, manifest.rotation_range)
     # the speeds and rotations in the words `info MODEL`'s `trained` line and `eval` use
     lines = [f"{path}: {manifest.describe()}", f"  trials    {held.describe()}"]
-    others = {k: v for k, v in manifest.overrides.items() if k not in CONDITIONS}
+    others = {k: v for k, v in manifest.overrides.items() if k not in DESCRIBED_FIELDS}
     if others:  # what else sets this dataset apart (short trials)
         fixed = ", ".join(f"{k}={json.dumps(v)}" for k, v in others.items())
         lines.append(f"  fixed for every trial: {fixed}")

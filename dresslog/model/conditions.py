@@ -26,7 +26,7 @@ from dresslog.spec import (
 
 #: the spec fields `describe` says when fixed for every trial (offsets and durations are
 #: named only when outside)
-CONDITIONS = ("speed", "limb_rotation")
+DESCRIBED_FIELDS = ("speed", "limb_rotation")
 #: a speed span, m/s (low == high for one fixed speed)
 Speeds = tuple[float, float]
 #: a rotation span about an axis, degrees (low == high for one fixed rotation)
