@@ -11,11 +11,12 @@ uint32 seq in the header, no encapsulation, no alignment) by `ros1_dtype`.
 
 from __future__ import annotations
 
+from array import array
 from collections import Counter
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path, PurePath
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
@@ -131,23 +132,25 @@ def decode(
 # -- ROS 1 fast path ---------------------------------------------------------------------
 
 
-def _ros1_messages(reader: Any, connections: list) -> dict[str, tuple[list[int], list]] | None:
-    """Raw ROS 1 messages per topic, cut from each decompressed chunk by rosbags' own index.
+def _ros1_messages(reader: Any, sinks: Mapping[str, Sink]) -> bool:
+    """Feed each topic's raw ROS 1 messages to its sink, cut from each decompressed chunk
+    by rosbags' own index; False if the bag's layout surprised it (then nothing is fed but
+    what went before, and the caller starts over on rosbags' per-message path).
 
     rosbags parses a record header per message (about 10 us each); here each
     chunk is read once and payloads are sliced at the indexed offsets. This
-    leans on rosbags' reader internals (`indexes`, `chunks`), so any surprise
-    returns None and the caller takes the ordinary per-message path.
+    leans on rosbags' reader internals (`indexes`, `chunks`).
     """
     try:
         bio, chunks, indexes = reader.bio, reader.chunks, reader.indexes
         by_chunk: dict[int, list[tuple[int, int, str]]] = {}
-        for connection in connections:
+        for connection in reader.connections:
+            if connection.topic not in sinks:
+                continue
             for entry in indexes[connection.id]:
                 by_chunk.setdefault(entry.chunk_pos, []).append(
                     (entry.time, entry.offset, connection.topic)
                 )
-        out: dict[str, tuple[list[int], list]] = {c.topic: ([], []) for c in connections}
         for position in sorted(by_chunk):
             chunk = chunks[position]
             bio.seek(chunk.datapos)
@@ -156,17 +159,86 @@ def _ros1_messages(reader: Any, connections: list) -> dict[str, tuple[list[int],
                 header_len = int.from_bytes(data[offset : offset + 4], "little")
                 start = offset + 4 + header_len
                 if b"op=\x02" not in data[offset + 4 : start]:
-                    return None
+                    return False
                 size = int.from_bytes(data[start : start + 4], "little")
-                times, payloads = out[topic]
-                times.append(t_ns)
-                payloads.append(data[start + 4 : start + 4 + size])
+                sinks[topic].add(t_ns, data[start + 4 : start + 4 + size])
     except (AttributeError, KeyError, TypeError, ValueError, OSError):
-        return None
-    for topic, (times, payloads) in out.items():  # log-time order, as rosbags would yield
-        order = np.argsort(np.asarray(times, dtype=np.int64), kind="stable").tolist()
-        out[topic] = ([times[i] for i in order], [payloads[i] for i in order])
-    return out
+        return False
+    return True
+
+
+# -- topics read into sinks ------------------------------------------------------------
+
+
+#: Messages of a wrench, twist or pose topic decoded at a time while a bag is read, so
+#: that a long log's payloads are never all held at once (2 million Python bytes objects
+#: for 30 minutes at 1 kHz).
+BLOCK = 65_536
+
+
+class Sink(Protocol):
+    def add(self, t_ns: int, raw: bytes) -> None: ...
+
+
+class RawTopic:
+    """A topic's receive times and raw payloads, kept as read (tf, decoded as a whole)."""
+
+    def __init__(self) -> None:
+        self.times: list[int] = []
+        self.payloads: list[bytes] = []
+
+    def add(self, t_ns: int, raw: bytes) -> None:
+        self.times.append(t_ns)
+        self.payloads.append(raw)
+
+    def ordered(self) -> tuple[list[int], list[bytes]]:
+        """Times and payloads in log-time order, as rosbags yields them."""
+        order = np.argsort(np.asarray(self.times, dtype=np.int64), kind="stable").tolist()
+        return [self.times[i] for i in order], [self.payloads[i] for i in order]
+
+
+class DecodedTopic:
+    """A wrench, twist or pose topic decoded `BLOCK` messages at a time as it is read."""
+
+    def __init__(self, kind: str, topic: str, path: Path, *, ros1: bool) -> None:
+        self.kind, self.topic, self.path, self.ros1 = kind, topic, path, ros1
+        self.logged = array("q")
+        self.pending: list[bytes] = []
+        self.blocks: list[tuple[np.ndarray, np.ndarray]] = []
+        self.frame_id = ""
+
+    def add(self, t_ns: int, raw: bytes) -> None:
+        self.logged.append(t_ns)
+        self.pending.append(raw)
+        if len(self.pending) >= BLOCK:
+            self._decode()
+
+    def _decode(self) -> None:
+        try:
+            stamps, values, frame_id = decode(self.kind, self.pending, ros1=self.ros1)
+        except ValueError as err:
+            raise ConversionError(
+                f"topic {self.topic}: message does not match {MESSAGE_TYPES[self.kind]}: {err}",
+                path=self.path,
+            ) from None
+        self.blocks.append((stamps, values))
+        self.frame_id = self.frame_id or frame_id
+        self.pending = []
+
+    def ordered(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+        """Receive times, header stamps (int64 ns), values (T, width) in log-time order, and
+        the first frame_id."""
+        if self.pending:
+            self._decode()
+        logged = np.frombuffer(self.logged, dtype=np.int64)
+        order = np.argsort(logged, kind="stable")
+        stamps = np.concatenate([b[0] for b in self.blocks]) if self.blocks else logged[:0]
+        values = (
+            np.concatenate([b[1] for b in self.blocks])
+            if self.blocks
+            else np.zeros((0, WIDTHS[self.kind]))
+        )
+        return logged[order], stamps[order], values[order], self.frame_id
 
 
 # -- topics --------------------------------------------------------------------------------
@@ -401,17 +473,29 @@ def tf_topics_of(types: dict[str, str], empty: Collection[str] = ()) -> list[str
     return sorted(t for t, m in types.items() if m == tf.TF_TYPE and t not in empty)
 
 
+def read_into(reader: Any, make_sinks: Callable[[], Mapping[str, Sink]]) -> None:
+    """Feed each wanted topic's messages to its sink (`make_sinks()`, keyed by topic), by
+    the ROS 1 fast path where it holds, else rosbags' own per-message path (on sinks made
+    anew: the fast path may have fed some before its surprise)."""
+    if not reader.is2 and _ros1_messages(reader.readers[0], make_sinks()):
+        return
+    sinks = make_sinks()
+    connections = [c for c in reader.connections if c.topic in sinks]
+    for connection, t_ns, raw in reader.messages(connections=connections):
+        sinks[connection.topic].add(t_ns, raw)
+
+
 def read_topics(reader: Any, topics: set[str]) -> dict[str, tuple[list[int], list]]:
-    """Each topic's receive times and raw payloads."""
-    connections = [c for c in reader.connections if c.topic in topics]
-    buckets = _ros1_messages(reader.readers[0], connections) if not reader.is2 else None
-    if buckets is None:  # rosbags' own per-message path
-        buckets = {t: ([], []) for t in topics}
-        for connection, t_ns, raw in reader.messages(connections=connections):
-            times, payloads = buckets[connection.topic]
-            times.append(t_ns)
-            payloads.append(raw)
-    return buckets
+    """Each topic's receive times and raw payloads, in log-time order."""
+    sinks: dict[str, RawTopic] = {}
+
+    def make_sinks() -> dict[str, RawTopic]:
+        sinks.clear()
+        sinks.update({t: RawTopic() for t in topics})
+        return sinks
+
+    read_into(reader, make_sinks)
+    return {topic: sink.ordered() for topic, sink in sinks.items()}
 
 
 def tf_edges(
@@ -462,24 +546,29 @@ def read_bag(
                 f"topics: {_listing(types)})",
                 path=path,
             )
-        buckets = read_topics(reader, set(chosen.values()) | set(tf_topics))
+
+        decoded: dict[str, DecodedTopic] = {}
+        raw: dict[str, RawTopic] = {}
+
+        def make_sinks() -> dict[str, Sink]:
+            decoded.clear()
+            decoded.update({t: DecodedTopic(k, t, path, ros1=ros1) for k, t in chosen.items()})
+            raw.clear()
+            raw.update({t: RawTopic() for t in tf_topics})
+            return {**decoded, **raw}
+
+        read_into(reader, make_sinks)
         if frames is not None:  # deserialised while the reader is open
-            edges = tf_edges(reader, tf_topics, buckets)
+            tf_read = {t: raw[t].ordered() for t in tf_topics}
+            edges = tf_edges(reader, tf_topics, tf_read)
     streams: dict[str, SourceStream] = {}
     if frames is not None:
         streams["pose"] = tf.pose_stream(edges, *frames, path, clock, notes)
-        streams["pose"].messages = sum(len(buckets[t][1]) for t in tf_topics)
+        streams["pose"].messages = sum(len(tf_read[t][1]) for t in tf_topics)
     for kind, topic in chosen.items():
-        log_ns, payloads = buckets[topic]
-        if not payloads:
+        logged, stamps, values, frame_id = decoded[topic].ordered()
+        if not len(logged):
             raise ConversionError(f"topic {topic} has no messages", path=path)
-        try:
-            stamps, values, frame_id = decode(kind, payloads, ros1=ros1)
-        except ValueError as err:
-            raise ConversionError(
-                f"topic {topic}: message does not match {MESSAGE_TYPES[kind]}: {err}", path=path
-            ) from None
-        logged = np.asarray(log_ns, dtype=np.int64)
         unset = stamps_unset(stamps)  # then the recording time stands in
         if clock == "log":
             if not unset and (swapped := int((np.diff(stamps) < 0).sum())):
