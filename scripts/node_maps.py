@@ -39,7 +39,7 @@ def main() -> None:
 
     from dresslog.dataset import load_dataset
     from dresslog.dataset.manifest import Split
-    from dresslog.model.evaluate import evaluate
+    from dresslog.model.evaluate import score_sequences
     from dresslog.model.numpy_lstm import NumpyEstimator
     from dresslog.model.train import train
 
@@ -68,7 +68,9 @@ def main() -> None:
             lr_schedule="cosine",
         )
         test_maps = [maps[r] for r in test_rows]
-        scores = evaluate(NumpyEstimator(weights), [phi[r] for r in test_rows], test_maps)
+        scores = score_sequences(
+            NumpyEstimator(weights), [phi[r] for r in test_rows], test_maps
+        ).scores()
         report[name] = {
             "ratio": scores.ratio,
             "rmse": scores.rmse,

@@ -36,7 +36,7 @@ from dresslog.experiments.evaluation import data_conditions
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, combined, spec_conditions, trained_conditions
-from dresslog.model.evaluate import ErrorProfile, evaluate
+from dresslog.model.evaluate import ErrorProfile, score_sequences
 from dresslog.model.files import (
     CARD_FILE,
     EpochRecord,
@@ -213,7 +213,9 @@ def test_eval_plots_where_along_the_limb_and_at_what_total_force_the_model_errs(
     arrays = load_dataset(data, progress=False)
     rows = arrays.rows("test")
     profile = ErrorProfile(arrays.n_points)
-    evaluate(load_model(model), arrays.sequences(rows), arrays.force_maps(rows), profile=profile)
+    score_sequences(
+        load_model(model), arrays.sequences(rows), arrays.force_maps(rows), profile=profile
+    )
     estimator = load_model(model).estimator()
     truths, estimates = [], []
     for phi, truth in zip(arrays.sequences(rows), arrays.force_maps(rows), strict=True):

@@ -17,7 +17,7 @@ from dresslog.errors import DatasetError, DresslogWarning
 from dresslog.io.files import atomic_path, check_output, printable
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, folder_conditions, trained_conditions
-from dresslog.model.evaluate import ErrorProfile, Scores, SequenceScores, evaluate, score_sequences
+from dresslog.model.evaluate import ErrorProfile, Scores, SequenceScores, score_sequences
 from dresslog.model.files import (
     LoadedModel,
     check_task,
@@ -145,7 +145,7 @@ def warn_no_force(where: str | Path, sequences: str, consequence: str, cure: str
 
 def score_rows(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
     """The model's scores on these rows of the dataset (a sweep's setting)."""
-    return evaluate(model, arrays.sequences(rows), arrays.force_maps(rows))
+    return score_sequences(model, arrays.sequences(rows), arrays.force_maps(rows)).scores()
 
 
 def evaluate_dataset(

@@ -13,7 +13,7 @@ from dresslog.dataset.manifest import MANIFEST_FILE, MIN_TRAIN
 from dresslog.errors import DatasetError, ModelError
 from dresslog.experiments.evaluation import check_data_task, warn_no_force
 from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
-from dresslog.model.evaluate import evaluate
+from dresslog.model.evaluate import score_sequences
 from dresslog.model.files import (
     TRAINING_PLOT,
     DataProvenance,
@@ -141,7 +141,7 @@ def train_dataset(
         metrics: dict[str, float] = {}
         test, test_forces, _ = _split_of(pooled, Split.TEST)
         if test:
-            scores = evaluate(NumpyEstimator(weights), test, test_forces)
+            scores = score_sequences(NumpyEstimator(weights), test, test_forces).scores()
             metrics = {f"test_{k}": v for k, v in scores.as_metrics().items()}
         hashes = [arrays.manifest_sha256 for arrays in pooled]
         provenance = DataProvenance(

@@ -2,10 +2,12 @@
 
 Public API
 ----------
-``evaluate(model, sequences, forces, *, batch_size=32, progress=False, profile=None) -> Scores``
+``score_sequences(model, sequences, forces, *, batch_size=32, progress=False, profile=None)
+-> SequenceScores``
     ``model``: a ``LoadedModel`` or ``NumpyEstimator``; ``sequences``: phi (T_i, 9);
     ``forces``: ground truth (T_i, N). Runs every sequence from a zero state (batched,
-    zero-padded at the end, which cannot change earlier outputs), applies Eq. 2, then:
+    zero-padded at the end, which cannot change earlier outputs), applies Eq. 2, and keeps
+    each sequence's figures; ``.scores(which=None)`` gives, for all or a group of them:
 ``Scores``: ``n`` (sequences), ``rmse`` (per-sequence RMSE averaged, N), ``zero_rmse`` (all-zero
     estimate), ``ratio`` (rmse / zero_rmse; the paper got 0.45 gown, 0.48 shorts),
     ``contact_precision`` / ``contact_recall`` (estimated contact = contact map > 0 vs
@@ -16,9 +18,6 @@ Public API
     ``as_metrics()`` gives the finite ones as a dict for ``ModelCard.metrics``.
     With ``profile`` (an ``ErrorProfile``), every step's truth and estimate are also added
     to it: where along the limb and at what total force the model errs (``eval --plot``).
-``score_sequences(...) -> SequenceScores``: the same pass, each sequence's figures kept, so
-    that any group of them is scored without running the network again
-    (``SequenceScores.scores(which)``; ``eval``'s outcomes, ``eval --per-sequence``).
 """
 
 from __future__ import annotations
@@ -148,21 +147,6 @@ class SequenceScores:
         )
 
 
-def evaluate(
-    model: LoadedModel | NumpyEstimator,
-    sequences: Sequence[np.ndarray],
-    forces: Sequence[np.ndarray],
-    *,
-    batch_size: int = 32,
-    progress: bool = False,
-    profile: ErrorProfile | None = None,
-) -> Scores:
-    """RMSE after Eq. 2, the all-zero baseline, their ratio and contact precision/recall."""
-    return score_sequences(
-        model, sequences, forces, batch_size=batch_size, progress=progress, profile=profile
-    ).scores()
-
-
 def score_sequences(
     model: LoadedModel | NumpyEstimator,
     sequences: Sequence[np.ndarray],
@@ -172,7 +156,9 @@ def score_sequences(
     progress: bool = False,
     profile: ErrorProfile | None = None,
 ) -> SequenceScores:
-    """`evaluate`'s pass, each sequence's figures kept: groups scored from one run."""
+    """Run every sequence through the model once (batched from a zero state), apply Eq. 2,
+    and keep each sequence's figures: `.scores()` gives the paper's numbers for all of
+    them, `.scores(which)` for any group, without running the network again."""
     from tqdm import tqdm
 
     est = model.estimator() if isinstance(model, LoadedModel) else model
