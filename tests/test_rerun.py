@@ -14,6 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
+from dresslog.errors import DresslogWarning
 from dresslog.io.reader import read_trial
 from dresslog.model import load_model
 from dresslog.replay import blueprint as bp
@@ -481,6 +482,32 @@ def test_record_live_streams_the_simulation_through_the_engine(tmp_path: Path) -
     assert f"Trial RMSE {metrics.rmse:.4g} N" in text and '"outcome"' not in text
     # a live view follows the newest step, as the viewer does unless told otherwise
     assert "play_state" not in time_panel(rrd)
+
+
+def test_record_live_warns_of_a_trial_the_model_was_not_trained_on(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`record --live --speed 0.25` shows the bundled model's estimate of a trial faster
+    than any it was trained on: said before the simulation starts, as `infer` says it."""
+    import rerun as rr
+
+    from dresslog.model.bundled import MODELS_ENV
+    from dresslog.replay.live import record_live
+    from dresslog.sim import random_spec
+
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+
+    rec = rr.RecordingStream("dresslog-test")
+    rec.save(tmp_path / "live.rrd")
+    trial = tmp_path / "fast.mcap"
+    spec = random_spec(Task.GOWN, 3, duration=0.05, speed=0.25)
+    with pytest.warns(DresslogWarning) as caught:
+        record_live(spec, trial, recording=rec)
+    rec.disconnect()
+    assert [str(w.message) for w in caught] == [
+        f"{trial}: outside the model's training (speeds 0.1-0.15 m/s, the limb never turned): "
+        "speed 0.25 m/s, so the estimate measures how it generalises"
+    ]
 
 
 #: 2024-12-03, in ns: a converted log's first stamp on the wall clock.

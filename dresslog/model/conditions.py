@@ -177,3 +177,16 @@ def spec_conditions(spec: TrialSpec) -> Conditions:
     fixed = {"speed": spec.speed, "limb_rotation": spec.limb_rotation.model_dump(),
              "limb_offset": spec.limb_offset, "duration": spec.duration}  # fmt: skip
     return folder_conditions(spec.task, fixed, None)
+
+
+def training_warning(spec: TrialSpec, card: ModelCard) -> str | None:
+    """What `infer` and `record --live` warn of for a simulated trial the model was not
+    trained on (`outside the model's training (speeds 0.1-0.15 m/s, the limb never
+    turned): speed 0.2 m/s, so ...`), or None for one within its training."""
+    trained = trained_conditions(card)
+    if not (outside := spec_conditions(spec).outside(trained)):
+        return None
+    return (
+        f"outside the model's training ({trained.describe()}): {'; '.join(outside)}, "
+        "so the estimate measures how it generalises"
+    )

@@ -99,17 +99,24 @@ def live_source(
     *,
     recording: rr.RecordingStream | None = None,
     connect: str | None = None,
+    spec: TrialSpec | None = None,
+    path: str | Path = "",
 ) -> SimulationSource:
     """What `dresslog record --live` passes to `simulate`: model (or bundled) -> live viewer.
 
-    Without a model (none given, none bundled) the live view shows ground truth alone.
+    Without a model (none given, none bundled) the live view shows ground truth alone. A
+    `spec` the model was not trained on (a faster speed, a turned limb) is warned of, as
+    `infer` warns of such a trial at `path`.
     """
     from dresslog.model.bundled import resolve_model
+    from dresslog.model.conditions import training_warning
     from dresslog.replay.rerun_sink import RerunSink
     from dresslog.replay.viewer import live_viewer
     from dresslog.spec import Task
 
     loaded = resolve_model(model, Task(task), None, required=False)
+    if loaded is not None and spec is not None and (outside := training_warning(spec, loaded.card)):
+        warnings.warn(f"{path}: {outside}", DresslogWarning, stacklevel=3)
     estimator = loaded.estimator() if loaded is not None else None
     rec = recording if recording is not None else live_viewer(task, connect=connect)
     sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS)
@@ -134,7 +141,7 @@ def record_live(
     """
     from dresslog.sim import record_trial
 
-    live = live_source(model, spec.task, recording=recording, connect=connect)
+    live = live_source(model, spec.task, recording=recording, connect=connect, spec=spec, path=path)
     result: SimResult | None = None
     try:
         with live:

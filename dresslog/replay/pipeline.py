@@ -18,7 +18,7 @@ from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
 from dresslog.io.reader import read_trial
 from dresslog.model.bundled import resolve_model
-from dresslog.model.conditions import spec_conditions, trained_conditions
+from dresslog.model.conditions import training_warning
 from dresslog.model.files import LoadedModel
 from dresslog.replay.engine import (
     Replay,
@@ -179,15 +179,9 @@ def replay_file(
         simulated = trial.metadata.spec is not None
         if far := loaded.unfamiliar(trial.measurements.phi, simulated=simulated):
             warnings.warn(f"{trial_path}: {far}", DresslogWarning, stacklevel=2)
-        elif spec := trial.metadata.spec:  # a signal in range can still come from a new pose
-            trained = trained_conditions(loaded.card)
-            if outside := spec_conditions(spec).outside(trained):
-                warnings.warn(
-                    f"{trial_path}: outside the model's training ({trained.describe()}): "
-                    f"{'; '.join(outside)}, so the estimate measures how it generalises",
-                    DresslogWarning,
-                    stacklevel=2,
-                )
+        elif (spec := trial.metadata.spec) and (outside := training_warning(spec, loaded.card)):
+            # a signal in range can still come from a new pose
+            warnings.warn(f"{trial_path}: {outside}", DresslogWarning, stacklevel=2)
     timings["load_model"] = clock() - t0
 
     metrics = MetricsSink()
