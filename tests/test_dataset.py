@@ -624,7 +624,7 @@ def test_info_on_a_dataset_names_its_conditions_and_the_spec_fields_fixed_for_ev
         "  trials    speeds 0.2 m/s; the limb turned about z +10 deg",
         "  fixed for every trial: duration=0.3",
     ], shown.output
-    shown = CliRunner().invoke(main, ["info", str(tmp_path / "e")])  # none fixed: no line
+    shown = CliRunner().invoke(main, ["info", str(tmp_path / "e")])  # none fixed: no such line
     assert shown.exit_code == 0 and shown.output.splitlines()[1:] == [
         "  trials    speeds 0.1-0.15 m/s, the limb never turned"
     ], shown.output

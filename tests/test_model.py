@@ -457,8 +457,8 @@ def test_a_group_scored_from_one_pass_is_the_group_scored_alone(trained):
     phis, forces = synthetic(6, seed=11)
     each = score_sequences(est, phis, forces, batch_size=4)
     for which in ([0, 2, 5], [1], [3, 4]):
-        alone = score_sequences(est, [phis[k] for k in which], [forces[k] for k in which])
-        alone = alone.scores()
+        group = [phis[k] for k in which], [forces[k] for k in which]
+        alone = score_sequences(est, *group).scores()
         mask = np.isin(np.arange(6), which)
         for name, value in asdict(each.scores(mask)).items():
             assert value == pytest.approx(getattr(alone, name), rel=1e-6), name
