@@ -25,6 +25,7 @@ from tests.conftest import SAMPLES, prints_warnings
 from tests.convert_signals import (
     YAW_RATE,
     pose,
+    quat_rotate,
     seconds_of,
     standard_topics,
     tf_topics,
@@ -545,6 +546,79 @@ def test_a_wrench_in_the_grippers_axes_is_turned_into_world_axes_by_the_pose(
     convert(bag, tmp_path / "offset.mcap", "gown", wrench_frame="pose", sensor_offset=offset)
     got = read_trial(tmp_path / "offset.mcap")
     np.testing.assert_allclose(got.wrench.values, want.wrench.values, atol=0.02)
+
+
+#: tool -> ft (static): a sensor 4 cm behind the tool centre and 3 cm aside, turned 90 deg
+#: about the tool's z, as a flange-mounted sensor's frame hangs off the tool frame
+SENSOR_IN_TOOL = (0.03, 0.0, -0.04, 0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4))
+
+
+@pytest.mark.parametrize("layout", ["ros1", "mcap"])
+def test_a_sensor_frame_the_tf_tree_fixes_on_the_gripper_places_the_wrench(
+    tmp_path: Path, layout: str
+) -> None:
+    """--pose-tf base:tool --wrench-frame pose, the wrench stamped in frame `ft`, which
+    /tf_static fixes on `tool`: its axes and origin come from the tree, as
+    --sensor-rotation and --sensor-offset would give them (which still win), and the
+    trial is the one of the same wrench logged in the tool's own frame."""
+    topics = tf_topics(2.0)
+    kind, stamps, at_tool = topics["/ft_sensor/wrench"]
+    for folder in ("t", "m"):
+        (tmp_path / folder).mkdir()
+    tool = make_bag(tmp_path / "t", topics, layout, frames={"/ft_sensor/wrench": "tool"})
+    options = {"pose_tf": "base:tool", "wrench_frame": "pose"}
+    plain = convert(tool, tmp_path / "tool.mcap", "gown", **options)
+    position, turn = np.asarray(SENSOR_IN_TOOL[:3]), np.asarray(SENSOR_IN_TOOL[3:])
+    back = turn * np.array([-1.0, -1.0, -1.0, 1.0])
+    at_sensor = np.concatenate(  # in the sensor's axes, the torque about its origin
+        [quat_rotate(back, at_tool[:, :3]),
+         quat_rotate(back, at_tool[:, 3:] - np.cross(position, at_tool[:, :3]))], axis=1,
+    )  # fmt: skip
+    _, latched, [fixed] = topics["/tf_static"]
+    topics["/tf_static"] = ("tf", latched, [[*fixed, ("tool", "ft", SENSOR_IN_TOOL)]])
+    topics["/ft_sensor/wrench"] = (kind, stamps, at_sensor)
+    mounted = make_bag(tmp_path / "m", topics, layout)  # frame `ft`
+    report = convert(mounted, tmp_path / "mounted.mcap", "gown", **options)
+    want = read_trial(tmp_path / "tool.mcap").wrench.values
+    np.testing.assert_allclose(read_trial(tmp_path / "mounted.mcap").wrench.values, want,
+                               atol=1e-9)  # fmt: skip
+    assert report.steps == plain.steps
+    assert report.source["notes"][-1] == (
+        "the wrench's frame ft is fixed on tool in the tf tree, at (+0.03, +0, -0.04) m "
+        "turned (+0, +0, +0.7071, +0.7071): taken as --sensor-offset and --sensor-rotation"
+    )
+    given = convert(mounted, tmp_path / "given.mcap", "gown", **options,
+                    sensor_offset=(0.0, 0.0, 0.0))  # fmt: skip
+    assert not any("tf tree" in note for note in given.source.get("notes", []))
+    assert np.abs(read_trial(tmp_path / "given.mcap").wrench.values - want).max() > 0.1
+
+
+def test_a_sensor_above_the_tool_or_beside_it_is_placed_by_the_fixed_links_between() -> None:
+    """The sensor's frame may hang below the tool's (as above), above it (flange -> ft ->
+    tool) or beside it (flange -> ft, flange -> tool): its place in the tool's frame is
+    the fixed links' between; a moving link between them, or a frame not in the tree,
+    gives none."""
+    from dresslog.convert.tf import Edge, static_mount
+
+    def edge(parent: str, child: str, pose, static: bool = True) -> Edge:
+        one = np.asarray([pose], dtype=float)
+        return Edge(parent, child, static, np.zeros(1, np.int64), np.zeros(1, np.int64), one)
+
+    quarter = (0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4))  # 90 deg about z
+    tool_in_ft = (0.0, 0.1, 0.0, *quarter)
+    above = {"ft": [edge("flange", "ft", (0, 0, 0.02, 0, 0, 0, 1))],
+             "tool": [edge("ft", "tool", tool_in_ft)]}  # fmt: skip
+    # ft in tool, the inverse of tool in ft: 10 cm back along the tool's x (ft's y), and
+    # turned back the quarter
+    np.testing.assert_allclose(static_mount(above, "tool", "ft"),
+                               [-0.1, 0, 0, 0, 0, -quarter[2], quarter[3]], atol=1e-12)  # fmt: skip
+    beside = {"ft": [edge("flange", "ft", (0, 0, 0.02, 0, 0, 0, 1))],
+              "tool": [edge("flange", "tool", (0, 0, 0.12, 0, 0, 0, 1))]}  # fmt: skip
+    np.testing.assert_allclose(static_mount(beside, "tool", "ft"), [0, 0, -0.1, 0, 0, 0, 1],
+                               atol=1e-12)  # fmt: skip
+    beside["tool"] = [edge("flange", "tool", (0, 0, 0.12, 0, 0, 0, 1), static=False)]
+    assert static_mount(beside, "tool", "ft") is None
+    assert static_mount(above, "tool", "camera") is None
 
 
 def test_naming_the_pose_topic_keeps_the_measured_twist(tmp_path: Path) -> None:

@@ -323,6 +323,10 @@ def convert(
     messages_in = source.message_count
     if wrench_frame == "pose":
         check_turnable(source)
+        mount = source.sensor_mount
+        if mount is not None and sensor_rotation is None and sensor_offset is None:
+            sensor_rotation, sensor_offset = mount.rotation, mount.offset
+            source.notes.append(mount.describe())
     if translate is not None and source.pose is None:
         raise ConversionError(
             "--translate moves the gripper's pose, which the log does not hold", path=path

@@ -133,7 +133,8 @@ def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     )
 
 
-def _conjugate(q: np.ndarray) -> np.ndarray:
+def conjugate(q: np.ndarray) -> np.ndarray:
+    """The inverse rotation of unit quaternions (x y z w)."""
     return q * np.array([-1.0, -1.0, -1.0, 1.0])
 
 
@@ -150,7 +151,7 @@ def twist_from_pose(t_ns: np.ndarray, pose: np.ndarray) -> np.ndarray:
     linear = np.gradient(pose[:, :3], seconds, axis=0, edge_order=order)
     quat = continuous_quaternions(normalize(pose[:, 3:7]))
     dquat = np.gradient(quat, seconds, axis=0, edge_order=order)
-    angular = 2.0 * multiply(dquat, _conjugate(quat))[:, :3]
+    angular = 2.0 * multiply(dquat, conjugate(quat))[:, :3]
     return np.concatenate([linear, angular], axis=1)
 
 

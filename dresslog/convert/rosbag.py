@@ -24,6 +24,7 @@ from dresslog.convert import tf
 from dresslog.convert.source import (
     MESSAGE_TYPES,
     WIDTHS,
+    SensorMount,
     Source,
     SourceStream,
     stamps_unset,
@@ -583,6 +584,9 @@ def read_bag(
         else:
             stream_clock = "header"
         streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, stream_clock, logged)
+    mount = None
+    if frames is not None and (sensor := streams["wrench"].frame_id.lstrip("/")):
+        mount = _mount(tf.static_mount(edges, frames[1], sensor), sensor, frames[1])
     return Source(
         path=path,
         format="ros1" if ros1 else "ros2",
@@ -590,4 +594,14 @@ def read_bag(
         twist=streams.get("twist"),
         pose=streams.get("pose"),
         notes=notes,
+        sensor_mount=mount,
     )
+
+
+def _mount(pose: np.ndarray | None, sensor: str, gripper: str) -> SensorMount | None:
+    """The tf tree's mount of the wrench's frame on the gripper, None where it has none or
+    it is no mount at all (the sensor's axes and origin the gripper's)."""
+    if pose is None or np.allclose(pose, [0, 0, 0, 0, 0, 0, 1], atol=1e-9, rtol=0):
+        return None
+    x, y, z, qx, qy, qz, qw = (float(v) for v in pose)
+    return SensorMount(sensor, gripper, (x, y, z), (qx, qy, qz, qw))

@@ -63,6 +63,27 @@ class SourceStream:
         return len(self.t_ns)
 
 
+@dataclass(frozen=True)
+class SensorMount:
+    """Where a bag's tf tree fixes the wrench's header frame in the gripper's frame: the
+    sensor's origin (m) and axes (x y z w) there, which `--wrench-frame pose` takes as
+    `--sensor-offset` and `--sensor-rotation` when neither is given."""
+
+    frame: str
+    gripper: str
+    offset: tuple[float, float, float]
+    rotation: tuple[float, float, float, float]
+
+    def describe(self) -> str:
+        offset = ", ".join(f"{v:+.4g}" for v in self.offset)
+        rotation = ", ".join(f"{v:+.4g}" for v in self.rotation)
+        return (
+            f"the wrench's frame {self.frame} is fixed on {self.gripper} in the tf tree, at "
+            f"({offset}) m turned ({rotation}): taken as --sensor-offset and "
+            "--sensor-rotation"
+        )
+
+
 @dataclass
 class Source:
     """The streams found in one external log, before resampling."""
@@ -75,6 +96,8 @@ class Source:
     notes: list[str] = field(default_factory=list)
     #: what reading found worth a warning (a CSV's last line cut off), for `convert` to report
     warnings: list[str] = field(default_factory=list)
+    #: where the tf tree fixes the wrench's sensor on the gripper (`--pose-tf`), if it does
+    sensor_mount: SensorMount | None = None
 
     @property
     def streams(self) -> list[SourceStream]:

@@ -151,6 +151,41 @@ def chain(edges: dict[str, list[Edge]], parent: str, child: str, path: Path) -> 
     return out
 
 
+def _fixed_above(edges: dict[str, list[Edge]], frame: str) -> dict[str, np.ndarray]:
+    """`frame` and each frame above it that fixed links alone reach, with `frame`'s pose
+    (1, 7) in it, nearest first."""
+    pose = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]])
+    out = {frame: pose}
+    while len(found := edges.get(frame, [])) == 1 and found[0].static:
+        pose, frame = _compose(found[0].values[-1:], pose), found[0].parent
+        if frame in out:  # a loop: `chain` names it where it matters
+            break
+        out[frame] = pose
+    return out
+
+
+def static_mount(edges: dict[str, list[Edge]], child: str, frame: str) -> np.ndarray | None:
+    """Where `frame` (a wrench's header frame) sits in `child` (the gripper's frame), as
+    position + quaternion (7,), if the tf tree fixes it there: both hang by fixed links
+    from one frame (a sensor on the gripper's flange, above or below its tool frame).
+    None if `frame` is not in the tree or a moving link parts them."""
+    over_child, over_frame = _fixed_above(edges, child), _fixed_above(edges, frame)
+    for common, frame_pose in over_frame.items():
+        if common in over_child:
+            child_pose = over_child[common]
+            inverse = np.concatenate(
+                [
+                    -rs.rotate_by_orientation(child_pose[:, :3], rs.conjugate(child_pose[:, 3:])),
+                    rs.conjugate(child_pose[:, 3:]),
+                ],
+                axis=1,
+            )
+            mount = _compose(inverse, frame_pose)[0]
+            mount[3:] = rs.normalize(mount[3:])
+            return mount
+    return None
+
+
 def _compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
     """Poses (T, 7) of `inner`'s frame through `outer`'s: where inner's child sits."""
     position = outer[:, :3] + rs.rotate_by_orientation(inner[:, :3], outer[:, 3:])
