@@ -972,15 +972,17 @@ def test_the_command_prints_gap_warnings(tmp_path: Path) -> None:
 def test_info_on_a_bag_shows_its_topics_what_convert_takes_and_its_tf_tree(
     tmp_path: Path, layout: str
 ) -> None:
-    """What `convert`'s options are chosen from: the topics, and the tf frames drawn as a
-    tree from the root, each static or moving, so that PARENT:CHILD can be read off it."""
-    bag = make_bag(tmp_path, tf_topics(1.0), layout)
+    """What `convert`'s options are chosen from: the topics, the wrench's frame, and the tf
+    frames drawn as a tree from the root, each static or moving, so that PARENT:CHILD
+    and --wrench-frame can be read off it."""
+    bag = make_bag(tmp_path, tf_topics(1.0), layout, frames={"/ft_sensor/wrench": "tool"})
     result = CliRunner().invoke(main, ["info", str(bag)])
     assert result.exit_code == 0, result.output
     lines = result.output.splitlines()
     assert re.match(r"log(\.bag)?: ROS [12] bag, 1101 messages over 1\.50 s$", lines[0]), lines[0]
     assert re.search(r"/tf_static +1  tf2_msgs/msg/TFMessage$", result.output, re.M)
     assert "  convert  takes wrench /ft_sensor/wrench; the pose needs --pose-tf" in result.output
+    assert "  wrench   in frame tool (in the tf tree below)\n" in result.output
     tree = lines[lines.index("  tf tree") + 1 :]
     assert tree == [
         "    world",
@@ -996,6 +998,11 @@ def test_info_on_a_bag_shows_its_topics_what_convert_takes_and_its_tf_tree(
         ("world", "base", True), ("base", "link1", False), ("base", "elbow", False),
         ("link1", "tool", True), ("world", "camera", True),
     }  # fmt: skip
+    assert listed["wrench_frame"] == "tool"
+    (tmp_path / "ft").mkdir()
+    elsewhere = make_bag(tmp_path / "ft", tf_topics(1.0), layout)  # the default frame `ft`
+    shown = CliRunner().invoke(main, ["info", str(elsewhere)])
+    assert "  wrench   in frame ft (not in the tf tree)\n" in shown.output, shown.output
 
 
 def test_info_on_a_bag_with_a_pose_topic_names_the_topics_convert_takes(tmp_path: Path) -> None:

@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from dresslog.convert import rosbag, tf
 from dresslog.convert.rosbag import opened_bag
+from dresslog.convert.source import MESSAGE_TYPES
 from dresslog.errors import ConversionError
 from dresslog.io import well_known as wk
 from dresslog.io.reader import file_summary
@@ -56,6 +58,7 @@ def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
         tf_topics = rosbag.tf_topics_of(types, empty)
         buckets = rosbag.read_topics(reader, set(tf_topics)) if tf_topics else {}
         edges = rosbag.tf_edges(reader, tf_topics, buckets) if tf_topics else {}
+        sensor = _wrench_frame(reader, types, empty)
     choice = (
         _default_choice(types, empty, path, bool(edges))
         if total
@@ -68,6 +71,7 @@ def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
                 "topics": [{"topic": t, "type": types[t], "messages": counts[t]}
                            for t in sorted(types)],
                 "convert": choice,
+                "wrench_frame": sensor,
                 "tf": [{"parent": e.parent, "child": e.child, "static": e.static,
                         "transforms": len(e.t_ns)} for found in edges.values() for e in found],
             },
@@ -79,10 +83,36 @@ def describe_bag(path: str | Path, *, as_json: bool = False) -> str:
     width = max((len(t) for t in types), default=0)
     lines += [f"    {t:<{width}}  {counts[t]:>7}  {types[t]}" for t in sorted(types)]
     lines.append(f"  convert  {choice}")
+    if sensor is not None:
+        lines.append(f"  wrench   in frame {sensor or '(none named)'}{_placed(sensor, edges)}")
     if edges:
         lines.append("  tf tree")
         lines += [f"    {line}" for line in _tree(edges)]
     return "\n".join(lines)
+
+
+def _wrench_frame(reader: Any, types: dict[str, str], empty: frozenset[str]) -> str | None:
+    """The header frame of the first message of the bag's one wrench topic (None if it
+    has none, or several): the sensor's axes, which `--wrench-frame` is chosen by."""
+    wrenches = [t for t, m in types.items() if m == MESSAGE_TYPES["wrench"] and t not in empty]
+    if len(wrenches) != 1:
+        return None
+    connections = [c for c in reader.connections if c.topic == wrenches[0]]
+    for _, _, raw in reader.messages(connections=connections):
+        try:
+            return rosbag.decode("wrench", [raw], ros1=not reader.is2)[2].lstrip("/")
+        except ValueError:  # `convert` names it
+            return None
+    return None
+
+
+def _placed(sensor: str, edges: dict[str, list[tf.Edge]]) -> str:
+    """Whether the wrench's frame is in the tf tree, which then places the sensor on the
+    gripper (`convert --wrench-frame pose` with `--pose-tf`)."""
+    if not edges or not sensor:
+        return ""
+    frames = {frame for found in edges.values() for e in found for frame in (e.parent, e.child)}
+    return " (in the tf tree below)" if sensor in frames else " (not in the tf tree)"
 
 
 def _default_choice(types: dict[str, str], empty: frozenset[str], path: Path, has_tf: bool) -> str:
