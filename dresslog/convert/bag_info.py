@@ -100,7 +100,7 @@ def _wrench_frame(reader: Any, types: dict[str, str], empty: frozenset[str]) -> 
     connections = [c for c in reader.connections if c.topic == wrenches[0]]
     for _, _, raw in reader.messages(connections=connections):
         try:
-            return rosbag.decode("wrench", [raw], ros1=not reader.is2)[2].lstrip("/")
+            return tf.frame_name(rosbag.decode("wrench", [raw], ros1=not reader.is2)[2])
         except ValueError:  # `convert` names it
             return None
     return None
@@ -111,8 +111,7 @@ def _placed(sensor: str, edges: dict[str, list[tf.Edge]]) -> str:
     gripper (`convert --wrench-frame pose` with `--pose-tf`)."""
     if not edges or not sensor:
         return ""
-    frames = {frame for found in edges.values() for e in found for frame in (e.parent, e.child)}
-    return " (in the tf tree below)" if sensor in frames else " (not in the tf tree)"
+    return " (in the tf tree below)" if sensor in tf.tree_frames(edges) else " (not in the tf tree)"
 
 
 def _default_choice(types: dict[str, str], empty: frozenset[str], path: Path, has_tf: bool) -> str:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.convert import resample as rs
+from dresslog.convert import tf
 from dresslog.convert.source import COMPONENTS, Source, SourceStream
 from dresslog.errors import ConversionError
 from dresslog.io import well_known as wk
@@ -271,7 +272,7 @@ def frames_differ(source: Source, wrench_frame: str, rotated: bool) -> str | Non
     frames = (source.wrench.frame_id, motion.frame_id if motion is not None else "")
     if not all(frames) or frames[0] == wk.FRAMES[wk.WRENCH]:  # a trial's own, world-aligned
         return None
-    same = frames[0].lstrip("/") == frames[1].lstrip("/")  # ROS 1's /base is base
+    same = tf.frame_name(frames[0]) == tf.frame_name(frames[1])  # ROS 1's /base is base
     if wrench_frame == "pose" and same:
         return (
             f"the wrench is in frame {frames[0]!r}, as the motion is: if that frame's axes "

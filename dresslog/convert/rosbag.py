@@ -585,7 +585,7 @@ def read_bag(
             stream_clock = "header"
         streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, stream_clock, logged)
     mount = None
-    if frames is not None and (sensor := streams["wrench"].frame_id.lstrip("/")):
+    if frames is not None and (sensor := tf.frame_name(streams["wrench"].frame_id)):
         mount = _mount(tf.static_mount(edges, frames[1], sensor), sensor, frames[1])
     return Source(
         path=path,
@@ -601,7 +601,7 @@ def read_bag(
 def _mount(pose: np.ndarray | None, sensor: str, gripper: str) -> SensorMount | None:
     """The tf tree's mount of the wrench's frame on the gripper, None where it has none or
     it is no mount at all (the sensor's axes and origin the gripper's)."""
-    if pose is None or np.allclose(pose, [0, 0, 0, 0, 0, 0, 1], atol=1e-9, rtol=0):
+    if pose is None or np.allclose(pose, tf.IDENTITY, atol=1e-9, rtol=0):
         return None
     x, y, z, qx, qy, qz, qw = (float(v) for v in pose)
     return SensorMount(sensor, gripper, (x, y, z), (qx, qy, qz, qw))

@@ -35,6 +35,8 @@ TF_TYPE = "tf2_msgs/msg/TFMessage"
 OPTION = "--pose-tf"
 #: Frames listed in an error: enough to spot the gripper's, not a screenful.
 LISTED_FRAMES = 12
+#: The pose (position, quaternion x y z w) of a frame in itself.
+IDENTITY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
 
 @dataclass
@@ -55,7 +57,7 @@ class Edge:
 def parse_frames(value: str, path: Path) -> tuple[str, str]:
     """PARENT and CHILD of `--pose-tf PARENT:CHILD`, without ROS 1's leading slashes."""
     parent, colon, child = value.partition(":")
-    parent, child = _frame(parent.strip()), _frame(child.strip())
+    parent, child = frame_name(parent.strip()), frame_name(child.strip())
     if not colon or not parent or not child or ":" in child:
         raise ConversionError(
             f"{OPTION} {value!r}: give PARENT:CHILD, the gripper's frame in the one its pose "
@@ -67,8 +69,14 @@ def parse_frames(value: str, path: Path) -> tuple[str, str]:
     return parent, child
 
 
-def _frame(name: str) -> str:
-    return name.lstrip("/")  # ROS 1's tf allowed "/base_link"; tf2 names it "base_link"
+def frame_name(name: str) -> str:
+    """A frame's name as tf2 gives it: ROS 1's tf allowed "/base_link", tf2 "base_link"."""
+    return name.lstrip("/")
+
+
+def tree_frames(edges: dict[str, list[Edge]]) -> set[str]:
+    """Every frame of the tf tree: each edge's child and parent."""
+    return set(edges) | {e.parent for found in edges.values() for e in found}
 
 
 def collect_edges(
@@ -85,7 +93,7 @@ def collect_edges(
         logged = np.asarray(log_ns, dtype=np.int64)
         for run in tfmessage.decode(payloads, deserialize, ros1=ros1):
             statics = np.full(len(run.message), static)
-            found.setdefault((_frame(run.parent), _frame(run.child)), []).append(
+            found.setdefault((frame_name(run.parent), frame_name(run.child)), []).append(
                 (read + run.message, run.slot, statics, run.t_ns, logged[run.message], run.values)
             )
         read += len(payloads)
@@ -121,7 +129,7 @@ def _listing(frames: set[str]) -> str:
 
 def chain(edges: dict[str, list[Edge]], parent: str, child: str, path: Path) -> list[Edge]:
     """The edges from `child` up to `parent`, child's own first."""
-    frames = set(edges) | {e.parent for found in edges.values() for e in found}
+    frames = tree_frames(edges)
     for frame in (child, parent):
         if frame not in frames:
             raise ConversionError(
@@ -154,7 +162,7 @@ def chain(edges: dict[str, list[Edge]], parent: str, child: str, path: Path) -> 
 def _fixed_above(edges: dict[str, list[Edge]], frame: str) -> dict[str, np.ndarray]:
     """`frame` and each frame above it that fixed links alone reach, with `frame`'s pose
     (1, 7) in it, nearest first."""
-    pose = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]])
+    pose = np.array([IDENTITY])
     out = {frame: pose}
     while len(found := edges.get(frame, [])) == 1 and found[0].static:
         pose, frame = _compose(found[0].values[-1:], pose), found[0].parent
