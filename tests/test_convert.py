@@ -596,9 +596,13 @@ def test_a_sensor_frame_the_tf_tree_fixes_on_the_gripper_places_the_wrench(
 def test_a_sensor_above_the_tool_or_beside_it_is_placed_by_the_fixed_links_between() -> None:
     """The sensor's frame may hang below the tool's (as above), above it (flange -> ft ->
     tool) or beside it (flange -> ft, flange -> tool): its place in the tool's frame is
-    the fixed links' between; a moving link between them, or a frame not in the tree,
-    gives none."""
-    from dresslog.convert.tf import Edge, static_mount
+    the fixed links' between; a moving link between them, a frame not in the tree, or
+    the tool's own frame gives none."""
+    from dresslog.convert.tf import Edge, sensor_mount
+
+    def placed(edges: dict[str, list[Edge]], frame: str) -> list[float] | None:
+        mount = sensor_mount(edges, "tool", frame)
+        return None if mount is None else [*mount.offset, *mount.rotation]
 
     def edge(parent: str, child: str, pose, static: bool = True) -> Edge:
         one = np.asarray([pose], dtype=float)
@@ -610,15 +614,16 @@ def test_a_sensor_above_the_tool_or_beside_it_is_placed_by_the_fixed_links_betwe
              "tool": [edge("ft", "tool", tool_in_ft)]}  # fmt: skip
     # ft in tool, the inverse of tool in ft: 10 cm back along the tool's x (ft's y), and
     # turned back the quarter
-    np.testing.assert_allclose(static_mount(above, "tool", "ft"),
+    np.testing.assert_allclose(placed(above, "ft"),
                                [-0.1, 0, 0, 0, 0, -quarter[2], quarter[3]], atol=1e-12)  # fmt: skip
     beside = {"ft": [edge("flange", "ft", (0, 0, 0.02, 0, 0, 0, 1))],
               "tool": [edge("flange", "tool", (0, 0, 0.12, 0, 0, 0, 1))]}  # fmt: skip
-    np.testing.assert_allclose(static_mount(beside, "tool", "ft"), [0, 0, -0.1, 0, 0, 0, 1],
+    np.testing.assert_allclose(placed(beside, "ft"), [0, 0, -0.1, 0, 0, 0, 1],
                                atol=1e-12)  # fmt: skip
     beside["tool"] = [edge("flange", "tool", (0, 0, 0.12, 0, 0, 0, 1), static=False)]
-    assert static_mount(beside, "tool", "ft") is None
-    assert static_mount(above, "tool", "camera") is None
+    assert placed(beside, "ft") is None
+    assert placed(above, "camera") is None
+    assert placed(above, "tool") is None  # the tool's own frame: no mount at all
 
 
 def test_naming_the_pose_topic_keeps_the_measured_twist(tmp_path: Path) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from array import array
 from collections import Counter
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path, PurePath
 from typing import Any, Literal, Protocol
@@ -24,7 +24,6 @@ from dresslog.convert import tf
 from dresslog.convert.source import (
     MESSAGE_TYPES,
     WIDTHS,
-    SensorMount,
     Source,
     SourceStream,
     stamps_unset,
@@ -179,6 +178,7 @@ BLOCK = 65_536
 
 class Sink(Protocol):
     def add(self, t_ns: int, raw: bytes) -> None: ...
+    def clear(self) -> None: ...
 
 
 class RawTopic:
@@ -192,6 +192,9 @@ class RawTopic:
         self.times.append(t_ns)
         self.payloads.append(raw)
 
+    def clear(self) -> None:
+        self.times, self.payloads = [], []
+
     def ordered(self) -> tuple[list[int], list[bytes]]:
         """Times and payloads in log-time order, as rosbags yields them."""
         order = np.argsort(np.asarray(self.times, dtype=np.int64), kind="stable").tolist()
@@ -203,6 +206,9 @@ class DecodedTopic:
 
     def __init__(self, kind: str, topic: str, path: Path, *, ros1: bool) -> None:
         self.kind, self.topic, self.path, self.ros1 = kind, topic, path, ros1
+        self.clear()
+
+    def clear(self) -> None:
         self.logged = array("q")
         self.pending: list[bytes] = []
         self.blocks: list[tuple[np.ndarray, np.ndarray]] = []
@@ -474,13 +480,14 @@ def tf_topics_of(types: dict[str, str], empty: Collection[str] = ()) -> list[str
     return sorted(t for t, m in types.items() if m == tf.TF_TYPE and t not in empty)
 
 
-def read_into(reader: Any, make_sinks: Callable[[], Mapping[str, Sink]]) -> None:
-    """Feed each wanted topic's messages to its sink (`make_sinks()`, keyed by topic), by
-    the ROS 1 fast path where it holds, else rosbags' own per-message path (on sinks made
-    anew: the fast path may have fed some before its surprise)."""
-    if not reader.is2 and _ros1_messages(reader.readers[0], make_sinks()):
+def read_into(reader: Any, sinks: Mapping[str, Sink]) -> None:
+    """Feed each wanted topic's messages to its sink (keyed by topic), by the ROS 1 fast
+    path where it holds, else rosbags' own per-message path (on sinks cleared: the fast
+    path may have fed some before its surprise)."""
+    if not reader.is2 and _ros1_messages(reader.readers[0], sinks):
         return
-    sinks = make_sinks()
+    for sink in sinks.values():
+        sink.clear()
     connections = [c for c in reader.connections if c.topic in sinks]
     for connection, t_ns, raw in reader.messages(connections=connections):
         sinks[connection.topic].add(t_ns, raw)
@@ -488,14 +495,8 @@ def read_into(reader: Any, make_sinks: Callable[[], Mapping[str, Sink]]) -> None
 
 def read_topics(reader: Any, topics: set[str]) -> dict[str, tuple[list[int], list]]:
     """Each topic's receive times and raw payloads, in log-time order."""
-    sinks: dict[str, RawTopic] = {}
-
-    def make_sinks() -> dict[str, RawTopic]:
-        sinks.clear()
-        sinks.update({t: RawTopic() for t in topics})
-        return sinks
-
-    read_into(reader, make_sinks)
+    sinks = {t: RawTopic() for t in topics}
+    read_into(reader, sinks)
     return {topic: sink.ordered() for topic, sink in sinks.items()}
 
 
@@ -547,18 +548,9 @@ def read_bag(
                 f"topics: {_listing(types)})",
                 path=path,
             )
-
-        decoded: dict[str, DecodedTopic] = {}
-        raw: dict[str, RawTopic] = {}
-
-        def make_sinks() -> dict[str, Sink]:
-            decoded.clear()
-            decoded.update({t: DecodedTopic(k, t, path, ros1=ros1) for k, t in chosen.items()})
-            raw.clear()
-            raw.update({t: RawTopic() for t in tf_topics})
-            return {**decoded, **raw}
-
-        read_into(reader, make_sinks)
+        decoded = {t: DecodedTopic(k, t, path, ros1=ros1) for k, t in chosen.items()}
+        raw = {t: RawTopic() for t in tf_topics}
+        read_into(reader, {**decoded, **raw})
         if frames is not None:  # deserialised while the reader is open
             tf_read = {t: raw[t].ordered() for t in tf_topics}
             edges = tf_edges(reader, tf_topics, tf_read)
@@ -586,7 +578,7 @@ def read_bag(
         streams[kind] = SourceStream(kind, topic, stamps, values, frame_id, stream_clock, logged)
     mount = None
     if frames is not None and (sensor := tf.frame_name(streams["wrench"].frame_id)):
-        mount = _mount(tf.static_mount(edges, frames[1], sensor), sensor, frames[1])
+        mount = tf.sensor_mount(edges, frames[1], sensor)
     return Source(
         path=path,
         format="ros1" if ros1 else "ros2",
@@ -596,12 +588,3 @@ def read_bag(
         notes=notes,
         sensor_mount=mount,
     )
-
-
-def _mount(pose: np.ndarray | None, sensor: str, gripper: str) -> SensorMount | None:
-    """The tf tree's mount of the wrench's frame on the gripper, None where it has none or
-    it is no mount at all (the sensor's axes and origin the gripper's)."""
-    if pose is None or np.allclose(pose, tf.IDENTITY, atol=1e-9, rtol=0):
-        return None
-    x, y, z, qx, qy, qz, qw = (float(v) for v in pose)
-    return SensorMount(sensor, gripper, (x, y, z), (qx, qy, qz, qw))

@@ -28,7 +28,7 @@ import numpy as np
 
 from dresslog.convert import resample as rs
 from dresslog.convert import tfmessage
-from dresslog.convert.source import SourceStream, stamps_unset, unset_note
+from dresslog.convert.source import SensorMount, SourceStream, stamps_unset, unset_note
 from dresslog.errors import ConversionError
 
 TF_TYPE = "tf2_msgs/msg/TFMessage"
@@ -172,26 +172,25 @@ def _fixed_above(edges: dict[str, list[Edge]], frame: str) -> dict[str, np.ndarr
     return out
 
 
-def static_mount(edges: dict[str, list[Edge]], child: str, frame: str) -> np.ndarray | None:
-    """Where `frame` (a wrench's header frame) sits in `child` (the gripper's frame), as
-    position + quaternion (7,), if the tf tree fixes it there: both hang by fixed links
-    from one frame (a sensor on the gripper's flange, above or below its tool frame).
-    None if `frame` is not in the tree or a moving link parts them."""
+def sensor_mount(edges: dict[str, list[Edge]], child: str, frame: str) -> SensorMount | None:
+    """Where `frame` (a wrench's header frame) sits in `child` (the gripper's frame), if the
+    tf tree fixes it there: both hang by fixed links from one frame (a sensor on the
+    gripper's flange, above, below or beside its tool frame). None if `frame` is not in
+    the tree, a moving link parts them, or it is no mount at all (the sensor's origin
+    and axes the gripper's)."""
     over_child, over_frame = _fixed_above(edges, child), _fixed_above(edges, frame)
-    for common, frame_pose in over_frame.items():
-        if common in over_child:
-            child_pose = over_child[common]
-            inverse = np.concatenate(
-                [
-                    -rs.rotate_by_orientation(child_pose[:, :3], rs.conjugate(child_pose[:, 3:])),
-                    rs.conjugate(child_pose[:, 3:]),
-                ],
-                axis=1,
-            )
-            mount = _compose(inverse, frame_pose)[0]
-            mount[3:] = rs.normalize(mount[3:])
-            return mount
-    return None
+    common = next((f for f in over_frame if f in over_child), None)
+    if common is None:
+        return None
+    child_pose, turn_back = over_child[common], rs.conjugate(over_child[common][:, 3:])
+    inverse = np.concatenate([-rs.rotate_by_orientation(child_pose[:, :3], turn_back),
+                              turn_back], axis=1)  # fmt: skip
+    mount = _compose(inverse, over_frame[common])[0]
+    mount[3:] = rs.normalize(mount[3:])
+    if np.allclose(mount, IDENTITY, atol=1e-9, rtol=0):
+        return None
+    x, y, z, qx, qy, qz, qw = (float(v) for v in mount)
+    return SensorMount(frame, child, (x, y, z), (qx, qy, qz, qw))
 
 
 def _compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
