@@ -170,7 +170,9 @@ def sweep_figure(report: SweepReport) -> Any:
                   fontsize="small")  # fmt: skip
     name = Path(report.model).name
     model = name if name == report.task else f"{name} ({report.task})"
-    fig.suptitle(f"Generalisation sweep of model {model}, {report.n} sequences per setting")
+    fig.suptitle(
+        f"Generalisation sweep of model {model}, {report.n} sequences per setting{report.longer()}"
+    )
     return fig
 
 

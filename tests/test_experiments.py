@@ -524,6 +524,42 @@ def test_sweep_writes_a_table_and_a_plot(
 
 @pytest.mark.slow
 @prints_warnings
+def test_a_sweep_of_longer_sequences_than_the_training_says_so(model: Path, tmp_path: Path) -> None:
+    """Sequences longer than the training's passed silently, as if the model's error on
+    them were its fit: the sweep now warns before simulating and its line and plot say it."""
+    out = tmp_path / "sweep"
+    args = ["sweep", str(model), "--speeds", "0.2", "-n", "1", "--duration", "2"]
+    result = CliRunner().invoke(main, [*args, "--workers", "1", "-q", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert result.stderr.startswith(
+        "Warning: sweep sequences of 2 s run longer than the model's training trials "
+        "(1.5 s), so every setting's error"
+    )
+    trained = "trained at speeds 0.1-0.15 m/s, the limb never turned, on 1.5 s trials (these 2 s)"
+    assert f"{trained}\n" in result.stdout
+    saved = json.loads((out / "sweep.json").read_text())
+    assert (saved["duration"], saved["trained_duration"]) == (2, 1.5)
+    result = CliRunner().invoke(
+        main,
+        [
+            "sweep",
+            str(model),
+            "--speeds",
+            "0.2",
+            "-n",
+            "1",
+            "--duration",
+            "1",
+            "-q",
+            "-o",
+            str(tmp_path / "short"),
+        ],
+    )
+    assert result.exit_code == 0 and "trials (these" not in result.output  # a prefix
+
+
+@pytest.mark.slow
+@prints_warnings
 def test_a_sweep_run_again_with_other_values_tables_every_complete_setting(
     model: Path, tmp_path: Path
 ) -> None:
@@ -1146,6 +1182,8 @@ def test_sweep_plot_names_its_model_and_marks_the_training_speeds_and_the_papers
     assert fig.get_suptitle() == (
         "Generalisation sweep of model gown-big (gown), 8 sequences per setting"
     )
+    longer = sweep_figure(replace(report, duration=20.0))  # the trials' 7 s by default
+    assert longer.get_suptitle().endswith("per setting, on 7 s trials (these 20 s)")
     assert [speed.get_title(), rotation.get_title()] == [
         "against speed (Fig. 12)",
         "against rotation (Fig. 13)",

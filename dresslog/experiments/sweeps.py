@@ -27,7 +27,7 @@ from dresslog.experiments.evaluation import (
 )
 from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
-from dresslog.model.conditions import describe, trained_conditions
+from dresslog.model.conditions import DURATION, describe, trained_conditions
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,
@@ -78,6 +78,9 @@ class SweepReport:
     trained_rotations: list[tuple[str, float, float]] = field(default_factory=list)
     #: whether some training trials had the limb unturned
     trained_unturned: bool = True
+    #: the sweep sequences' duration and the training trials' longest, s
+    duration: float = DURATION
+    trained_duration: float = DURATION
 
     def ratio(self, setting: Setting) -> float:
         assert setting.scores is not None
@@ -88,7 +91,15 @@ class SweepReport:
         turned = describe(
             self.trained_speeds, self.trained_rotations, unturned=self.trained_unturned
         )
-        return f"trained at {turned}"
+        return f"trained at {turned}{self.longer()}"
+
+    def longer(self) -> str:
+        """`, on 7 s trials (these 20 s)` when the sweep's sequences run longer than any
+        the model was trained on: every setting's error, the in-range one's too, then
+        holds the model's reading of a longer trial."""
+        if self.duration <= self.trained_duration:  # shorter: a prefix of a training trial
+            return ""
+        return f", on {self.trained_duration:g} s trials (these {self.duration:g} s)"
 
     def table(self) -> str:
         """Per setting: RMSE, all-zero RMSE, their ratio and x in-range. The ratio tells a
@@ -236,6 +247,16 @@ def sweep(
         raise DatasetError("give at least one --speeds or --rotations value")
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     check_executor(executor)
+    seen = trained_conditions(loaded.card)
+    longest = max(seen.durations)
+    if duration is not None and duration > longest:  # said before the long simulation
+        warnings.warn(
+            f"sweep sequences of {duration:g} s run longer than the model's training trials "
+            f"({longest:g} s), so every setting's error, the in-range one's too, measures "
+            "how it reads the longer trial as well",
+            DresslogWarning,
+            stacklevel=2,
+        )
     out = Path(out)
     _check_sweep_folder(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -258,10 +279,10 @@ def sweep(
     done.sort(key=lambda s: s.order)
     baseline = done[0].scores
     assert baseline is not None
-    seen = trained_conditions(loaded.card)
     report = SweepReport(
         task.value, str(model), n, baseline.rmse, done,
         list(seen.speeds), list(seen.rotations), seen.unturned,
+        DURATION if duration is None else duration, longest,
     )  # fmt: skip
     if empty := [s.name for s in done if s.scores is not None and s.scores.zero_rmse == 0]:
         in_range = ", as is x in-range, the in-range RMSE being 0 too" if baseline.rmse == 0 else ""
