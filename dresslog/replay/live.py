@@ -95,12 +95,11 @@ class SimulationSource:
 
 def live_source(
     model: str | Path | None,
-    task: str,
+    spec: TrialSpec,
+    path: str | Path,
     *,
     recording: rr.RecordingStream | None = None,
     connect: str | None = None,
-    spec: TrialSpec | None = None,
-    path: str | Path = "",
 ) -> SimulationSource:
     """What `dresslog record --live` passes to `simulate`: model (or bundled) -> live viewer.
 
@@ -112,13 +111,12 @@ def live_source(
     from dresslog.model.conditions import training_warning
     from dresslog.replay.rerun_sink import RerunSink
     from dresslog.replay.viewer import live_viewer
-    from dresslog.spec import Task
 
-    loaded = resolve_model(model, Task(task), None, required=False)
-    if loaded is not None and spec is not None and (outside := training_warning(spec, loaded.card)):
+    loaded = resolve_model(model, spec.task, None, required=False)
+    if loaded is not None and (outside := training_warning(spec, loaded.card)):
         warnings.warn(f"{path}: {outside}", DresslogWarning, stacklevel=3)
     estimator = loaded.estimator() if loaded is not None else None
-    rec = recording if recording is not None else live_viewer(task, connect=connect)
+    rec = recording if recording is not None else live_viewer(spec.task, connect=connect)
     sink = RerunSink(recording=rec, flush_every=LIVE_FLUSH_STEPS)
     return SimulationSource(estimator, [sink], loaded.describe() if loaded is not None else None)
 
@@ -141,7 +139,7 @@ def record_live(
     """
     from dresslog.sim import record_trial
 
-    live = live_source(model, spec.task, recording=recording, connect=connect, spec=spec, path=path)
+    live = live_source(model, spec, path, recording=recording, connect=connect)
     result: SimResult | None = None
     try:
         with live:
