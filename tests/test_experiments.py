@@ -556,6 +556,12 @@ def test_a_sweep_of_longer_sequences_than_the_training_says_so(model: Path, tmp_
         ],
     )
     assert result.exit_code == 0 and "trials (these" not in result.output  # a prefix
+    # no --duration: the spec's 7 s, longer than this model's 1.5 s, is warned of too
+    args = ["sweep", str(model), "--speeds", "0.2", "-n", "1", "--workers", "2", "-q"]
+    result = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "default")])
+    assert result.exit_code == 0, result.output
+    assert result.stderr.startswith("Warning: sweep sequences of 7 s run longer than the model's")
+    assert "on 1.5 s trials (these 7 s)\n" in result.stdout
 
 
 @pytest.mark.slow

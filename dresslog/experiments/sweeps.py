@@ -247,18 +247,18 @@ def sweep(
         raise DatasetError("give at least one --speeds or --rotations value")
     settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
     check_executor(executor)
+    out = Path(out)
+    _check_sweep_folder(out)
     seen = trained_conditions(loaded.card)
-    longest = max(seen.durations)
-    if duration is not None and duration > longest:  # said before the long simulation
+    longest, length = max(seen.durations), DURATION if duration is None else duration
+    if length > longest:  # said before the long simulation
         warnings.warn(
-            f"sweep sequences of {duration:g} s run longer than the model's training trials "
+            f"sweep sequences of {length:g} s run longer than the model's training trials "
             f"({longest:g} s), so every setting's error, the in-range one's too, measures "
             "how it reads the longer trial as well",
             DresslogWarning,
             stacklevel=2,
         )
-    out = Path(out)
-    _check_sweep_folder(out)
     out.mkdir(parents=True, exist_ok=True)
     done: list[Setting] = []
     for setting in settings:
@@ -282,7 +282,7 @@ def sweep(
     report = SweepReport(
         task.value, str(model), n, baseline.rmse, done,
         list(seen.speeds), list(seen.rotations), seen.unturned,
-        DURATION if duration is None else duration, longest,
+        length, longest,
     )  # fmt: skip
     if empty := [s.name for s in done if s.scores is not None and s.scores.zero_rmse == 0]:
         in_range = ", as is x in-range, the in-range RMSE being 0 too" if baseline.rmse == 0 else ""
