@@ -187,6 +187,13 @@ class SimParams(BaseModel):
         0.25, ge=0, description="the gripper spreads a change of its lift rate over this long, s"
     )
     max_limb_force: float = Field(200.0, gt=0, description="instability guard, N")
+    wrench_from: Literal["constraint", "momentum"] = Field(
+        "constraint",
+        description="the gripper's wrench as its constraint reports it (a changing share of "
+        "the garment's load), or as the garment's momentum balance leaves it of gravity and "
+        "the limb's contact forces",
+        exclude_if=lambda v: v == "constraint",  # a v7 trial's spec reads as it did
+    )
 
     def settle_steps(self) -> tuple[int, int, int]:
         """Physics steps of the settling, of the wind at its start and of the tare at its end."""

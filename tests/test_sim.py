@@ -201,6 +201,26 @@ def test_a_garment_held_back_by_the_limb_pulls_harder_than_a_free_pull() -> None
     assert f_caught[-50:].mean() > 2 * f_free[-50:].mean()
 
 
+def test_the_momentum_balance_puts_the_limbs_forces_at_the_gripper() -> None:
+    """pybullet's constraint reads a changing share of the load; the balance, the load."""
+    caught = random_spec(Task.SHORTS, 0, duration=3.0, limb_offset=(0.0, 0.0, 0.05))
+    balance = caught.model_copy(update={"sim": SimParams(wrench_from="momentum")})
+    a, b = run(caught).steps, run(balance).steps
+    assert all(np.array_equal(x.force_map, y.force_map) for x, y in zip(a, b, strict=True))
+    total = np.array([s.force_map.sum() for s in a])
+    assert total.max() > 3.0  # the waistband catches on the leg
+    read, balanced = ([np.linalg.norm(s.wrench[:3]) for s in steps] for steps in (a, b))
+    assert np.corrcoef(balanced, total)[0, 1] > np.corrcoef(read, total)[0, 1] + 0.05
+    assert np.abs(balanced - total).mean() < 0.5 * np.abs(read - total).mean()
+
+
+def test_a_spec_with_the_constraints_wrench_reads_as_before_the_choice() -> None:
+    spec = random_spec(Task.GOWN, 4)
+    assert "wrench_from" not in spec.model_dump_json()  # a v7 trial's bytes are kept
+    balance = spec.model_copy(update={"sim": SimParams(wrench_from="momentum")})
+    assert TrialSpec.model_validate_json(balance.model_dump_json()) == balance
+
+
 def test_an_unstable_trial_fails_and_leaves_no_file(tmp_path: Path) -> None:
     spec = short(Task.SHORTS).model_copy(update={"sim": SimParams(max_limb_force=1e-3)})
     with pytest.raises(SimulationError, match="exceeds the physical bound"):

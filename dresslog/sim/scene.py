@@ -10,7 +10,7 @@ so the constraint's force is what a force/torque sensor at the gripper reads
 from __future__ import annotations
 
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import chain
 from pathlib import Path
 
@@ -65,6 +65,7 @@ class Scene:
     cloth: int
     ee: int
     constraint: int
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
 
     # -- construction -------------------------------------------------------
     @classmethod
@@ -130,6 +131,7 @@ class Scene:
         pb.stepSimulation(physicsClientId=self.client)
 
     def set_gravity(self, g: np.ndarray) -> None:
+        self.gravity = g
         pb.setGravity(*g.tolist(), physicsClientId=self.client)
 
     def constraint_wrench(self) -> np.ndarray:

@@ -25,6 +25,7 @@ from dresslog.limb import (
     sum_xyz,
     surface_points,
 )
+from dresslog.sim.balance import MomentumBalance, WrenchReading, constraint_reading
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
@@ -204,6 +205,8 @@ def _guard(verts: np.ndarray, ee: np.ndarray, t: float) -> None:
 #: little more than one step (larger batches lose it again to page faults). A live
 #: sink sees the steps this many at a time.
 BATCH = 10
+#: The garment handed to a wrench reading that does not look at it.
+_NONE = np.empty((0, 3))
 
 
 @dataclass(frozen=True)
@@ -263,8 +266,9 @@ class _StepBatch:
         mags = contact_magnitudes(every)
         maps = self._force_maps(verts, every, counts, mags)
         m = self.motion
-        # garment on gripper = -(constraint force) - weight + m a, minus the tare
-        wrench = -(np.array([h[2] for h in held]).reshape(-1, 6) / self.substeps - m.tare)
+        # the garment's load on the gripper, minus the tare, plus (read by the constraint,
+        # which carries the gripper too) the gripper's weight and inertia
+        wrench = np.array([h[2] for h in held]).reshape(-1, 6) / self.substeps - m.tare
         wrench[:, :3] += m.inertia[index]
         last = len(m.t) - 1
         self.timings["contacts"] += time.thread_time() - t0
@@ -353,8 +357,12 @@ def _gripper_path(
     return path_phys, path
 
 
-def _motion(path: np.ndarray, record_hz: int, tare: np.ndarray) -> _Motion:
-    """Twist, pose and the end effector's inertial force along the recorded path."""
+def _motion(path: np.ndarray, record_hz: int, tare: np.ndarray, *, gripper: bool) -> _Motion:
+    """Twist, pose and the end effector's inertial force along the recorded path.
+
+    `gripper`: the wrench is read by the constraint, which carries the gripper's
+    inertia too; the garment's momentum balance does not, so it gets none back.
+    """
     n_rec = len(path)  # at least 2: a spec covers two recorded steps
     vel = np.zeros_like(path)
     vel[1:] = np.diff(path, axis=0) * record_hz
@@ -362,26 +370,37 @@ def _motion(path: np.ndarray, record_hz: int, tare: np.ndarray) -> _Motion:
     accel = np.gradient(vel, axis=0) * record_hz if n_rec > 2 else np.zeros_like(vel)
     twist = np.concatenate([vel, np.zeros_like(vel)], axis=1)
     pose = np.concatenate([path, np.tile([0.0, 0.0, 0.0, 1.0], (n_rec, 1))], axis=1)
-    return _Motion(np.arange(n_rec) / record_hz, twist, pose, EE_MASS * accel, tare)
+    inertia = EE_MASS * accel if gripper else np.zeros_like(accel)
+    return _Motion(np.arange(n_rec) / record_hz, twist, pose, inertia, tare)
 
 
-def _settle(scene: Scene, p: SimParams, rng: np.random.Generator) -> np.ndarray:
+def _settle(
+    scene: Scene, p: SimParams, rng: np.random.Generator, read: WrenchReading, ee: np.ndarray
+) -> np.ndarray:
     """Let the garment hang, after a brief uniform "wind" (a tilted gravity); the tare wrench."""
     g = np.array([0.0, 0.0, -9.81])
     wind = rng.normal(size=3)
     wind *= p.wind_accel / np.linalg.norm(wind)
     n_settle, n_wind, n_tare = p.settle_steps()  # the spec leaves the tare after the wind
     tare = np.zeros(6)
+    momentum = isinstance(read, MomentumBalance)  # which must see every step
     for k in range(n_settle):
         scene.set_gravity(g + wind if k < n_wind else g)
         scene.step()
-        if k >= n_settle - n_tare:
-            tare += scene.constraint_wrench()
+        if momentum or k >= n_settle - n_tare:
+            wrench = read(scene, scene.vertices() if momentum else _NONE, scene.contacts(), ee)
+            if k >= n_settle - n_tare:
+                tare += wrench
     return tare / n_tare
 
 
 def _record(
-    scene: Scene, path_phys: np.ndarray, sub: int, steps: _StepBatch, timings: dict[str, float]
+    scene: Scene,
+    path_phys: np.ndarray,
+    sub: int,
+    steps: _StepBatch,
+    read: WrenchReading,
+    timings: dict[str, float],
 ) -> None:
     """Move the gripper along the path; each recorded step averages its physics substeps.
 
@@ -391,18 +410,19 @@ def _record(
     for i in range(len(path_phys) // sub):
         raw: list[tuple] = []
         wrench = np.zeros(6)
+        momentum = isinstance(read, MomentumBalance)  # which must see every step's garment
         for k in range(sub):
             t0 = time.thread_time()
-            scene.move_ee(path_phys[i * sub + k])
+            ee = path_phys[i * sub + k]
+            scene.move_ee(ee)
             scene.step()
             t1 = time.thread_time()
-            raw += scene.contacts()
-            wrench += scene.constraint_wrench()
+            contacts = scene.contacts()
+            raw += contacts
+            verts = scene.vertices() if momentum or k == sub - 1 else _NONE
+            wrench += read(scene, verts, contacts, ee)
             timings["physics"] += t1 - t0
             timings["queries"] += time.thread_time() - t1
-        t1 = time.thread_time()
-        verts = scene.vertices()
-        timings["queries"] += time.thread_time() - t1
         steps.add(i, raw, wrench, verts)
     steps.flush()
 
@@ -439,12 +459,16 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     try:
         if sink is not None:
             sink.start(SimStart(spec, points, garment.triangles))
-        tare = _settle(scene, p, rng)
-        _guard(scene.vertices(), start, 0.0)
-        steps = _StepBatch(
-            spec, limb, _motion(path, p.record_hz, tare), force_map, spread, sink, timings
+        read: WrenchReading = (
+            MomentumBalance(scene.vertices(), p.garment_mass, p.physics_hz)
+            if p.wrench_from == "momentum"
+            else constraint_reading
         )
-        _record(scene, path_phys, sub, steps, timings)
+        tare = _settle(scene, p, rng, read, start)
+        _guard(scene.vertices(), start, 0.0)
+        motion = _motion(path, p.record_hz, tare, gripper=read is constraint_reading)
+        steps = _StepBatch(spec, limb, motion, force_map, spread, sink, timings)
+        _record(scene, path_phys, sub, steps, read, timings)
         peak_limb = steps.peak_limb
         final_force = max(steps.ee_forces[-max(1, p.record_hz // 5) :], default=0.0)
         outcome = decide_outcome(task, limb, garment, scene.vertices(), final_force)

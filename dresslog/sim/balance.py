@@ -1,0 +1,67 @@
+"""The garment's load on the gripper, read by its constraint or from Newton's second law.
+
+pybullet's deformable world holds anchored and touching cloth nodes partly by
+projecting their velocities, a support it applies to no body and reports nowhere, so
+the gripper's constraint reads a changing share of the garment's load
+(docs/experiments.md, "What pybullet reports"). The garment's momentum balance has no
+such gap: the gripper takes what the garment's change of momentum leaves of gravity
+and the limb's reported contact forces, so it feels the forces the force map holds,
+plus the garment's own inertia.
+
+Each reading is the garment's wrench on the gripper over one physics step, untared,
+about the gripper's centre, in the world frame.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+from dresslog.sim.scene import Scene
+
+
+class WrenchReading(Protocol):
+    def __call__(
+        self, scene: Scene, verts: np.ndarray, contacts: list[tuple], ee: np.ndarray
+    ) -> np.ndarray: ...
+
+
+def constraint_reading(
+    scene: Scene, verts: np.ndarray, contacts: list[tuple], ee: np.ndarray
+) -> np.ndarray:
+    """What the gripper's constraint reports: the garment's load and the gripper's own."""
+    return -scene.constraint_wrench()
+
+
+class MomentumBalance:
+    """The garment's wrench on the gripper as the rest of its momentum balance.
+
+    Node i obeys m a_i = m g + (springs) + (limb) + (gripper); the springs pull in pairs
+    along their links, so over the garment they cancel in force and in moment, and the
+    gripper's share is sum_i m (g - a_i) + sum_c f_c, each about the gripper. Every
+    physics step must be shown (the accelerations are central differences of the
+    positions), starting from the garment at rest as it is loaded.
+    """
+
+    def __init__(self, rest: np.ndarray, mass: float, physics_hz: int) -> None:
+        self.node_mass = mass / len(rest)  # pybullet shares a cloth's mass evenly
+        self.hz = physics_hz
+        self._before, self._last = rest, rest
+
+    def __call__(
+        self, scene: Scene, verts: np.ndarray, contacts: list[tuple], ee: np.ndarray
+    ) -> np.ndarray:
+        # the step's velocity change comes from the forces where the nodes were
+        before, at, self._before, self._last = self._before, self._last, self._last, verts
+        accel = (verts - 2.0 * at + before) * (self.hz * self.hz)
+        pull = self.node_mass * (scene.gravity - accel)
+        wrench = np.concatenate([pull.sum(axis=0), np.cross(at - ee, pull).sum(axis=0)])
+        touching = [c for c in contacts if c[9] > 0]  # as the force map counts them
+        if touching:
+            # positionOnB (the limb), normal on B towards the garment, force, two frictions
+            c = np.array([(*c[6], *c[7], c[9], c[10], *c[11], c[12], *c[13]) for c in touching])
+            f = c[:, 3:6] * c[:, 6:7] + c[:, 7:8] * c[:, 8:11] + c[:, 11:12] * c[:, 12:15]
+            wrench[:3] += f.sum(axis=0)
+            wrench[3:] += np.cross(c[:, 0:3] - ee, f).sum(axis=0)
+        return wrench
