@@ -17,6 +17,7 @@ from .options import (
     rotation_spec,
     speed_option,
     task_option,
+    wrench_option,
 )
 
 
@@ -39,6 +40,7 @@ from .options import (
 @click.option("--rotation-range", type=(AXIS, ROTATION_RANGE, ROTATION_RANGE),
               metavar="AXIS LOW HIGH", show_default="none",
               help="Draw each trial's rotation about AXIS, LOW to HIGH degrees.")  # fmt: skip
+@wrench_option
 @executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
@@ -53,6 +55,7 @@ def generate(
     speed: float | None,
     rotation: tuple[str, float] | None,
     rotation_range: tuple[str, float, float] | None,
+    wrench_from: str | None,
     executor: str,
     quiet: bool,
 ) -> None:
@@ -68,7 +71,8 @@ def generate(
         raise click.UsageError("--rotation fixes every trial's rotation, --rotation-range draws "
                                "it; give one")  # fmt: skip
 
-    fixed = {"duration": duration, "speed": speed, "limb_rotation": rotation_spec(rotation)}
+    fixed = {"duration": duration, "speed": speed, "limb_rotation": rotation_spec(rotation),
+             "sim": {"wrench_from": wrench_from} if wrench_from else None}  # fmt: skip
     manifest = generate_dataset(
         task,
         trials,

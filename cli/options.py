@@ -54,6 +54,17 @@ def duration_option(each: str, *, checked: bool = True) -> Callable[[Any], Any]:
     )
 
 
+#: `--wrench-from`: what the simulated gripper's wrench is read from (`SimParams.wrench_from`)
+wrench_option = click.option(
+    "--wrench-from",
+    type=click.Choice(["constraint", "momentum"]),
+    help="Read the gripper's wrench from its constraint (a changing share of the garment's "
+    "load), or from the garment's momentum balance with the limb's contact forces "
+    "(docs/experiments.md); a model reads trials as its training trials were.",
+    show_default="constraint",
+)
+
+
 class FiniteRange(click.FloatRange):
     """`click.FloatRange` that refuses nan and inf too: nan compares false with either bound,
     and inf passes an open side (`x>=0`), so both slipped through to the library's error

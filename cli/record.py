@@ -16,6 +16,7 @@ from .options import (
     rotation_spec,
     speed_option,
     task_option,
+    wrench_option,
 )
 
 
@@ -31,6 +32,7 @@ from .options import (
               show_default="from --seed, within the paper's ranges")  # fmt: skip
 @rotation_option
 @duration_option("", checked=False)
+@wrench_option
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
 @click.option("--model", "-m", type=click.Path(path_type=Path),
@@ -50,6 +52,7 @@ def record(
     offset: tuple[float, float, float] | None,
     rotation: tuple[str, float] | None,
     duration: float | None,
+    wrench_from: str | None,
     overwrite: bool,
     live: bool,
     model: Path | None,
@@ -68,6 +71,7 @@ def record(
         duration=duration,
         limb_offset=offset or None,
         limb_rotation=rotation_spec(rotation),
+        sim={"wrench_from": wrench_from} if wrench_from else None,
     )
     if streamed:
         from dresslog.replay.live import record_live

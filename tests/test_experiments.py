@@ -29,6 +29,7 @@ from dresslog.experiments import (
     Scores,
     SweepReport,
     dataset_bounds,
+    sweep,
     sweep_settings,
     train_dataset,
 )
@@ -681,7 +682,6 @@ def test_a_sweep_called_from_a_script_says_what_is_wrong_with_its_arguments(
 ) -> None:
     """A zero duration was dropped (every trial ran 7 s), a str swept letter by letter,
     and an output that is a file was a FileExistsError traceback."""
-    from dresslog.experiments import sweep
 
     wrong = [
         ({"speeds": [0.2], "duration": 0}, "in-range: invalid duration"),
@@ -716,7 +716,6 @@ def test_sweep_rejects_a_bad_setting_before_making_its_folder(
     """The library refuses for its callers; `dresslog sweep` refuses a value out of the spec's
     range first, as a usage error, and reports the library's refusal of what only it knows
     (the limb's geometry)."""
-    from dresslog.experiments import sweep
 
     out = tmp_path / "sweep"
     with pytest.raises(DatasetError, match=re.escape(message)):
@@ -887,6 +886,32 @@ def test_train_pools_several_dataset_folders_of_one_task(data: Path, tmp_path: P
 
 
 @pytest.mark.slow
+def test_a_model_of_balanced_wrenches_is_swept_and_scored_on_its_own_kind(tmp_path: Path) -> None:
+    """A model trained on trials whose wrench is the garment's momentum balance reads
+    such trials only: its sweep simulates them so, and `eval` names the other kind."""
+    near = {"duration": 0.5, "limb_offset": [0.30, 0.0, 0.05]}
+    balanced = tmp_path / "balanced"
+    generate("gown", 3, balanced, workers=2, test_fraction=1 / 3,
+             overrides={**near, "sim": {"wrench_from": "momentum"}})  # fmt: skip
+    model = tmp_path / "model"
+    code, output = invoke("train", balanced, "-o", model, "--epochs", "1", "--hidden", "4",
+                          "--layers", "1", "-q")  # fmt: skip
+    assert code == 0, output
+    with pytest.warns(DresslogWarning, match="no sweep sequence"):  # 0.5 s reach no limb
+        report = sweep(model, tmp_path / "sweep", speeds=[0.12], n=1, duration=0.5,
+                       progress=False)  # fmt: skip
+    assert [s.name for s in report.settings] == ["in-range", "speed:0.12"]
+    for setting in report.settings:
+        manifest = load_manifest(tmp_path / "sweep" / setting.folder)
+        assert manifest.overrides["sim"] == {"wrench_from": "momentum"}
+    constraint = tmp_path / "constraint"
+    generate("gown", 1, constraint, workers=1, test_fraction=1, overrides=near)
+    code, output = invoke("eval", model, constraint)
+    assert code == 0, output
+    assert "the gripper's wrench read from its constraint (trained on the garment's " in output
+
+
+@pytest.mark.slow
 def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuning(
     data: Path, tmp_path: Path
 ) -> None:
@@ -991,6 +1016,14 @@ def test_the_conditions_a_model_was_not_trained_on_are_named() -> None:
     assert held({"duration": 1.5}).outside(DEFAULTS) == []  # a shorter trial: a prefix
     long = spec_conditions(random_spec("gown", 4, duration=7.5))  # what `infer` checks
     assert long.outside(DEFAULTS) == ["duration 7.5 s (trained on 7 s)"]
+    balanced = {"sim": {"wrench_from": "momentum"}}
+    assert held(balanced).outside(DEFAULTS) == [
+        "the gripper's wrench read from the garment's momentum balance (trained on its constraint)"
+    ]
+    assert held().outside(held(balanced)) == [
+        "the gripper's wrench read from its constraint (trained on the garment's momentum balance)"
+    ]
+    assert held(balanced).outside(combined([held(), held(balanced)])) == []
     assert held(z15).describe() == "speeds 0.1-0.15 m/s; the limb turned about z -15 deg"
     assert combined([held(), held(z15)]).describe() == (  # the README's fine-tuning
         "speeds 0.1-0.15 m/s; the limb unturned or turned about z -15 deg"

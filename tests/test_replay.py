@@ -493,6 +493,12 @@ def test_a_simulated_trial_at_a_speed_or_pose_the_model_never_saw_is_warned_abou
             ["--offset", "0", "0.35", "0"],
             "limb offset y +0.35 m (trained on y -0.2...+0.2)",
         ),
+        (
+            "balanced",
+            ["--wrench-from", "momentum"],
+            "the gripper's wrench read from the garment's momentum balance (trained on its "
+            "constraint)",
+        ),
     ):
         trial = tmp_path / f"{name}.mcap"
         args = ["record", "--task", "gown", "--seed", "4", "--duration", "1", *option]

@@ -27,7 +27,7 @@ from dresslog.experiments.evaluation import (
 )
 from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
-from dresslog.model.conditions import DURATION, describe, trained_conditions
+from dresslog.model.conditions import DURATION, WRENCH, describe, trained_conditions
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,
@@ -142,17 +142,21 @@ def sweep_settings(
     speeds: Sequence[float | str],
     rotations: Sequence[str],
     duration: float | None = None,
+    wrench_from: str = WRENCH,
 ) -> list[Setting]:
     """The in-range baseline, then one setting per speed and per rotation.
 
     Every setting's fields are checked as a spec here, so a bad value stops the sweep
-    before its first trial, not after the settings before it.
+    before its first trial, not after the settings before it. `wrench_from` is the
+    model's: its trials are read as its training trials were.
     """
     task = task_of(task, DatasetError)
     for name, values in (("speeds", speeds), ("rotations", rotations)):
         if isinstance(values, str | int | float):  # a str would be swept letter by letter
             raise DatasetError(f"{name} must be a list of values, not the one {values!r}")
-    extra = {} if duration is None else {"duration": duration}  # 0 is refused, not dropped
+    extra: dict[str, Any] = {} if duration is None else {"duration": duration}  # 0 is refused
+    if wrench_from != WRENCH:  # a folder of the default keeps the overrides it always had
+        extra["sim"] = {"wrench_from": wrench_from}
     settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
     for speed in map(parse_speed, speeds):
         fixed = {"speed": speed, **extra}
@@ -245,11 +249,12 @@ def sweep(
     task = loaded.card.task
     if not speeds and not rotations:
         raise DatasetError("give at least one --speeds or --rotations value")
-    settings = sweep_settings(task, speeds, rotations, duration)  # bad values: no folder
+    seen = trained_conditions(loaded.card)
+    wrench = seen.wrenches[0] if len(seen.wrenches) == 1 else WRENCH
+    settings = sweep_settings(task, speeds, rotations, duration, wrench)  # bad: no folder
     check_executor(executor)
     out = Path(out)
     _check_sweep_folder(out)
-    seen = trained_conditions(loaded.card)
     longest, length = max(seen.durations), DURATION if duration is None else duration
     if length > longest:  # said before the long simulation
         warnings.warn(

@@ -20,6 +20,7 @@ from dresslog.spec import (
     SPEED_RANGE,
     LimbRotation,
     RotationRange,
+    SimParams,
     Task,
     TrialSpec,
 )
@@ -33,6 +34,9 @@ Speeds = tuple[float, float]
 Turn = tuple[str, float, float]
 #: the duration of a trial whose spec does not set one, s
 DURATION: float = TrialSpec.model_fields["duration"].default
+#: what a trial's wrench is read from when its spec does not say (simulator v7)
+WRENCH: str = SimParams.model_fields["wrench_from"].default
+_WRENCH_SOURCE = {"constraint": "its constraint", "momentum": "the garment's momentum balance"}
 #: a limb offset box, m: (low, high) along x, y and z (low == high for a fixed offset)
 Box = tuple[tuple[float, float], ...]
 
@@ -40,14 +44,15 @@ Box = tuple[tuple[float, float], ...]
 @dataclass(frozen=True)
 class Conditions:
     """What a set of trials held: speed spans, rotation spans, whether some trials had
-    the limb unturned (a span through 0 deg holds those too), limb offset boxes, and
-    durations (s)."""
+    the limb unturned (a span through 0 deg holds those too), limb offset boxes,
+    durations (s), and what the gripper's wrench was read from (`SimParams.wrench_from`)."""
 
     speeds: tuple[Speeds, ...]
     rotations: tuple[Turn, ...]
     unturned: bool
     offsets: tuple[Box, ...]
     durations: tuple[float, ...]
+    wrenches: tuple[str, ...] = (WRENCH,)
 
     def describe(self) -> str:
         """`speeds 0.1-0.15 m/s, the limb never turned`, as a sweep's line and eval say it."""
@@ -74,6 +79,12 @@ class Conditions:
         ]
         if max(self.durations) > (longest := max(trained.durations)):  # shorter: a prefix
             missing.append(f"duration {max(self.durations):g} s (trained on {longest:g} s)")
+        missing += [
+            f"the gripper's wrench read from {_WRENCH_SOURCE[w]} (trained on "
+            f"{' and '.join(_WRENCH_SOURCE[t] for t in trained.wrenches)})"
+            for w in self.wrenches
+            if w not in trained.wrenches
+        ]
         return missing
 
     @property
@@ -148,6 +159,7 @@ def folder_conditions(
         unturned=not rotations,
         offsets=(box,),
         durations=(float(fixed.get("duration", DURATION)),),
+        wrenches=(fixed.get("sim", {}).get("wrench_from", WRENCH),),
     )
 
 
@@ -160,6 +172,7 @@ def combined(conditions: Iterable[Conditions]) -> Conditions:
         unturned=any(c.unturned for c in parts),
         offsets=tuple(sorted({b for c in parts for b in c.offsets})),
         durations=tuple(sorted({d for c in parts for d in c.durations})),
+        wrenches=tuple(sorted({w for c in parts for w in c.wrenches})),
     )
 
 
@@ -175,7 +188,8 @@ def trained_conditions(card: ModelCard) -> Conditions:
 def spec_conditions(spec: TrialSpec) -> Conditions:
     """The conditions of one simulated trial, from its spec."""
     fixed = {"speed": spec.speed, "limb_rotation": spec.limb_rotation.model_dump(),
-             "limb_offset": spec.limb_offset, "duration": spec.duration}  # fmt: skip
+             "limb_offset": spec.limb_offset, "duration": spec.duration,
+             "sim": {"wrench_from": spec.sim.wrench_from}}  # fmt: skip
     return folder_conditions(spec.task, fixed, None)
 
 
