@@ -230,9 +230,13 @@ def _open_manifest(
         ("rotation drawn per trial", manifest.rotation_range, rotation_range),
     ):
         if have != want:
+            # a folder of simulator v7 or before, its wrench the constraint's, unsaid
+            unsaid = "sim" in overrides and "sim" not in manifest.overrides
+            v7 = what == "fixed spec fields" and unsaid
+            hint = " (a folder of simulator v7 or before: --wrench-from constraint)" if v7 else ""
             raise DatasetError(
                 f"folder holds a dataset with {what} {_shown(have)}, not {_shown(want)}; "
-                "use another folder or the same options",
+                f"use another folder or the same options{hint}",
                 path=root,
             )
     for split in Split:

@@ -387,10 +387,12 @@ def _settle(
     for k in range(n_settle):
         scene.set_gravity(g + wind if k < n_wind else g)
         scene.step()
-        if momentum or k >= n_settle - n_tare:
-            wrench = read(scene, scene.vertices() if momentum else _NONE, scene.contacts(), ee)
-            if k >= n_settle - n_tare:
-                tare += wrench
+        if momentum:
+            wrench = read(scene, scene.vertices(), scene.contacts(), ee)
+        elif k >= n_settle - n_tare:
+            wrench = read(scene, _NONE, [], ee)
+        if k >= n_settle - n_tare:
+            tare += wrench
     return tare / n_tare
 
 

@@ -1,7 +1,9 @@
 """Simulator speed: real-time factor per task and dresslog's own per-step work vs bare stepping.
 
-Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py [--seeds N]`
-(N trials per task, 3 by default).
+Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py [--seeds N]
+[--wrench-from momentum|constraint]` (N trials per task, 3 by default; the wrench read as
+`record` reads it by default, from the garment's momentum balance, which queries the
+garment at every physics step).
 Both figures come from one run per task: the simulator times its physics
 stepping and its own work (pybullet queries, contacts, force map, sensors, sink)
 separately; a second, bare run steps the same scene with no queries at all.
@@ -43,13 +45,13 @@ def bare_physics_seconds(spec) -> float:
         scene.close()
 
 
-def main(seeds: int = 3) -> None:
+def main(seeds: int = 3, wrench_from: str = "momentum") -> None:
     from dresslog.io.writer import TrialWriter
 
     for task in Task:
         rtf, own, queries, phys, bare = [], [], [], [], []
         for seed in range(seeds):
-            spec = random_spec(task, seed)
+            spec = random_spec(task, seed, sim={"wrench_from": wrench_from})
             with tempfile.TemporaryDirectory() as tmp:
                 meta = TrialMetadata(task=task, spec=spec)
                 with TrialWriter(Path(tmp) / "t.mcap", meta) as w:
@@ -69,11 +71,14 @@ def main(seeds: int = 3) -> None:
             f"own/physics={np.sum(own) / np.sum(phys):.1%} "
             f"(pybullet queries {np.sum(queries) / np.sum(phys):.1%}) "
             f"own/bare={np.sum(own) / np.sum(bare):.1%} "
-            f"physics={np.sum(phys):.1f}s bare={np.sum(bare):.1f}s over {seeds} x 7 s trials"
+            f"physics={np.sum(phys):.1f}s bare={np.sum(bare):.1f}s over {seeds} x 7 s trials, "
+            f"the wrench from the {wrench_from}"
         )
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, choices=range(1, 101), default=3, metavar="N")
-    main(parser.parse_args().seeds)
+    parser.add_argument("--wrench-from", choices=["momentum", "constraint"], default="momentum")
+    args = parser.parse_args()
+    main(args.seeds, args.wrench_from)
