@@ -260,7 +260,8 @@ class TrialSpec(BaseModel):
             f"seed {self.seed}, speed {self.speed:.3f} m/s, offset "
             f"({', '.join(f'{v:+.3f}' for v in self.limb_offset)}) m, rotation "
             f"{self.limb_rotation.degrees:+g} deg about {self.limb_rotation.axis}, "
-            f"duration {self.duration:g} s"
+            f"duration {self.duration:g} s, wrench from the "
+            + ("momentum balance" if self.sim.wrench_from == "momentum" else "constraint")
         )
 
 
