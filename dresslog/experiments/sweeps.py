@@ -354,6 +354,7 @@ def _earlier(
 def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, Manifest]]:
     """The sweep setting folders in `out` besides the `asked` ones, with their manifests."""
     names, duration = {s.folder for s in asked}, asked[0].overrides.get("duration")
+    wrench = asked[0].overrides.get("sim", {}).get("wrench_from", WRENCH)
     found: list[tuple[Setting, Manifest]] = []
     for folder in (f for f in out.iterdir() if f.is_dir() and f.name not in names):
         kind, _, value = folder.name.partition("_")
@@ -362,7 +363,7 @@ def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, M
         value = value.replace("_", ":", 1) if kind == "rot" else value
         try:  # not a setting's name, or not a dataset: not the sweep's
             (setting,) = sweep_settings(
-                task, [value] * (kind == "speed"), [value] * (kind == "rot"), duration
+                task, [value] * (kind == "speed"), [value] * (kind == "rot"), duration, wrench
             )[1:]
             manifest = load_manifest(folder)
         except DatasetError:

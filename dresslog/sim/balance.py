@@ -37,8 +37,9 @@ def constraint_reading(
 class MomentumBalance:
     """The garment's wrench on the gripper as the rest of its momentum balance.
 
-    Node i obeys m a_i = m g + (springs) + (limb) + (gripper); the springs pull in pairs
-    along their links, so over the garment they cancel in force and in moment, and the
+    Node i obeys m a_i = m g + (springs) + (limb) + (gripper); the springs act in equal
+    and opposite pairs, so over the garment they cancel in force (and in moment but for
+    their damping, which acts across the links as well as along them), and the
     gripper's share is sum_i m (g - a_i) + sum_c f_c, each about the gripper. Every
     physics step must be shown (the accelerations are central differences of the
     positions), starting from the garment at rest as it is loaded.

@@ -25,6 +25,9 @@ from dresslog.sim.scene import Scene
 from dresslog.sim.trajectory import constant_speed
 from dresslog.spec import Task, TrialMetadata
 
+#: What each `--wrench-from` reads the wrench from, as the figure says it.
+SOURCE = {"momentum": "momentum balance", "constraint": "constraint"}
+
 
 def bare_physics_seconds(spec) -> float:
     """CPU time (this thread) of stepping the same scene along the same path with nothing else."""
@@ -72,7 +75,7 @@ def main(seeds: int = 3, wrench_from: str = "momentum") -> None:
             f"(pybullet queries {np.sum(queries) / np.sum(phys):.1%}) "
             f"own/bare={np.sum(own) / np.sum(bare):.1%} "
             f"physics={np.sum(phys):.1f}s bare={np.sum(bare):.1f}s over {seeds} x 7 s trials, "
-            f"the wrench from the {wrench_from}"
+            f"the wrench from the {SOURCE[wrench_from]}"
         )
 
 
