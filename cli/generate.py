@@ -55,7 +55,7 @@ def generate(
     speed: float | None,
     rotation: tuple[str, float] | None,
     rotation_range: tuple[str, float, float] | None,
-    wrench_from: str | None,
+    wrench_from: str,
     executor: str,
     quiet: bool,
 ) -> None:
@@ -71,8 +71,9 @@ def generate(
         raise click.UsageError("--rotation fixes every trial's rotation, --rotation-range draws "
                                "it; give one")  # fmt: skip
 
+    sim = {"wrench_from": wrench_from} if wrench_from == "momentum" else None  # v7's: unsaid
     fixed = {"duration": duration, "speed": speed, "limb_rotation": rotation_spec(rotation),
-             "sim": {"wrench_from": wrench_from} if wrench_from else None}  # fmt: skip
+             "sim": sim}  # fmt: skip
     manifest = generate_dataset(
         task,
         trials,

@@ -57,11 +57,12 @@ def duration_option(each: str, *, checked: bool = True) -> Callable[[Any], Any]:
 #: `--wrench-from`: what the simulated gripper's wrench is read from (`SimParams.wrench_from`)
 wrench_option = click.option(
     "--wrench-from",
-    type=click.Choice(["constraint", "momentum"]),
-    help="Read the gripper's wrench from its constraint (a changing share of the garment's "
-    "load), or from the garment's momentum balance with the limb's contact forces "
-    "(docs/experiments.md); a model reads trials as its training trials were.",
-    show_default="constraint",
+    type=click.Choice(["momentum", "constraint"]),
+    default="momentum",
+    show_default=True,
+    help="Read the gripper's wrench from the garment's momentum balance with the limb's "
+    "contact forces (simulator v8, the bundled models'), or from its constraint, a changing "
+    "share of the garment's load (v7 and before; docs/experiments.md).",
 )
 
 

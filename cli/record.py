@@ -52,7 +52,7 @@ def record(
     offset: tuple[float, float, float] | None,
     rotation: tuple[str, float] | None,
     duration: float | None,
-    wrench_from: str | None,
+    wrench_from: str,
     overwrite: bool,
     live: bool,
     model: Path | None,
@@ -71,7 +71,7 @@ def record(
         duration=duration,
         limb_offset=offset or None,
         limb_rotation=rotation_spec(rotation),
-        sim={"wrench_from": wrench_from} if wrench_from else None,
+        sim={"wrench_from": wrench_from},
     )
     if streamed:
         from dresslog.replay.live import record_live

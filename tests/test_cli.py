@@ -248,6 +248,37 @@ def test_record_options_reach_the_spec(tmp_path: Path) -> None:
     assert (spec.seed, spec.speed, spec.duration) == (2, 0.2, 0.1)
     assert spec.limb_offset == (0.01, -0.02, 0.03)
     assert (spec.limb_rotation.axis, spec.limb_rotation.degrees) == ("x", 5.0)
+    assert spec.sim.wrench_from == "momentum"  # simulator v8's, as the bundled models read
+    older = ["record", "--task", "shorts", "--duration", "0.1", "--wrench-from", "constraint"]
+    assert CliRunner().invoke(main, [*older, "-o", str(out), "--overwrite"]).exit_code == 0
+    assert read_trial(out).metadata.spec.sim.wrench_from == "constraint"
+
+
+@pytest.mark.slow
+def test_generate_draws_new_folders_with_the_momentum_balance_and_keeps_an_older_ones(
+    tmp_path: Path,
+) -> None:
+    """A folder of simulator v7 (its wrench from the constraint, unsaid in its manifest)
+    is extended as it was made, with --wrench-from constraint; without, one line says so."""
+    from dresslog.dataset import load_manifest
+
+    runner = CliRunner()
+    args = ["generate", "--task", "gown", "--duration", "0.1", "--test-fraction", "0", "-q"]
+    new, old = tmp_path / "new", tmp_path / "old"
+    assert runner.invoke(main, [*args, "--trials", "2", "-o", str(new)]).exit_code == 0
+    assert load_manifest(new).overrides["sim"] == {"wrench_from": "momentum"}
+    v7 = [*args, "--wrench-from", "constraint", "-o", str(old)]
+    assert runner.invoke(main, [*v7, "--trials", "2"]).exit_code == 0
+    assert "sim" not in load_manifest(old).overrides
+    result = runner.invoke(main, [*args, "--trials", "3", "-o", str(old)])
+    assert result.exit_code == 1
+    assert result.output.endswith(
+        "fixed spec fields duration=0.1, not duration=0.1, sim={'wrench_from': 'momentum'}; use "
+        "another folder or the same options (a folder of simulator v7 or before: --wrench-from "
+        "constraint)\n"
+    )
+    assert runner.invoke(main, [*v7, "--trials", "3"]).exit_code == 0
+    assert len(load_manifest(old).trials) == 3
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")

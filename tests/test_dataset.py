@@ -66,6 +66,10 @@ def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Res
     return fake_record(spec, path, overwrite=overwrite)
 
 
+#: The spec fields the `dataset` fixture's command fixed (the wrench: `generate`'s default).
+MADE = {"duration": 0.5, "sim": {"wrench_from": "momentum"}}
+
+
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """4 real half-second gown trials (3 train, 1 test) made by the CLI with 2 workers."""
@@ -120,7 +124,7 @@ def test_resume_recreates_a_deleted_trial_identically_and_keeps_the_rest(copy: P
     mtimes = {p: p.stat().st_mtime_ns for p in copy.glob("*/*.mcap")}
     (copy / "test/000003.mcap").write_bytes(b"finished as a run stopped, never reported")
     (copy / "train/mine.mcap").write_bytes(b"the user's own file")
-    after = generate("gown", 4, copy, workers=2, test_fraction=0.25, overrides={"duration": 0.5})
+    after = generate("gown", 4, copy, workers=2, test_fraction=0.25, overrides=MADE)
     assert after.content_hash() == before.content_hash()  # same bytes: deterministic
     assert {p: p.stat().st_mtime_ns for p in mtimes} == mtimes  # the others were skipped
     on_disk = sorted(str(p.relative_to(copy)) for p in copy.glob("*/*mcap*"))
@@ -134,9 +138,7 @@ def test_an_interrupted_generation_is_extended_where_it_stopped(copy: Path) -> N
     manifest.trials = [e for e in manifest.trials if e.slot == 0]  # as if stopped after two
     manifest.save(copy)
     assert not manifest.complete
-    resumed = generate(
-        "gown", 5, copy, workers=2, splits={"train": 4, "test": 1}, overrides={"duration": 0.5}
-    )
+    resumed = generate("gown", 5, copy, workers=2, splits={"train": 4, "test": 1}, overrides=MADE)
     assert resumed.complete and len(resumed.split("train")) == 4
 
 
@@ -521,8 +523,9 @@ def test_cli_generate_speed_and_rotation_make_every_trial_of_that_condition(
     assert result.exit_code == 1
     assert result.output == (
         f"Error: {out}: folder holds a dataset with fixed spec fields duration=0.1, speed=0.18, "
-        "limb_rotation={'axis': 'z', 'degrees': -15.0}, not duration=0.1, "
-        "limb_rotation={'axis': 'z', 'degrees': 15.0}; use another folder or the same options\n"
+        "limb_rotation={'axis': 'z', 'degrees': -15.0}, sim={'wrench_from': 'momentum'}, not "
+        "duration=0.1, limb_rotation={'axis': 'z', 'degrees': 15.0}, sim={'wrench_from': "
+        "'momentum'}; use another folder or the same options\n"
     )
 
 
@@ -549,7 +552,7 @@ def test_cli_generate_rotation_range_draws_each_trials_rotation_within_it(tmp_pa
     shown = CliRunner().invoke(main, ["info", str(out)])
     assert shown.output.splitlines()[1:] == [
         "  trials    speeds 0.1-0.15 m/s; the limb turned about z -15...+15 deg",
-        "  fixed for every trial: duration=0.1",
+        '  fixed for every trial: duration=0.1, sim={"wrench_from": "momentum"}',
     ]
     result = CliRunner().invoke(main, [*args, "-o", out])  # not extended with fixed trials
     assert result.exit_code == 1

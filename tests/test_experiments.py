@@ -772,13 +772,21 @@ def test_info_counts_one_epoch_in_the_singular(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_info_summarises_a_model_folder_and_a_dataset_folder(model: Path, data: Path) -> None:
+def test_info_summarises_a_model_folder_and_a_dataset_folder(
+    model: Path, data: Path, tmp_path: Path
+) -> None:
     code, output = invoke("info", model)
     assert code == 0, output
     assert "gown, 300 limb points" in output and "1x4 LSTM" in output
     assert "2 epochs in" in output and "weights   sha256" in output
     assert "  trained   speeds 0.1-0.15 m/s, the limb never turned\n" in output  # as eval's
-    code, output = invoke("info", SAMPLES / "models" / "gown")  # a card before format 4
+    older = tmp_path / "format3"
+    bundled = load_model(SAMPLES / "models" / "gown")
+    save_model(older, bundled.weights, bundled.card)
+    card = json.loads((older / CARD_FILE).read_text())
+    del card["data"]["folders"]  # as format 3 wrote it: the data named by path only
+    (older / CARD_FILE).write_text(json.dumps({**card, "format_version": 3}))
+    code, output = invoke("info", older)  # a card before format 4
     assert (
         code == 0
         and (
@@ -956,9 +964,19 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
         )
         in output
     ), output
-    bundled = load_model(SAMPLES / "models" / "gown").card  # format 3: conditions not kept
-    assert bundled.trained_folders() == [TrainingFolder(folder="data/gown", trials=3000)]
-    assert trained_conditions(bundled) == DEFAULTS  # generate's
+    older = _before_format_4(load_model(SAMPLES / "models" / "gown").card)
+    assert older.trained_folders() == [_unrecorded(older)]  # conditions not kept
+    assert trained_conditions(older) == DEFAULTS  # generate's, as it was before simulator v8
+
+
+def _before_format_4(card: ModelCard) -> ModelCard:
+    """`card` as format 3 wrote it (the v7 bundled models'): its data named by path only."""
+    data = card.data.model_copy(update={"folders": None})
+    return card.model_copy(update={"format_version": 3, "data": data})
+
+
+def _unrecorded(card: ModelCard) -> TrainingFolder:
+    return TrainingFolder(folder=card.data.description, trials=card.data.n_train + card.data.n_val)
 
 
 #: The conditions of `generate`'s gown trials: speeds drawn over 10-15 cm/s, no rotation,
@@ -969,14 +987,14 @@ DEFAULTS = Conditions(
 
 
 def test_a_card_before_format_4_gives_its_data_and_its_initial_models_as_not_recorded() -> None:
-    """The bundled cards (format 3) name their data by path only; so does a format-3 card
+    """A format-3 card (the v7 bundled models') names its data by path only; so does one
     of a fine-tuned model, whose initial model's data it names not at all."""
-    bundled = load_model(SAMPLES / "models" / "gown").card
-    tuned = bundled.model_copy(
+    older = _before_format_4(load_model(SAMPLES / "models" / "gown").card)
+    tuned = older.model_copy(
         update={"init": InitialModel(description="runs/first", weights_sha256="0" * 64)}
     )
     assert tuned.trained_folders() == [
-        TrainingFolder(folder="data/gown", trials=3000),
+        _unrecorded(older),
         TrainingFolder(folder="the data of runs/first"),
     ]
     assert trained_conditions(tuned) == DEFAULTS  # as generate's
@@ -1288,7 +1306,7 @@ def test_learning_curve_ticks_whole_epochs_and_says_when_nothing_was_validated()
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["training (no validation split)"]
     assert (
         ax.get_title()
-        == "Learning curve: gown, 3x100 LSTM, lr 0.001 cosine\n2700 training sequences"
+        == "Learning curve: gown, 3x100 LSTM, lr 0.001 cosine\n900 training sequences"
     )
     (ax,) = training_figure(_card(3, 300, kept=2)).axes
     assert list(ax.get_xticks()) == [1, 2, 3]
@@ -1297,7 +1315,7 @@ def test_learning_curve_ticks_whole_epochs_and_says_when_nothing_was_validated()
         "validation",
         "kept (epoch 2)",
     ]
-    assert ax.get_title().endswith("\n2700 training sequences, 300 validation")
+    assert ax.get_title().endswith("\n900 training sequences, 300 validation")
     (ax,) = training_figure(_card(60, 300, kept=43)).axes
     ticks = ax.get_xticks()
     assert all(t == int(t) for t in ticks) and 4 <= len(ticks) <= 10, ticks

@@ -39,7 +39,8 @@ def test_the_cli_starts_its_own_ray_instance_and_stops_it(tmp_path: Path) -> Non
     assert done.returncode == 0, done.stderr[-2000:]
     assert "Traceback" not in done.stderr
     local = generate("gown", 2, tmp_path / "local", workers=2, test_fraction=0.5,
-                     overrides={"duration": 0.3}, progress=False)  # fmt: skip
+                     overrides={"duration": 0.3, "sim": {"wrench_from": "momentum"}},
+                     progress=False)  # fmt: skip
     assert load_manifest(tmp_path / "ray").content_hash() == local.content_hash()
     deadline = time.monotonic() + 30  # Ray's processes may take a moment to exit
     while _raylets() and time.monotonic() < deadline:

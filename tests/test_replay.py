@@ -494,10 +494,10 @@ def test_a_simulated_trial_at_a_speed_or_pose_the_model_never_saw_is_warned_abou
             "limb offset y +0.35 m (trained on y -0.2...+0.2)",
         ),
         (
-            "balanced",
-            ["--wrench-from", "momentum"],
-            "the gripper's wrench read from the garment's momentum balance (trained on its "
-            "constraint)",
+            "constrained",
+            ["--wrench-from", "constraint"],
+            "the gripper's wrench read from its constraint (trained on the garment's momentum "
+            "balance)",
         ),
     ):
         trial = tmp_path / f"{name}.mcap"
