@@ -27,7 +27,13 @@ from dresslog.experiments.evaluation import (
 )
 from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
-from dresslog.model.conditions import DURATION, WRENCH, describe, trained_conditions
+from dresslog.model.conditions import (
+    DURATION,
+    WRENCH,
+    describe,
+    trained_conditions,
+    wrench_of,
+)
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
     CARD_FILE,
@@ -354,7 +360,7 @@ def _earlier(
 def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, Manifest]]:
     """The sweep setting folders in `out` besides the `asked` ones, with their manifests."""
     names, duration = {s.folder for s in asked}, asked[0].overrides.get("duration")
-    wrench = asked[0].overrides.get("sim", {}).get("wrench_from", WRENCH)
+    wrench = wrench_of(asked[0].overrides)
     found: list[tuple[Setting, Manifest]] = []
     for folder in (f for f in out.iterdir() if f.is_dir() and f.name not in names):
         kind, _, value = folder.name.partition("_")

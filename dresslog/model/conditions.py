@@ -37,6 +37,13 @@ DURATION: float = TrialSpec.model_fields["duration"].default
 #: what a trial's wrench is read from when its spec does not say (simulator v7)
 WRENCH: str = SimParams.model_fields["wrench_from"].default
 _WRENCH_SOURCE = {"constraint": "its constraint", "momentum": "the garment's momentum balance"}
+
+
+def wrench_of(overrides: Mapping[str, Any]) -> str:
+    """What the wrench of trials made with these spec `overrides` was read from."""
+    return str(overrides.get("sim", {}).get("wrench_from", WRENCH))
+
+
 #: a limb offset box, m: (low, high) along x, y and z (low == high for a fixed offset)
 Box = tuple[tuple[float, float], ...]
 
@@ -159,7 +166,7 @@ def folder_conditions(
         unturned=not rotations,
         offsets=(box,),
         durations=(float(fixed.get("duration", DURATION)),),
-        wrenches=(fixed.get("sim", {}).get("wrench_from", WRENCH),),
+        wrenches=(wrench_of(fixed),),
     )
 
 

@@ -409,10 +409,10 @@ def _record(
     Contacts and wrench are averaged over the substeps: a recorded step carries the
     impulse of its whole interval, not the chatter of its last substep.
     """
+    momentum = isinstance(read, MomentumBalance)  # which must see every step's garment
     for i in range(len(path_phys) // sub):
         raw: list[tuple] = []
         wrench = np.zeros(6)
-        momentum = isinstance(read, MomentumBalance)  # which must see every step's garment
         for k in range(sub):
             t0 = time.thread_time()
             ee = path_phys[i * sub + k]
