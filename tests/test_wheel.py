@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+import site as sitelib
 import subprocess
 import sys
 from pathlib import Path
@@ -27,9 +28,13 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
          "-w", str(root / "dist"), str(source)], **run,
     )  # fmt: skip
     wheel = next((root / "dist").glob("dresslog-*.whl"))
-    subprocess.run(
-        [sys.executable, "-m", "venv", "--system-site-packages", str(root / "venv")], **run
-    )
+    subprocess.run([sys.executable, "-m", "venv", str(root / "venv")], **run)
+    # The dependencies come from the running interpreter's site-packages, a venv's or the
+    # base's: --system-site-packages would reach the base interpreter's even from a venv.
+    # Listed in a .pth, they follow the venv's own site-packages, so the wheel's dresslog
+    # wins, and their .pth files (our editable install's among them) are not run.
+    site = next((root / "venv").glob("lib/python*/site-packages"))
+    (site / "running-interpreter.pth").write_text("\n".join(sitelib.getsitepackages()) + "\n")
     pip = root / "venv" / "bin" / "pip"
     subprocess.run([pip, "install", "--no-deps", "--no-index", str(wheel)], **run)
     return root / "venv"
