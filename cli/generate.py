@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from dresslog.dataset.generate import MAX_TRIALS
+from dresslog.spec import simulator_fields
 
 from .common import reports_errors
 from .options import (
@@ -15,9 +16,9 @@ from .options import (
     executor_option,
     rotation_option,
     rotation_spec,
+    simulator_option,
     speed_option,
     task_option,
-    wrench_option,
 )
 
 
@@ -40,7 +41,7 @@ from .options import (
 @click.option("--rotation-range", type=(AXIS, ROTATION_RANGE, ROTATION_RANGE),
               metavar="AXIS LOW HIGH", show_default="none",
               help="Draw each trial's rotation about AXIS, LOW to HIGH degrees.")  # fmt: skip
-@wrench_option
+@simulator_option
 @executor_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
@@ -55,7 +56,7 @@ def generate(
     speed: float | None,
     rotation: tuple[str, float] | None,
     rotation_range: tuple[str, float, float] | None,
-    wrench_from: str,
+    simulator: str,
     executor: str,
     quiet: bool,
 ) -> None:
@@ -71,7 +72,7 @@ def generate(
         raise click.UsageError("--rotation fixes every trial's rotation, --rotation-range draws "
                                "it; give one")  # fmt: skip
 
-    sim = {"wrench_from": wrench_from} if wrench_from == "momentum" else None  # v7's: unsaid
+    sim = simulator_fields(simulator)
     fixed = {"duration": duration, "speed": speed, "limb_rotation": rotation_spec(rotation),
              "sim": sim}  # fmt: skip
     manifest = generate_dataset(

@@ -12,7 +12,15 @@ from typing import Any, get_args
 
 import click
 
-from dresslog.spec import MAX_DURATION, MAX_ROTATION, MAX_SPEED, Axis, Task, TrialSpec
+from dresslog.spec import (
+    MAX_DURATION,
+    MAX_ROTATION,
+    MAX_SPEED,
+    SIMULATORS,
+    Axis,
+    Task,
+    TrialSpec,
+)
 
 
 class OneLineChoice(click.Choice):
@@ -54,15 +62,15 @@ def duration_option(each: str, *, checked: bool = True) -> Callable[[Any], Any]:
     )
 
 
-#: `--wrench-from`: what the simulated gripper's wrench is read from (`SimParams.wrench_from`)
-wrench_option = click.option(
-    "--wrench-from",
-    type=click.Choice(["momentum", "constraint"]),
-    default="momentum",
+#: `--simulator`: the simulator version to record with (`dresslog.spec.SIMULATORS`)
+simulator_option = click.option(
+    "--simulator",
+    type=click.Choice(SIMULATORS),
+    default=SIMULATORS[0],
     show_default=True,
-    help="Read the gripper's wrench from the garment's momentum balance with the limb's "
-    "contact forces (simulator v8, the bundled models'), or from its constraint, a changing "
-    "share of the garment's load (v7 and before; docs/experiments.md).",
+    help="Simulator version: v9 drapes its garments and draws them round the elbow and "
+    "up the leg; v8 (the bundled models' until they are retrained) and v7 (its wrench from "
+    "the gripper's constraint) stay for old data (docs/simulator.md).",
 )
 
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from dresslog.spec import MAX_OFFSET
+from dresslog.spec import MAX_OFFSET, simulator_fields
 
 from .common import reports_errors
 from .options import (
@@ -14,9 +14,9 @@ from .options import (
     duration_option,
     rotation_option,
     rotation_spec,
+    simulator_option,
     speed_option,
     task_option,
-    wrench_option,
 )
 
 
@@ -32,7 +32,7 @@ from .options import (
               show_default="from --seed, within the paper's ranges")  # fmt: skip
 @rotation_option
 @duration_option("", checked=False)
-@wrench_option
+@simulator_option
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 @click.option("--live", is_flag=True, help="Stream to a live Rerun viewer while simulating.")
 @click.option("--model", "-m", type=click.Path(path_type=Path),
@@ -52,7 +52,7 @@ def record(
     offset: tuple[float, float, float] | None,
     rotation: tuple[str, float] | None,
     duration: float | None,
-    wrench_from: str,
+    simulator: str,
     overwrite: bool,
     live: bool,
     model: Path | None,
@@ -71,7 +71,7 @@ def record(
         duration=duration,
         limb_offset=offset or None,
         limb_rotation=rotation_spec(rotation),
-        sim={"wrench_from": wrench_from},
+        sim=simulator_fields(simulator),
     )
     if streamed:
         from dresslog.replay.live import record_live

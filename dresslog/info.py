@@ -94,8 +94,14 @@ def _dataset(path: Path, as_json: bool) -> Description:
     warn_if_incomplete(path, manifest)
     damaged = list(damaged_files(path, manifest))  # sizes only: hashing every trial is slow
     problem = damaged_error(path, *damaged[0]) if damaged else None
+    from dresslog.dataset.fidelity import folder_fidelity
+
+    damaged_files_ = {file for file, _ in damaged}
+    readable = [e.file for e in manifest.trials if e.file and e.file not in damaged_files_]
+    figures, read = folder_fidelity(path, manifest.task, readable)
     if as_json:  # the manifest, and the damaged trials as a list beside it
         listed = json.loads(manifest.model_dump_json())
+        listed["fidelity"] = figures.as_dict()
         # what a model's card and `eval --json` name the data by (manifest_sha256)
         listed["content_sha256"] = manifest.content_hash()
         listed["damaged"] = [{"file": file, "problem": how} for file, how in damaged]
@@ -107,6 +113,10 @@ def _dataset(path: Path, as_json: bool) -> Description:
     if others:  # what else sets this dataset apart (short trials)
         fixed = ", ".join(f"{k}={json.dumps(v)}" for k, v in others.items())
         lines.append(f"  fixed for every trial: {fixed}")
+    if read:
+        sample = f" (read {read} of {len(readable)})" if read < len(readable) else ""
+        lines.append(f"  fidelity  against the paper's dressing{sample}")
+        lines += figures.lines()
     if damaged:
         names = ", ".join(f"{file} ({how})" for file, how in damaged[:5])
         more = f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""

@@ -13,8 +13,9 @@ models do; `dresslog.sim.random_spec` is the library's way to a spec and raises
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from enum import StrEnum
-from typing import Annotated, Final, Literal
+from typing import Annotated, Any, Final, Literal
 
 from pydantic import (
     BaseModel,
@@ -62,12 +63,23 @@ class Task(StrEnum):
 #: model trained on `generate`'s defaults has seen, which `infer` checks a trial against.
 SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
 
-#: Limb offsets (m) drawn per trial, +- these per axis, the paper's ranges (`random_spec`).
-#: The paper's (x, y, z) numbers are applied to our (x, y, z), but its y is up
-#: (`PAPER_AXES`), so our lateral and vertical ranges are crossed: the gown's arm moves
-#: +-20 cm sideways where the paper moved it +-20 cm up and down. Kept so until a
-#: simulator version regenerates every dataset (docs/experiments.md, "The paper's axes").
-OFFSET_RANGE = {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)}
+#: The simulator version every command and the library record with when not told:
+#: v9's garments drape, are held by a pinch, and are drawn round the elbow or up the leg
+#: (docs/simulator.md). v8 (and v7, v8 with the constraint's wrench) stay reachable by
+#: name for old data: `SimParams(simulator=8)`.
+SIMULATOR: Final[Literal[8, 9]] = 9
+
+#: Limb offsets (m) drawn per trial, +- these per axis, by simulator version
+#: (`random_spec`). The paper gives (x, y, z) in its frame, whose y is up (`PAPER_AXES`):
+#: v9 maps them onto ours (z up), so the gown's arm moves +-20 cm up and down and +-10 cm
+#: sideways. v8 and before applied the paper's numbers to our axes unmapped (the arm
+#: +-20 cm sideways); kept so that their seeds draw the specs they always drew.
+OFFSET_RANGES = {
+    8: {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)},
+    9: {Task.GOWN: (0.05, 0.10, 0.20), Task.SHORTS: (0.05, 0.05, 0.075)},
+}
+#: The current simulator's offsets, what `generate`'s folders draw.
+OFFSET_RANGE = OFFSET_RANGES[SIMULATOR]
 
 
 def task_of(value: Task | str, error: type[DresslogError]) -> Task:
@@ -150,6 +162,11 @@ class SimParams(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
+    simulator: Literal[8, 9] = Field(
+        SIMULATOR,
+        description="the garments, the grip and the paths: 9 drapes and is held by a pinch; "
+        "8 is simulator v8 and before (v7: 8 with the constraint's wrench)",
+    )
     physics_hz: int = Field(300, gt=0, description="physics steps per second")
     record_hz: int = Field(100, gt=0, description="recorded measurements per second")
     settle_s: float = Field(1.0, ge=0, description="time the garment hangs before the motion")
@@ -158,11 +175,14 @@ class SimParams(BaseModel):
     garment_mass: float = Field(0.25, gt=0, description="kg")
     elastic_stiffness: float = Field(40.0, gt=0)
     damping_stiffness: float = Field(
-        1.0,
+        0.1,
         ge=0,
-        description="spring damping; at 0.1 the cloth rings and its limb contacts chatter",
+        description="spring damping, in all directions: v8's 1.0 held a sleeve open as a "
+        "rigid tube; 0.1 lets it drape and still comes to rest",
     )
-    bending_stiffness: float = Field(2.0, ge=0)
+    bending_stiffness: float = Field(
+        0.0, ge=0, description="bending springs' stiffness; 0 has none, so the cloth folds (v9)"
+    )
     friction: float = Field(0.5, ge=0)
     collision_margin: float = Field(0.006, gt=0)
     contact_spread: int = Field(
@@ -181,19 +201,35 @@ class SimParams(BaseModel):
         description="the gripper and the garment edge it holds keep this far off the limb, m",
     )
     max_grip_lift: float = Field(
-        0.10, ge=0, description="the gripper stops where keeping clear would lift it more, m"
+        0.25, ge=0, description="the gripper stops where keeping clear would lift it more, m"
     )
     lift_smoothing: float = Field(
         0.25, ge=0, description="the gripper spreads a change of its lift rate over this long, s"
     )
     max_limb_force: float = Field(200.0, gt=0, description="instability guard, N")
     wrench_from: Literal["constraint", "momentum"] = Field(
-        "constraint",
+        "momentum",
         description="the gripper's wrench as its constraint reports it (a changing share of "
         "the garment's load), or as the garment's momentum balance leaves it of gravity and "
         "the limb's contact forces",
-        exclude_if=lambda v: v == "constraint",  # a v7 trial's spec reads as it did
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _defaults_of_its_version(cls, data: object, info: ValidationInfo) -> object:
+        """Fields left unsaid take the defaults of the spec's simulator version.
+
+        A recorded spec (a trial's, a manifest's) that names no version is from v8 or
+        before, which saved every field but a constraint's `wrench_from` (v7); asked for
+        by name, `simulator=8` brings v8's cloth, grip lift and wrench.
+        """
+        if not isinstance(data, dict):
+            return data
+        if "simulator" not in data and _recorded(info):
+            data = {"simulator": 8, "wrench_from": "constraint", **data}
+        if data.get("simulator") == 8:
+            data = {**V8_DEFAULTS, **data}
+        return data
 
     def settle_steps(self) -> tuple[int, int, int]:
         """Physics steps of the settling, of the wind at its start and of the tare at its end."""
@@ -210,6 +246,48 @@ class SimParams(BaseModel):
                 "or more"
             )
         return self
+
+
+#: What simulator v8 used where v9 changed a default (`SimParams(simulator=8)`).
+V8_DEFAULTS: Final = {
+    "damping_stiffness": 1.0,
+    "bending_stiffness": 2.0,
+    "max_grip_lift": 0.10,
+    "wrench_from": "momentum",
+}
+
+
+#: The simulator versions a spec can ask for, by name, newest first: what `--simulator`
+#: takes. v7 is v8's garments and paths with the wrench read from the gripper's
+#: constraint.
+SIMULATORS: Final = ("v9", "v8", "v7")
+
+
+def simulator_name(sim: SimParams) -> str:
+    """`v9`, `v8` or `v7`: the version a spec's physics are, as the docs name them."""
+    if sim.simulator == 8 and sim.wrench_from == "constraint":
+        return "v7"
+    return f"v{sim.simulator}"
+
+
+def simulator_of(sim: Mapping[str, Any] | None) -> str:
+    """The version name of saved `sim` fields (a folder's overrides, a model card's): a
+    mapping that names no simulator is from v8 or before, and v7 said no `wrench_from`."""
+    sim = sim or {}
+    if sim.get("simulator", 8) != 8:
+        return f"v{sim['simulator']}"
+    return "v7" if sim.get("wrench_from", "constraint") == "constraint" else "v8"
+
+
+def simulator_fields(name: str) -> dict[str, Any]:
+    """The `sim` fields that ask for simulator `name` (one of `SIMULATORS`), as a
+    folder's overrides save them: v9 `{"simulator": 9}`, v7 `{"simulator": 8,
+    "wrench_from": "constraint"}`."""
+    if name not in SIMULATORS:
+        raise ValueError(f"simulator {name!r} is not one of {', '.join(SIMULATORS)}")
+    if name == "v9":
+        return {"simulator": 9}
+    return {"simulator": 8, "wrench_from": "constraint" if name == "v7" else "momentum"}
 
 
 class TrialSpec(BaseModel):
@@ -260,8 +338,7 @@ class TrialSpec(BaseModel):
             f"seed {self.seed}, speed {self.speed:.3f} m/s, offset "
             f"({', '.join(f'{v:+.3f}' for v in self.limb_offset)}) m, rotation "
             f"{self.limb_rotation.degrees:+g} deg about {self.limb_rotation.axis}, "
-            f"duration {self.duration:g} s, wrench from the "
-            + ("momentum balance" if self.sim.wrench_from == "momentum" else "constraint")
+            f"duration {self.duration:g} s, simulator {simulator_name(self.sim)}"
         )
 
 
@@ -278,6 +355,9 @@ class TrialMetadata(BaseModel):
     task: Task
     spec: TrialSpec | None = Field(None, description="the spec of a simulated trial")
     outcome: Outcome = Outcome.UNKNOWN
+    caught_on: str | None = Field(
+        None, description="for a caught trial: the limb part the garment was held on"
+    )
     failure_reason: str | None = None
     source: dict[str, object] = Field(
         default_factory=dict,

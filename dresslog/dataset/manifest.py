@@ -25,12 +25,28 @@ from enum import IntEnum, StrEnum
 from pathlib import Path
 from typing import Any, Final, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictInt,
+    ValidationError,
+    ValidationInfo,
+    model_validator,
+)
 
 from dresslog import __version__
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
 from dresslog.io.files import atomic_path, no_such, sha256_file
-from dresslog.spec import RECORDED, Outcome, RotationRange, Task, TrialSpec
+from dresslog.spec import (
+    RECORDED,
+    Outcome,
+    RotationRange,
+    Task,
+    TrialSpec,
+    simulator_fields,
+    simulator_of,
+)
 
 MANIFEST_FILE = "manifest.json"
 #: The file that marks a sweep's folder (`dresslog sweep` writes it beside its table and
@@ -129,6 +145,25 @@ class Manifest(BaseModel):
     failures: list[Entry] = Field(default_factory=list)
     dresslog_version: str = __version__
     updated: str = ""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _simulator_said(cls, data: object, info: ValidationInfo) -> object:
+        """A saved folder whose overrides name no simulator is of v8 or before (v7 said
+        no wrench either): said here, so its seeds draw and simulate as they did, and a
+        request for another version is refused as a change of its fixed fields."""
+        if not (isinstance(data, dict) and isinstance(info.context, dict)):
+            return data
+        if info.context.get("recorded") is not True:
+            return data
+        overrides = data.get("overrides")
+        if isinstance(overrides, dict):
+            sim = overrides.get("sim")
+            sim = sim if isinstance(sim, dict) else {}
+            if "simulator" not in sim:
+                said = simulator_fields(simulator_of(sim))
+                data = {**data, "overrides": {**overrides, "sim": {**sim, **said}}}
+        return data
 
     @model_validator(mode="after")
     def _trials_where_their_split_puts_them(self) -> Manifest:

@@ -29,10 +29,9 @@ from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.conditions import (
     DURATION,
-    WRENCH,
     describe,
+    simulator_in,
     trained_conditions,
-    wrench_of,
 )
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import (
@@ -42,7 +41,7 @@ from dresslog.model.files import (
 )
 from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.plots import plot_sweep
-from dresslog.spec import Task, TrialSpec, task_of
+from dresslog.spec import SIMULATORS, Task, TrialSpec, simulator_fields, task_of
 
 #: The kinds of setting, in the order the table lists them.
 _KINDS = ("baseline", "speed", "rotation")
@@ -148,21 +147,20 @@ def sweep_settings(
     speeds: Sequence[float | str],
     rotations: Sequence[str],
     duration: float | None = None,
-    wrench_from: str = WRENCH,
+    simulator: str = SIMULATORS[0],
 ) -> list[Setting]:
     """The in-range baseline, then one setting per speed and per rotation.
 
     Every setting's fields are checked as a spec here, so a bad value stops the sweep
-    before its first trial, not after the settings before it. `wrench_from` is the
-    model's: its trials are read as its training trials were.
+    before its first trial, not after the settings before it. `simulator` is the
+    model's (a `SIMULATORS` name): its trials are simulated as its training trials were.
     """
     task = task_of(task, DatasetError)
     for name, values in (("speeds", speeds), ("rotations", rotations)):
         if isinstance(values, str | int | float):  # a str would be swept letter by letter
             raise DatasetError(f"{name} must be a list of values, not the one {values!r}")
     extra: dict[str, Any] = {} if duration is None else {"duration": duration}  # 0 is refused
-    if wrench_from != WRENCH:  # a folder of the default keeps the overrides it always had
-        extra["sim"] = {"wrench_from": wrench_from}
+    extra["sim"] = simulator_fields(simulator)
     settings = [Setting("in-range", "baseline", math.nan, "", dict(extra))]
     for speed in map(parse_speed, speeds):
         fixed = {"speed": speed, **extra}
@@ -256,8 +254,8 @@ def sweep(
     if not speeds and not rotations:
         raise DatasetError("give at least one --speeds or --rotations value")
     seen = trained_conditions(loaded.card)
-    wrench = seen.wrenches[0] if len(seen.wrenches) == 1 else WRENCH
-    settings = sweep_settings(task, speeds, rotations, duration, wrench)  # bad: no folder
+    simulator = seen.simulators[-1]  # the newest the model has seen
+    settings = sweep_settings(task, speeds, rotations, duration, simulator)  # bad: no folder
     check_executor(executor)
     out = Path(out)
     _check_sweep_folder(out)
@@ -360,7 +358,7 @@ def _earlier(
 def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, Manifest]]:
     """The sweep setting folders in `out` besides the `asked` ones, with their manifests."""
     names, duration = {s.folder for s in asked}, asked[0].overrides.get("duration")
-    wrench = wrench_of(asked[0].overrides)
+    simulator = simulator_in(asked[0].overrides)
     found: list[tuple[Setting, Manifest]] = []
     for folder in (f for f in out.iterdir() if f.is_dir() and f.name not in names):
         kind, _, value = folder.name.partition("_")
@@ -369,7 +367,7 @@ def _found(out: Path, task: Task, asked: list[Setting]) -> list[tuple[Setting, M
         value = value.replace("_", ":", 1) if kind == "rot" else value
         try:  # not a setting's name, or not a dataset: not the sweep's
             (setting,) = sweep_settings(
-                task, [value] * (kind == "speed"), [value] * (kind == "rot"), duration, wrench
+                task, [value] * (kind == "speed"), [value] * (kind == "rot"), duration, simulator
             )[1:]
             manifest = load_manifest(folder)
         except DatasetError:

@@ -75,6 +75,7 @@ def format_summary(summary: TrialSummary) -> str:
     lines = [
         f"{summary.path}  ({summary.size_bytes / 1e6:.2f} MB)",
         f"  task      {summary.task}   outcome {summary.outcome}"
+        + (f" on the {md.caught_on}" if md.caught_on else "")
         + (f" ({md.failure_reason})" if md.failure_reason else ""),
         f"  steps     {summary.steps} over {summary.duration_s:.2f} s at {summary.rate_hz:g} Hz",
         f"  limb      {summary.limb_points or 'no'} limb points; ground truth "

@@ -20,9 +20,11 @@ from dresslog.spec import (
     SPEED_RANGE,
     LimbRotation,
     RotationRange,
-    SimParams,
     Task,
     TrialSpec,
+    simulator_fields,
+    simulator_name,
+    simulator_of,
 )
 
 #: the spec fields `describe` says when fixed for every trial (offsets and durations are
@@ -34,14 +36,14 @@ Speeds = tuple[float, float]
 Turn = tuple[str, float, float]
 #: the duration of a trial whose spec does not set one, s
 DURATION: float = TrialSpec.model_fields["duration"].default
-#: what a trial's wrench is read from when its spec does not say (simulator v7)
-WRENCH: str = SimParams.model_fields["wrench_from"].default
-_WRENCH_SOURCE = {"constraint": "its constraint", "momentum": "the garment's momentum balance"}
+#: the simulator a folder's trials come from when its overrides do not say: v7, whose
+#: folders and cards saved no `sim` fields
+UNSAID = "v7"
 
 
-def wrench_of(overrides: Mapping[str, Any]) -> str:
-    """What the wrench of trials made with these spec `overrides` was read from."""
-    return str(overrides.get("sim", {}).get("wrench_from", WRENCH))
+def simulator_in(overrides: Mapping[str, Any]) -> str:
+    """The simulator version (`v9`, `v8`, `v7`) of trials made with these spec `overrides`."""
+    return simulator_of(overrides.get("sim"))
 
 
 #: a limb offset box, m: (low, high) along x, y and z (low == high for a fixed offset)
@@ -52,14 +54,14 @@ Box = tuple[tuple[float, float], ...]
 class Conditions:
     """What a set of trials held: speed spans, rotation spans, whether some trials had
     the limb unturned (a span through 0 deg holds those too), limb offset boxes,
-    durations (s), and what the gripper's wrench was read from (`SimParams.wrench_from`)."""
+    durations (s), and the simulator versions that made them (`simulator_of`)."""
 
     speeds: tuple[Speeds, ...]
     rotations: tuple[Turn, ...]
     unturned: bool
     offsets: tuple[Box, ...]
     durations: tuple[float, ...]
-    wrenches: tuple[str, ...] = (WRENCH,)
+    simulators: tuple[str, ...] = (UNSAID,)
 
     def describe(self) -> str:
         """`speeds 0.1-0.15 m/s, the limb never turned`, as a sweep's line and eval say it."""
@@ -87,10 +89,9 @@ class Conditions:
         if max(self.durations) > (longest := max(trained.durations)):  # shorter: a prefix
             missing.append(f"duration {max(self.durations):g} s (trained on {longest:g} s)")
         missing += [
-            f"the gripper's wrench read from {_WRENCH_SOURCE[w]} (trained on "
-            f"{' and '.join(_WRENCH_SOURCE[t] for t in trained.wrenches)})"
-            for w in self.wrenches
-            if w not in trained.wrenches
+            f"simulator {v} (trained on {' and '.join(trained.simulators)})"
+            for v in self.simulators
+            if v not in trained.simulators
         ]
         return missing
 
@@ -166,7 +167,7 @@ def folder_conditions(
         unturned=not rotations,
         offsets=(box,),
         durations=(float(fixed.get("duration", DURATION)),),
-        wrenches=(wrench_of(fixed),),
+        simulators=(simulator_in(fixed),),
     )
 
 
@@ -179,7 +180,7 @@ def combined(conditions: Iterable[Conditions]) -> Conditions:
         unturned=any(c.unturned for c in parts),
         offsets=tuple(sorted({b for c in parts for b in c.offsets})),
         durations=tuple(sorted({d for c in parts for d in c.durations})),
-        wrenches=tuple(sorted({w for c in parts for w in c.wrenches})),
+        simulators=tuple(sorted({v for c in parts for v in c.simulators})),
     )
 
 
@@ -196,7 +197,7 @@ def spec_conditions(spec: TrialSpec) -> Conditions:
     """The conditions of one simulated trial, from its spec."""
     fixed = {"speed": spec.speed, "limb_rotation": spec.limb_rotation.model_dump(),
              "limb_offset": spec.limb_offset, "duration": spec.duration,
-             "sim": {"wrench_from": spec.sim.wrench_from}}  # fmt: skip
+             "sim": simulator_fields(simulator_name(spec.sim))}  # fmt: skip
     return folder_conditions(spec.task, fixed, None)
 
 

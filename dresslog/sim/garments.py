@@ -12,11 +12,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from dresslog.errors import SimulationError
-from dresslog.spec import Task, task_of
+from dresslog.spec import SIMULATOR, Task, task_of
 
 
 @dataclass(frozen=True)
@@ -29,6 +30,8 @@ class Garment:
     gripped: np.ndarray  # vertex indices anchored to the end effector
     #: the leading opening (armhole / waist) the limb must pass through
     entry_rim: np.ndarray
+    #: the opening the limb leaves through (cuff / the +y leg's opening)
+    exit_rim: np.ndarray
 
     def write_obj(self, directory: str | Path) -> Path:
         """Write the mesh as a Wavefront .obj (what pybullet's loadSoftBody reads)."""
@@ -75,27 +78,38 @@ def _top(ring: np.ndarray, verts: list, count: int) -> list[int]:
 
 
 def gown(
-    radius: float = 0.10,
-    length: float = 0.27,
+    armhole: float = 0.10,
+    cuff: float = 0.065,
+    length: float = 0.20,
     ring: int = 14,
-    rows: int = 10,
+    rows: int = 8,
     body: tuple[float, ...] = (0.16, 0.22, 0.28),
+    pinch: int | None = 2,
 ) -> Garment:
-    """A hospital-gown sleeve (an open tube held along its top seam) and the gown's body.
+    """A hospital-gown sleeve (a tube tapering from armhole to cuff) and the gown's body.
 
     The body is a flange around the armhole, in the armhole's plane, out to
     `body[-1]` m (rings at the radii in `body`; the outer ones twice as dense): the
     part of the gown that meets the arm when the hand misses the sleeve. The paper
     chose its arm offsets so that garment and limb always touch; a bare sleeve
     misses the arm entirely in about a quarter of trials.
+
+    `pinch`: the gripper holds the top three nodes of the first `pinch` rings, a pinch
+    at the shoulder seam, as a robot's gripper holds a gown (v9); None holds the top of
+    every ring, the whole top seam, which keeps the sleeve a rigid hoop (v8).
     """
     verts: list[tuple[float, float, float]] = []
-    rings = [_circle(verts, length * j / (rows - 1), radius, ring, -radius) for j in range(rows)]
+    rings = [
+        _circle(verts, length * j / (rows - 1), armhole + (cuff - armhole) * j / (rows - 1),
+                ring, -armhole)
+        for j in range(rows)
+    ]  # fmt: skip
     tris = [t for j in range(rows - 1) for t in _strip(rings[j], rings[j + 1])]
-    gripped = sorted(i for r in rings for i in _top(r, verts, 3))
+    held = rings if pinch is None else rings[:pinch]
+    gripped = sorted(i for r in held for i in _top(r, verts, 3))
     inner = rings[0]
     for k, r in enumerate(body):
-        outer = _circle(verts, 0.0, r, 2 * ring if k else ring, -radius)
+        outer = _circle(verts, 0.0, r, 2 * ring if k else ring, -armhole)
         tris += (_strip if len(outer) == len(inner) else _doubling_strip)(inner, outer)
         inner = outer
     return Garment(
@@ -104,25 +118,30 @@ def gown(
         triangles=np.array(tris, dtype=np.uint32),
         gripped=np.array(gripped),
         entry_rim=rings[0],
+        exit_rim=rings[-1],
     )
 
 
 def shorts(
-    waist_radius: float = 0.17,
-    leg_radius: float = 0.10,
-    leg_spacing: float = 0.07,
-    waist_length: float = 0.08,
-    leg_length: float = 0.25,
+    waist_radius: float = 0.14,
+    leg_radius: float = 0.09,
+    leg_spacing: float = 0.06,
+    waist_length: float = 0.06,
+    leg_length: float = 0.20,
     n: int = 8,
     m: int = 6,
     waist_rows: int = 3,
     leg_rows: int = 6,
+    pinch: bool = True,
 ) -> Garment:
     """Shorts: a waist tube whose cross-section splits, at a crotch seam, into two leg tubes.
 
     Leg A (+y) is the one the leg should go through. The two leg circles (centres
     y = +-leg_spacing, radius leg_radius) overlap; their crossing points F (top)
     and B (bottom) start a seam of m-1 shared vertices, so the mesh is one piece.
+
+    `pinch`: the gripper holds the waistband's top three nodes at its opening, as a
+    robot's gripper pinches it (v9); False holds the top of every waist ring (v8).
     """
     r, a, rw = leg_radius, leg_spacing, waist_radius
     zc = -rw
@@ -171,7 +190,7 @@ def shorts(
             tris += _strip(rings[j], rings[j + 1])
         legs[side] = rings
     # only the waistband is held: anchoring the legs too makes the anchors fight
-    gripped = {i for r_ in waist_rings for i in _top(r_, verts, 3)}
+    gripped = {i for r_ in waist_rings[: 1 if pinch else None] for i in _top(r_, verts, 3)}
     v = np.array(verts)
     v[:, 1] -= a  # put leg A's axis on y = 0
     return Garment(
@@ -180,9 +199,20 @@ def shorts(
         triangles=np.array(tris, dtype=np.uint32),
         gripped=np.array(sorted(gripped)),
         entry_rim=waist_rings[0],
+        exit_rim=legs[1][-1],
     )
 
 
-def garment_for(task: Task | str) -> Garment:
-    """The task's garment with the default sizes."""
-    return gown() if task_of(task, SimulationError) is Task.GOWN else shorts()
+#: Each simulator version's garments (docs/simulator.md gives v9's sizes and sources).
+_V8: dict[Task, dict[str, Any]] = {
+    Task.GOWN: {"armhole": 0.10, "cuff": 0.10, "length": 0.27, "rows": 10, "pinch": None},
+    Task.SHORTS: {"waist_radius": 0.17, "leg_radius": 0.10, "leg_spacing": 0.07,
+                  "waist_length": 0.08, "leg_length": 0.25, "pinch": False},
+}  # fmt: skip
+
+
+def garment_for(task: Task | str, simulator: int = SIMULATOR) -> Garment:
+    """The task's garment as simulator version `simulator` makes it."""
+    task = task_of(task, SimulationError)
+    sizes = _V8[task] if simulator == 8 else {}
+    return gown(**sizes) if task is Task.GOWN else shorts(**sizes)

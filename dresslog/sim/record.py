@@ -135,5 +135,7 @@ def record_trial(
         sinks = [sink, *sinks, *([bar] if progress else [])]
         result = simulate(spec, FanOut(*sinks) if len(sinks) > 1 else sink)
         sink.flush()
-        writer.metadata = metadata.model_copy(update={"outcome": result.outcome})
+        writer.metadata = metadata.model_copy(
+            update={"outcome": result.outcome, "caught_on": result.caught_on}
+        )
     return result

@@ -44,7 +44,7 @@ def load_cloth(client: int, obj: Path, position: np.ndarray, params: SimParams) 
         mass=params.garment_mass,
         useNeoHookean=0,
         useMassSpring=1,
-        useBendingSprings=1,
+        useBendingSprings=int(params.bending_stiffness > 0),
         springElasticStiffness=params.elastic_stiffness,
         springDampingStiffness=params.damping_stiffness,
         springDampingAllDirections=1,

@@ -20,23 +20,21 @@ from dresslog.limb import (
     Limb,
     build_limb,
     limb_points,
-    limb_sdf,
     segment_of,
     sum_xyz,
     surface_points,
 )
 from dresslog.sim.balance import MomentumBalance, WrenchReading, constraint_reading
 from dresslog.sim.garments import Garment, garment_for
+from dresslog.sim.outcome import CatchWatch, decide_outcome_v8, judge
 from dresslog.sim.scene import EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
-from dresslog.spec import Outcome, SimParams, Task, TrialSpec
+from dresslog.spec import Outcome, SimParams, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
 
 GARMENT_HZ = 10
 #: Instability guard: a vertex this far from the gripper means the cloth exploded.
 MAX_VERTEX_DISTANCE = 1.5
-#: Outcome thresholds: tared gripper force (N) that means the garment is held back.
-CAUGHT_FORCE = 2.0
 
 
 @dataclass(frozen=True)
@@ -77,6 +75,7 @@ class SimResult:
     wall_seconds: float
     peak_limb_force: float  # peak over steps of the total contact force on the limb, N
     timings: dict[str, float] = field(default_factory=dict)
+    caught_on: str | None = None  # the part a caught garment was held on (v9)
 
     @property
     def real_time_factor(self) -> float:
@@ -84,7 +83,9 @@ class SimResult:
 
     def summary(self) -> str:
         return (
-            f"outcome={self.outcome.value} steps={self.steps} "
+            f"outcome={self.outcome.value}"
+            + (f" on the {self.caught_on}" if self.caught_on else "")
+            + f" steps={self.steps} "
             f"peak_limb_force={self.peak_limb_force:.2f}N wall={self.wall_seconds:.1f}s "
             f"rtf={self.real_time_factor:.2f}"
         )
@@ -143,46 +144,6 @@ def _contacts_of_steps(
     return out, np.bincount(step_of, minlength=n_steps)
 
 
-def _winding(rim: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> float:
-    """How many times the closed rim polygon winds around the line (origin, axis)."""
-    helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(axis, helper)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
-    d = rim - origin
-    ang = np.arctan2(d @ e2, d @ e1)
-    step = np.diff(np.concatenate([ang, ang[:1]]))
-    step = (step + np.pi) % (2 * np.pi) - np.pi
-    return float(abs(step.sum()) / (2 * np.pi))
-
-
-def decide_outcome(
-    task: Task, limb: Limb, garment: Garment, verts: np.ndarray, final_force: float
-) -> Outcome:
-    """Dressed if the entry opening encircles the limb past the hand/foot; else caught or missed.
-
-    Encircling the limb's axis is not enough: the opening must hold the limb itself,
-    its centre nearer the limb's surface than the rim's own radius, or a garment pulled
-    along the axis's extension past a far-off limb would count. Caught means the limb
-    is not through the opening but the garment is held back against it (the gripper
-    still feels a pull); missed means neither.
-    """
-    if task is Task.GOWN:
-        prox, dist = limb.spheres["elbow"].center, limb.spheres["wrist"].center
-    else:
-        prox, dist = limb.spheres["hip"].center, limb.spheres["ankle"].center
-    length = np.linalg.norm(dist - prox)
-    axis = (dist - prox) / length
-    rim = verts[garment.entry_rim]
-    centre = rim.mean(axis=0)
-    along = float((centre - prox) @ axis) / float(length)
-    radius = float(np.linalg.norm(rim - centre, axis=1).mean())
-    holds_limb = float(limb_sdf(limb, centre[None])[0]) < radius
-    if _winding(rim, prox, axis) > 0.5 and along < 0.95 and holds_limb:
-        return Outcome.DRESSED
-    return Outcome.CAUGHT if final_force > CAUGHT_FORCE else Outcome.MISSED
-
-
 #: Per-axis offset below which a vertex is surely within MAX_VERTEX_DISTANCE: the
 #: rounded squares then sum to at most 3 * 0.866**2 (1 + 1e-15) < 1.5**2.
 _SURELY_NEAR = 0.866
@@ -237,8 +198,9 @@ class _StepBatch:
         spread: ClothSpreader | None,
         sink: StepSink | None,
         timings: dict[str, float],
+        watch: CatchWatch | None = None,
     ) -> None:
-        self.spec, self.limb, self.motion = spec, limb, motion
+        self.spec, self.limb, self.motion, self.watch = spec, limb, motion, watch
         self.force_map, self.spread, self.sink, self.timings = force_map, spread, sink, timings
         self.substeps = spec.sim.physics_hz // spec.sim.record_hz
         self.garment_every = max(1, spec.sim.record_hz // GARMENT_HZ)
@@ -276,6 +238,10 @@ class _StepBatch:
         for j, (i, lo, hi) in enumerate(zip(index, ends - counts, ends, strict=True)):
             t1 = time.thread_time()
             self._check(i, mags[lo:hi], wrench[j])
+            if self.watch is not None:
+                c = every[lo:hi]
+                speed = float(np.linalg.norm(m.twist[i, :3]))
+                self.watch.step(speed, self.ee_forces[-1], c["position"], c["segment"], mags[lo:hi])
             step = SimStep(
                 index=int(i),
                 t_ns=round(m.t[i] * 1e9),
@@ -441,10 +407,10 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
     if spec.control_points:
         ctrl = np.asarray(spec.control_points, dtype=float)
     else:
-        ctrl = random_control_points(task, rng)
+        ctrl = random_control_points(task, rng, p.simulator)
     limb = build_limb(task, spec.limb_offset, spec.limb_rotation)
     points = limb_points(limb)
-    garment = garment_for(task)
+    garment = garment_for(task, p.simulator)
     path_phys, path = _gripper_path(spec, ctrl, limb, garment, sub)
     n_rec, start = len(path), path[0]
     force_map = ForceDistributor(points.points)
@@ -469,11 +435,19 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
         tare = _settle(scene, p, rng, read, start)
         _guard(scene.vertices(), start, 0.0)
         motion = _motion(path, p.record_hz, tare, gripper=read is constraint_reading)
-        steps = _StepBatch(spec, limb, motion, force_map, spread, sink, timings)
+        watch = CatchWatch(task, limb, p.record_hz) if p.simulator >= 9 else None
+        steps = _StepBatch(spec, limb, motion, force_map, spread, sink, timings, watch)
         _record(scene, path_phys, sub, steps, read, timings)
         peak_limb = steps.peak_limb
         final_force = max(steps.ee_forces[-max(1, p.record_hz // 5) :], default=0.0)
-        outcome = decide_outcome(task, limb, garment, scene.vertices(), final_force)
+        verts = scene.vertices()
+        if watch is None:
+            caught_on = None
+            outcome = decide_outcome_v8(task, limb, garment, verts, final_force)
+        else:
+            caught_on = watch.finish()
+            outcome = judge(task, limb, garment, verts, final_force, caught_on)
+            caught_on = caught_on if outcome is Outcome.CAUGHT else None
     finally:
         scene.close()
     wall = time.perf_counter() - wall0
@@ -484,6 +458,7 @@ def simulate(spec: TrialSpec, sink: StepSink | None = None) -> SimResult:
         wall_seconds=wall,
         peak_limb_force=peak_limb,
         timings=timings,
+        caught_on=caught_on,
     )
 
 

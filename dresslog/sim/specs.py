@@ -11,11 +11,30 @@ from pydantic import ValidationError
 
 from dresslog.errors import SimulationError, first_problem
 from dresslog.sim.trajectory import random_control_points
-from dresslog.spec import OFFSET_RANGE, SPEED_RANGE, Task, TrialSpec, task_of
+from dresslog.spec import (
+    OFFSET_RANGES,
+    SIMULATOR,
+    SPEED_RANGE,
+    SimParams,
+    Task,
+    TrialSpec,
+    task_of,
+)
+
+
+def _simulator(sim: object) -> int:
+    """The simulator version `sim` overrides ask for (SimParams or its fields), else the
+    current one: offsets and paths are drawn as that version draws them."""
+    if isinstance(sim, SimParams):
+        return sim.simulator
+    if isinstance(sim, dict) and sim.get("simulator") in OFFSET_RANGES:
+        return int(sim["simulator"])
+    return SIMULATOR
 
 
 def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
-    """A spec with offset, speed and path drawn from the paper's ranges by `seed`.
+    """A spec with offset, speed and path drawn from the paper's ranges by `seed`, as
+    the simulator version its `sim` override names (default: the current one) draws them.
 
     `overrides` set spec fields (a None value leaves the drawn or default one); one out
     of range, like an unknown task or a negative seed, is a `SimulationError` naming it.
@@ -23,10 +42,11 @@ def random_spec(task: Task | str, seed: int, **overrides: object) -> TrialSpec:
     task = task_of(task, SimulationError)
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise SimulationError(f"seed must be an integer 0 or more, not {seed!r}")
+    version = _simulator(overrides.get("sim"))
     rng = np.random.default_rng(seed)
-    offset = tuple(float(v) for v in rng.uniform(-1, 1, 3) * OFFSET_RANGE[task])
+    offset = tuple(float(v) for v in rng.uniform(-1, 1, 3) * OFFSET_RANGES[version][task])
     speed = float(rng.uniform(*SPEED_RANGE[task]))
-    points = [tuple(map(float, p)) for p in random_control_points(task, rng)]
+    points = [tuple(map(float, p)) for p in random_control_points(task, rng, version)]
     fields: dict[str, object] = {
         "task": task,
         "seed": seed,

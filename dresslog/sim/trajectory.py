@@ -12,22 +12,39 @@ from __future__ import annotations
 import numpy as np
 
 from dresslog.limb import Limb, limb_sdf
-from dresslog.spec import Task
+from dresslog.spec import SIMULATOR, Task
 
-#: Nominal waypoints (world frame, m) of the end effector (the gripper, at the
-#: garment's leading opening, top). Gown: along the forearm 0.1 m above its axis
-#: until the armhole nears the upper arm. Shorts: over the foot (dipping towards
-#: the leg after it, as in the paper) and along the shin to the thigh.
-NOMINAL = {
-    Task.GOWN: np.array([[0.62, 0.0, 0.10], [0.08, 0.0, 0.10]]),
-    Task.SHORTS: np.array(
-        [[1.12, 0.0, 0.19], [0.95, 0.0, 0.19], [0.78, 0.0, 0.15], [0.22, 0.0, 0.15]]
-    ),
-}
-#: Control-point counts and deviations from the nominal path (paper, Sec. IV-A; its y and
-#: z crossed like `OFFSET_RANGE`: the paper's +-2 cm is vertical, +-5 cm sideways).
+#: Nominal waypoints (world frame, m) of the end effector (the gripper, at the top of
+#: the garment's leading opening), by simulator version.
+#: v9, gown: above the forearm, whose armhole hangs from the pinch, to the elbow, then
+#: up the upper arm and back over the shoulder, drawing the sleeve round the elbow.
+#: Shorts: over the foot, whose waist hangs from the pinch, then down to the leg and
+#: along the shin to the thigh.
+#: v8: along the forearm 0.1 m above its axis until the armhole nears the upper arm;
+#: over the foot (dipping towards the leg after it) and along the shin to the thigh.
+NOMINALS = {
+    9: {
+        Task.GOWN: np.array(
+            [[0.46, 0.0, 0.16], [0.16, 0.0, 0.16], [0.12, 0.0, 0.22], [0.10, 0.0, 0.40],
+             [0.02, 0.0, 0.52]]
+        ),
+        Task.SHORTS: np.array(
+            [[1.15, 0.0, 0.26], [0.95, 0.0, 0.26], [0.80, 0.0, 0.16], [0.30, 0.0, 0.16]]
+        ),
+    },
+    8: {
+        Task.GOWN: np.array([[0.62, 0.0, 0.10], [0.08, 0.0, 0.10]]),
+        Task.SHORTS: np.array(
+            [[1.12, 0.0, 0.19], [0.95, 0.0, 0.19], [0.78, 0.0, 0.15], [0.22, 0.0, 0.15]]
+        ),
+    },
+}  # fmt: skip
+#: Control-point counts (paper, Sec. IV-A).
 CONTROL_POINTS = {Task.GOWN: (7, 10), Task.SHORTS: (9, 11)}
-DEVIATION = np.array([0.03, 0.02, 0.05])
+#: Deviations of the interior control points from the nominal path, +- m per axis: the
+#: paper's (+-3, +-2, +-5) cm in its frame (y up) are (+-3, +-5, +-2) in ours (v9); v8
+#: applied them to our axes unmapped.
+DEVIATIONS = {9: np.array([0.03, 0.05, 0.02]), 8: np.array([0.03, 0.02, 0.05])}
 #: Path steps whose limb distances are computed at once (a 7 s trial at 300 Hz: 2,100).
 _GAP_BLOCK = 4096
 
@@ -40,12 +57,14 @@ def _resample(poly: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.interp(t, s, poly[:, k]) for k in range(3)], axis=1)
 
 
-def random_control_points(task: Task, rng: np.random.Generator) -> np.ndarray:
+def random_control_points(
+    task: Task, rng: np.random.Generator, simulator: int = SIMULATOR
+) -> np.ndarray:
     """7-10 (gown) or 9-11 (shorts) points along the nominal path; interior ones perturbed."""
     lo, hi = CONTROL_POINTS[task]
     n = int(rng.integers(lo, hi + 1))
-    pts = _resample(NOMINAL[task], n)
-    pts[1:-1] += rng.uniform(-1.0, 1.0, size=(n - 2, 3)) * DEVIATION
+    pts = _resample(NOMINALS[simulator][task], n)
+    pts[1:-1] += rng.uniform(-1.0, 1.0, size=(n - 2, 3)) * DEVIATIONS[simulator]
     return pts
 
 
