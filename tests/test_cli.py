@@ -248,37 +248,48 @@ def test_record_options_reach_the_spec(tmp_path: Path) -> None:
     assert (spec.seed, spec.speed, spec.duration) == (2, 0.2, 0.1)
     assert spec.limb_offset == (0.01, -0.02, 0.03)
     assert (spec.limb_rotation.axis, spec.limb_rotation.degrees) == ("x", 5.0)
-    assert spec.sim.wrench_from == "momentum"  # simulator v8's, as the bundled models read
-    older = ["record", "--task", "shorts", "--duration", "0.1", "--wrench-from", "constraint"]
+    assert spec.sim.simulator == 9  # the current simulator's
+    older = ["record", "--task", "shorts", "--duration", "0.1", "--simulator", "v7"]
     assert CliRunner().invoke(main, [*older, "-o", str(out), "--overwrite"]).exit_code == 0
-    assert read_trial(out).metadata.spec.sim.wrench_from == "constraint"
+    v7 = read_trial(out).metadata.spec.sim
+    assert (v7.simulator, v7.wrench_from, v7.damping_stiffness) == (8, "constraint", 1.0)
 
 
 @pytest.mark.slow
-def test_generate_draws_new_folders_with_the_momentum_balance_and_keeps_an_older_ones(
-    tmp_path: Path,
-) -> None:
-    """A folder of simulator v7 (its wrench from the constraint, unsaid in its manifest)
-    is extended as it was made, with --wrench-from constraint; without, one line says so."""
+def test_generate_draws_new_folders_on_v9_and_keeps_an_older_ones(tmp_path: Path) -> None:
+    """A folder of simulator v7 (its wrench from the constraint, no simulator named in
+    its manifest) is extended as it was made, with --simulator v7; without, one line
+    says so."""
+    import json
+
     from dresslog.dataset import load_manifest
 
     runner = CliRunner()
     args = ["generate", "--task", "gown", "--duration", "0.1", "--test-fraction", "0", "-q"]
     new, old = tmp_path / "new", tmp_path / "old"
     assert runner.invoke(main, [*args, "--trials", "2", "-o", str(new)]).exit_code == 0
-    assert load_manifest(new).overrides["sim"] == {"wrench_from": "momentum"}
-    v7 = [*args, "--wrench-from", "constraint", "-o", str(old)]
+    assert load_manifest(new).overrides["sim"] == {"simulator": 9}
+    v7 = [*args, "--simulator", "v7", "-o", str(old)]
     assert runner.invoke(main, [*v7, "--trials", "2"]).exit_code == 0
-    assert "sim" not in load_manifest(old).overrides
+    # as a folder made before v9 says it: no simulator, no sim fields at all
+    raw = json.loads((old / "manifest.json").read_text())
+    del raw["overrides"]["sim"]
+    for entry in raw["trials"]:
+        del entry["spec"]["sim"]["simulator"]
+        del entry["spec"]["sim"]["wrench_from"]
+    (old / "manifest.json").write_text(json.dumps(raw))
+    assert load_manifest(old).overrides["sim"] == {"simulator": 8, "wrench_from": "constraint"}
     result = runner.invoke(main, [*args, "--trials", "3", "-o", str(old)])
     assert result.exit_code == 1
     assert result.output.endswith(
-        "fixed spec fields duration=0.1, not duration=0.1, sim={'wrench_from': 'momentum'}; use "
-        "another folder or the same options (a folder of simulator v7 or before: --wrench-from "
-        "constraint)\n"
+        "fixed spec fields duration=0.1, sim={'simulator': 8, 'wrench_from': 'constraint'}, not "
+        "duration=0.1, sim={'simulator': 9}; use another folder or the same options (a folder "
+        "of simulator v7: --simulator v7)\n"
     )
     assert runner.invoke(main, [*v7, "--trials", "3"]).exit_code == 0
-    assert len(load_manifest(old).trials) == 3
+    made = load_manifest(old)
+    assert len(made.trials) == 3
+    assert {e.spec.sim.wrench_from for e in made.trials} == {"constraint"}
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11/Wayland are Linux's")

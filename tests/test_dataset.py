@@ -66,8 +66,8 @@ def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Res
     return fake_record(spec, path, overwrite=overwrite)
 
 
-#: The spec fields the `dataset` fixture's command fixed (the wrench: `generate`'s default).
-MADE = {"duration": 0.5, "sim": {"wrench_from": "momentum"}}
+#: The spec fields the `dataset` fixture's command fixed (the simulator: `generate`'s default).
+MADE = {"duration": 0.5, "sim": {"simulator": 9}}
 
 
 @pytest.fixture(scope="module")
@@ -523,9 +523,9 @@ def test_cli_generate_speed_and_rotation_make_every_trial_of_that_condition(
     assert result.exit_code == 1
     assert result.output == (
         f"Error: {out}: folder holds a dataset with fixed spec fields duration=0.1, speed=0.18, "
-        "limb_rotation={'axis': 'z', 'degrees': -15.0}, sim={'wrench_from': 'momentum'}, not "
-        "duration=0.1, limb_rotation={'axis': 'z', 'degrees': 15.0}, sim={'wrench_from': "
-        "'momentum'}; use another folder or the same options\n"
+        "limb_rotation={'axis': 'z', 'degrees': -15.0}, sim={'simulator': 9}, not "
+        "duration=0.1, limb_rotation={'axis': 'z', 'degrees': 15.0}, sim={'simulator': 9}; "
+        "use another folder or the same options\n"
     )
 
 
@@ -550,9 +550,10 @@ def test_cli_generate_rotation_range_draws_each_trials_rotation_within_it(tmp_pa
     with TrialReader(out / drawn[0].file) as trial:
         assert trial.metadata.spec == drawn[0].spec
     shown = CliRunner().invoke(main, ["info", str(out)])
-    assert shown.output.splitlines()[1:] == [
+    assert shown.output.splitlines()[1:4] == [
         "  trials    speeds 0.1-0.15 m/s; the limb turned about z -15...+15 deg",
-        '  fixed for every trial: duration=0.1, sim={"wrench_from": "momentum"}',
+        '  fixed for every trial: duration=0.1, sim={"simulator": 9}',
+        "  fidelity  against the paper's dressing",
     ]
     result = CliRunner().invoke(main, [*args, "-o", out])  # not extended with fixed trials
     assert result.exit_code == 1
@@ -623,13 +624,15 @@ def test_info_on_a_dataset_names_its_conditions_and_the_spec_fields_fixed_for_ev
     generate("gown", 3, tmp_path / "d", overrides=fixed, **options)
     generate("gown", 3, tmp_path / "e", **options)
     shown = CliRunner().invoke(main, ["info", str(tmp_path / "d")])
-    assert shown.exit_code == 0 and shown.output.splitlines()[1:] == [
+    assert shown.exit_code == 0 and shown.output.splitlines()[1:4] == [
         "  trials    speeds 0.2 m/s; the limb turned about z +10 deg",
-        "  fixed for every trial: duration=0.3",
+        '  fixed for every trial: duration=0.3, sim={"simulator": 9}',
+        "  fidelity  against the paper's dressing",
     ], shown.output
-    shown = CliRunner().invoke(main, ["info", str(tmp_path / "e")])  # none fixed: no such line
-    assert shown.exit_code == 0 and shown.output.splitlines()[1:] == [
-        "  trials    speeds 0.1-0.15 m/s, the limb never turned"
+    shown = CliRunner().invoke(main, ["info", str(tmp_path / "e")])  # the simulator only
+    assert shown.exit_code == 0 and shown.output.splitlines()[1:3] == [
+        "  trials    speeds 0.1-0.15 m/s, the limb never turned",
+        '  fixed for every trial: sim={"simulator": 9}',
     ], shown.output
 
 

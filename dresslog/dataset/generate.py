@@ -49,7 +49,16 @@ from dresslog.dataset.manifest import (
 )
 from dresslog.errors import DatasetError, DresslogError, DresslogWarning, first_problem
 from dresslog.io.files import exclusive, is_temporary, named_as_recording, resolved
-from dresslog.spec import RotationRange, Task, TrialSpec, task_of
+from dresslog.spec import (
+    RotationRange,
+    SimParams,
+    Task,
+    TrialSpec,
+    simulator_fields,
+    simulator_name,
+    simulator_of,
+    task_of,
+)
 from dresslog.stops import stop_signals
 from dresslog.trial import STEP_HZ
 
@@ -158,6 +167,10 @@ def _checked_overrides(task: Task, overrides: Mapping[str, Any] | None) -> dict[
             f"sim.record_hz {fixed.sim.record_hz}: a dataset is recorded at {STEP_HZ} Hz, "
             "the rate every model reads"
         )
+    sim = overrides.get("sim")
+    sim = sim.model_dump(exclude_defaults=True) if isinstance(sim, SimParams) else dict(sim or {})
+    # the version said, so a folder read back draws and simulates as it was made
+    overrides["sim"] = {**simulator_fields(simulator_name(fixed.sim)), **sim}
     return overrides
 
 
@@ -230,10 +243,11 @@ def _open_manifest(
         ("rotation drawn per trial", manifest.rotation_range, rotation_range),
     ):
         if have != want:
-            # a folder of simulator v7 or before, its wrench the constraint's, unsaid
-            unsaid = "sim" in overrides and "sim" not in manifest.overrides
-            v7 = what == "fixed spec fields" and unsaid
-            hint = " (a folder of simulator v7 or before: --wrench-from constraint)" if v7 else ""
+            # a folder of another simulator version: name the option that extends it
+            made_by = simulator_of(manifest.overrides.get("sim"))
+            asked = simulator_of(overrides.get("sim"))
+            other = what == "fixed spec fields" and made_by != asked
+            hint = f" (a folder of simulator {made_by}: --simulator {made_by})" if other else ""
             raise DatasetError(
                 f"folder holds a dataset with {what} {_shown(have)}, not {_shown(want)}; "
                 f"use another folder or the same options{hint}",

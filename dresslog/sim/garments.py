@@ -78,13 +78,14 @@ def _top(ring: np.ndarray, verts: list, count: int) -> list[int]:
 
 
 def gown(
-    armhole: float = 0.10,
+    armhole: float = 0.11,
     cuff: float = 0.065,
     length: float = 0.20,
     ring: int = 14,
     rows: int = 8,
     body: tuple[float, ...] = (0.16, 0.22, 0.28),
     pinch: int | None = 2,
+    grip_nodes: int = 5,
 ) -> Garment:
     """A hospital-gown sleeve (a tube tapering from armhole to cuff) and the gown's body.
 
@@ -94,9 +95,10 @@ def gown(
     chose its arm offsets so that garment and limb always touch; a bare sleeve
     misses the arm entirely in about a quarter of trials.
 
-    `pinch`: the gripper holds the top three nodes of the first `pinch` rings, a pinch
-    at the shoulder seam, as a robot's gripper holds a gown (v9); None holds the top of
-    every ring, the whole top seam, which keeps the sleeve a rigid hoop (v8).
+    `pinch`: the gripper holds the top `grip_nodes` nodes of the first `pinch` rings, a
+    pinch at the shoulder seam as a robot's gripper holds a gown (v9: five nodes, 20 cm
+    of the armhole's rim, which keeps the hanging armhole a slit the fist can find); None
+    holds the top of every ring, the whole top seam, so the sleeve stays a rigid hoop (v8).
     """
     verts: list[tuple[float, float, float]] = []
     rings = [
@@ -106,7 +108,7 @@ def gown(
     ]  # fmt: skip
     tris = [t for j in range(rows - 1) for t in _strip(rings[j], rings[j + 1])]
     held = rings if pinch is None else rings[:pinch]
-    gripped = sorted(i for r in held for i in _top(r, verts, 3))
+    gripped = sorted(i for r in held for i in _top(r, verts, grip_nodes))
     inner = rings[0]
     for k, r in enumerate(body):
         outer = _circle(verts, 0.0, r, 2 * ring if k else ring, -armhole)
@@ -205,7 +207,8 @@ def shorts(
 
 #: Each simulator version's garments (docs/simulator.md gives v9's sizes and sources).
 _V8: dict[Task, dict[str, Any]] = {
-    Task.GOWN: {"armhole": 0.10, "cuff": 0.10, "length": 0.27, "rows": 10, "pinch": None},
+    Task.GOWN: {"armhole": 0.10, "cuff": 0.10, "length": 0.27, "rows": 10, "pinch": None,
+                "grip_nodes": 3},
     Task.SHORTS: {"waist_radius": 0.17, "leg_radius": 0.10, "leg_spacing": 0.07,
                   "waist_length": 0.08, "leg_length": 0.25, "pinch": False},
 }  # fmt: skip

@@ -7,8 +7,8 @@ Simulator v9 judges a trial as a person watching it would:
   `CAUGHT_FORCE` while most of the limb's force lies there. The paper's Figs. 7 and 8.
   A catch that lets go, with the opening then past the joint, is dressed after all;
 - dressed: the garment's opening encircles the limb past the joint it must pass (the
-  gown's armhole on the upper arm, round the elbow; the shorts' waist on the shin or
-  thigh, over the foot), and nothing holds it at the end;
+  gown's armhole over the wrist and up to the elbow; the shorts' waist over the foot, on
+  the shin or thigh), and nothing holds it at the end;
 - missed: neither.
 
 v8 and before judged by the final gripper force alone (`decide_outcome_v8`), kept for
@@ -85,12 +85,17 @@ def decide_outcome_v8(
 
 
 def passed_the_joint(task: Task, limb: Limb, garment: Garment, verts: np.ndarray) -> bool:
-    """Whether the opening is past the joint it must pass: the gown's armhole round the
-    upper arm (past the elbow), the shorts' waist round the shin or thigh (over the foot)."""
+    """Whether the opening is past the joint it must pass: the gown's armhole over the
+    fist and wrist, drawn up the forearm to its elbow half or onto the upper arm (the
+    paper's "pulled up the forearm"); the shorts' waist over the foot and ankle, round the
+    shin or thigh."""
     s = limb.spheres
     rim = verts[garment.entry_rim]
     if task is Task.GOWN:
-        return _encircles(limb, rim, s["elbow"].center, s["shoulder"].center, (0.0, 1.2))
+        elbow = s["elbow"].center
+        return _encircles(limb, rim, elbow, s["wrist"].center, (-0.3, 0.5)) or _encircles(
+            limb, rim, elbow, s["shoulder"].center, (0.0, 1.2)
+        )
     return _encircles(limb, rim, s["hip"].center, s["knee"].center, (-0.2, 1.0)) or (
         _encircles(limb, rim, s["knee"].center, s["ankle"].center, (0.0, 0.85))
     )
