@@ -515,3 +515,109 @@ def test_view_shows_a_trial_at_another_rate_with_ground_truth_alone(tmp_path: Pa
     model = str(SAMPLES / "models" / "gown")
     asked = CliRunner().invoke(main, ["view", str(trial), "--save", str(out), "--model", model])
     assert asked.exit_code == 1 and "is at 50 Hz" in asked.output
+
+
+# -- hostile inputs (issue 50): one line naming the file, never a traceback ----------------
+
+#: `[` 200,000 times: Python's JSON reader raised RecursionError, a traceback.
+DEEP = "[" * 200_000
+GOWN_MODEL = SAMPLES / "models" / "gown"
+
+
+def _one_line(args: list[str], *, code: int = 1) -> str:
+    """The one line (`Error: ...`) a command prints for a bad input, checked to be one."""
+    result = CliRunner().invoke(main, args)
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == code and len(lines) == 1, result.output
+    assert "Traceback" not in result.output and not isinstance(result.exception, RecursionError)
+    return lines[0]
+
+
+def _copied_model(tmp: Path, card: str | None = None) -> Path:
+    """The bundled gown model copied, its card replaced by `card` if given."""
+    import shutil
+
+    model = Path(shutil.copytree(GOWN_MODEL, tmp / "model"))
+    if card is not None:
+        (model / "card.json").write_text(card)
+    return model
+
+
+@pytest.mark.parametrize("nested", [DEEP, '{"a": ' * 150 + "1" + "}" * 150])
+@pytest.mark.parametrize("command", ["info", "infer", "view"])
+def test_deeply_nested_trial_metadata_is_one_line(tmp_path: Path, command: str, nested: str):
+    path = _with_steps(tmp_path / "deep.mcap", {}, metadata={"task": "gown", "trial": nested})
+    args = {"info": [], "infer": ["-o", str(tmp_path / "o.rrd")]}
+    line = _one_line([command, str(path), *args.get(command, ["--save", str(tmp_path / "o.rrd")])])
+    assert line == (
+        f"Error: {path}: metadata record is invalid: it nests more than 100 levels deep, as "
+        "no dresslog file does"
+    )
+    assert not (tmp_path / "o.rrd").exists()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["info", "{model}"],
+        ["infer", str(SAMPLE), "--model", "{model}", "-o", "{tmp}/o.rrd"],
+        ["view", str(SAMPLE), "--model", "{model}", "--save", "{tmp}/o.rrd"],
+        ["eval", "{model}", "{tmp}"],
+        ["sweep", "{model}", "--speeds", "0.2", "-n", "1", "-o", "{tmp}/sweep"],
+    ],
+    ids=["info", "infer", "view", "eval", "sweep"],
+)
+def test_a_deeply_nested_model_card_is_one_line(tmp_path: Path, args: list[str]) -> None:
+    model = _copied_model(tmp_path, DEEP)
+    line = _one_line([a.format(model=model, tmp=tmp_path) for a in args])
+    assert line == (
+        f"Error: {model}: card.json is not readable JSON: it nests more than 100 levels "
+        "deep, as no dresslog file does"
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "why"),
+    [
+        (["info", "{data}"], "it nests more than 100 levels deep, as no dresslog file does"),
+        (["eval", str(GOWN_MODEL), "{data}"], "it nests more than 100 levels deep"),
+        (["train", "{data}", "-o", "{tmp}/m"], "it nests more than 100 levels deep"),
+    ],
+    ids=["info", "eval", "train"],
+)
+def test_a_deeply_nested_dataset_manifest_is_one_line(tmp_path: Path, args, why: str) -> None:
+    (data := tmp_path / "data").mkdir()
+    (data / "manifest.json").write_text(DEEP)
+    line = _one_line([a.format(data=data, tmp=tmp_path) for a in args])
+    assert line.startswith(f"Error: {data}: manifest.json is not readable JSON: {why}"), line
+
+
+def test_a_card_whose_normalisation_holds_nan_is_one_line(tmp_path: Path) -> None:
+    """`NaN` is no JSON number (Python writes it, pydantic writes null)."""
+    card = (GOWN_MODEL / "card.json").read_text().replace('"std": [', '"std": [NaN, ', 1)
+    model = _copied_model(tmp_path, card)
+    line = _one_line(["infer", str(SAMPLE), "--model", str(model), "-o", str(tmp_path / "o.rrd")])
+    assert line == f"Error: {model}: card.json is not readable JSON: NaN is not a JSON number"
+
+
+def test_json_nesting_is_measured_without_recursion() -> None:
+    from dresslog.io.jsontext import depth, loads
+
+    assert [depth(v, 100) for v in (1, [], {"a": [[1]]}, [{}, [[]]])] == [0, 1, 3, 3]
+    assert depth(loads("[" * 100 + "]" * 100), 100) == 100
+    with pytest.raises(ValueError, match="nests more than 100 levels"):
+        loads("[" * 101 + "]" * 101)
+
+
+@pytest.mark.parametrize("command", ["info", "convert"])
+def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
+    """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""
+    pytest.importorskip("rosbags")
+    (bag := tmp_path / "bag").mkdir()
+    (bag / "metadata.yaml").write_text(DEEP)
+    args = ["-o", str(tmp_path / "t.mcap"), "--task", "gown"] if command == "convert" else []
+    assert _one_line([command, str(bag), *args]) == (
+        f"Error: {bag}: cannot read bag: its metadata.yaml nests too deeply for a YAML reader "
+        "to follow, as no recorder writes it; restore the bag's metadata.yaml (`ros2 bag "
+        "reindex` writes it again)"
+    )

@@ -431,6 +431,13 @@ def _listed_storage(folder: Path) -> list[Path]:
         return [folder / PurePath(name).name for name in names]
     except (YAMLError, OSError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
         return []
+    except RecursionError:  # `[` 200,000 times: rosbags' reader of it would fail so too
+        raise ConversionError(
+            "cannot read bag: its metadata.yaml nests too deeply for a YAML reader to follow, "
+            "as no recorder writes it; restore the bag's metadata.yaml (`ros2 bag reindex` "
+            "writes it again)",
+            path=folder,
+        ) from None
 
 
 @contextmanager

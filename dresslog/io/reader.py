@@ -8,7 +8,6 @@ decoded on first use with the vectorised codec. Every problem becomes one
 
 from __future__ import annotations
 
-import json
 import struct
 from dataclasses import dataclass, replace
 from functools import cached_property
@@ -24,7 +23,7 @@ from pydantic import ValidationError
 from zstandard import ZstdError
 
 from dresslog.errors import TrialFormatError, first_problem
-from dresslog.io import cdr
+from dresslog.io import cdr, jsontext
 from dresslog.io import well_known as wk
 from dresslog.io.files import no_such
 from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
@@ -295,7 +294,7 @@ class TrialReader:
                 f"`{wk.METADATA_NAME}` metadata record has no `trial` entry", path=self.path
             )
         try:
-            entry = json.loads(metadata["trial"])
+            entry = jsontext.loads(metadata["trial"])
             version = entry.get("format_version") if isinstance(entry, dict) else None
             if isinstance(version, int) and version > TRIAL_FORMAT_VERSION:
                 raise TrialFormatError(
@@ -308,7 +307,7 @@ class TrialReader:
             problem = first_problem(err, "metadata")
             message = f"metadata record is invalid: {problem}"
             raise TrialFormatError(message, path=self.path) from None
-        except json.JSONDecodeError as err:
+        except ValueError as err:  # not JSON, NaN, nested past reading
             first = str(err).splitlines()[0]
             raise TrialFormatError(f"metadata record is invalid: {first}", path=self.path) from None
 

@@ -38,7 +38,6 @@ Public API
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 from collections.abc import Callable, Mapping
@@ -52,6 +51,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
+from dresslog.io import jsontext
 from dresslog.io.files import (
     check_writable,
     is_temporary,
@@ -391,8 +391,8 @@ def read_card(path: str | Path) -> ModelCard:
             what = "a dataset folder, not a model (`eval` and `sweep` take the model first)"
         raise ModelError(f"no {CARD_FILE}; {what}", path=path)
     try:
-        raw = json.loads(card_path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raw = jsontext.loads(card_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:  # unreadable, not UTF-8, not JSON, nested past reading
         raise ModelError(f"{CARD_FILE} is not readable JSON: {err}", path=path) from None
     if not isinstance(raw, dict) or raw.get("format") != FORMAT:
         raise ModelError(f"{CARD_FILE} is not a dresslog model card", path=path)
