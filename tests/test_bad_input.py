@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -607,6 +608,92 @@ def test_json_nesting_is_measured_without_recursion() -> None:
     assert depth(loads("[" * 100 + "]" * 100), 100) == 100
     with pytest.raises(ValueError, match="nests more than 100 levels"):
         loads("[" * 101 + "]" * 101)
+
+
+def _rewritten(good: Path, out: Path, topic: str, index: int, field: str, value: int) -> Path:
+    """`good` with the length field `field` of message `index` of `topic` set to `value`,
+    written again by mcap's own writer (ours would not write it)."""
+    from mcap.reader import make_reader
+
+    with good.open("rb") as stream:
+        reader = make_reader(stream)
+        messages = list(reader.iter_messages())
+        metadata = [(m.name, m.metadata) for m in reader.iter_metadata()]
+    with out.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="a hostile tool")
+        channels: dict[str, int] = {}
+        seen = 0
+        for schema, channel, message in messages:
+            if channel.topic not in channels:
+                sid = writer.register_schema(schema.name, schema.encoding, schema.data)
+                channels[channel.topic] = writer.register_channel(channel.topic, "cdr", sid)
+            data = message.data
+            if channel.topic == topic and (seen := seen + 1) == index + 1:
+                layout = cdr.layout(schema.name, cdr.sizes_of(schema.name, data))
+                at = layout.fields[f"{field}.len"][1]
+                data = data[:at] + value.to_bytes(4, "little") + data[at + 4 :]
+            writer.add_message(channels[channel.topic], message.log_time, data, message.log_time)
+        for name, values in metadata:
+            writer.add_metadata(name, values)
+        writer.finish()
+    return out
+
+
+LENGTHS = [  # (topic, length field, what the error says of it)
+    (wk.WRENCH, "header.frame_id", "string header.frame_id is 4294967280 bytes long"),
+    (wk.TWIST, "header.frame_id", "string header.frame_id is 4294967280 bytes long"),
+    (wk.FORCE_MAP, "forces", "forces holds 4294967280 elements by its length field"),
+    (wk.CONTACTS, "contacts", "contacts holds 4294967280 elements by its length field"),
+    (wk.GARMENT, "vertices", "vertices holds 4294967280 elements by its length field"),
+    (wk.LIMB_POINTS, "limb", "string limb is 4294967280 bytes long"),
+    (wk.LIMB_POINTS, "segment_names.1", r"string segment_names\[1\] is 4294967280 bytes long"),
+]
+
+
+@pytest.mark.parametrize(
+    ("topic", "field", "said"), LENGTHS, ids=[f"{t}:{f}" for t, f, _ in LENGTHS]
+)
+@pytest.mark.parametrize("command", ["info", "infer"])
+def test_a_length_field_past_its_messages_end_is_one_line(
+    tmp_path: Path, make_trial, topic: str, field: str, said: str, command: str
+) -> None:
+    """0xFFFFFFF0 in a length field: numpy was asked for a 4 GB string type (TypeError)."""
+    good, _ = make_trial(name="good.mcap", steps=12)
+    index = 0 if topic == wk.LIMB_POINTS else 1
+    path = _rewritten(good, tmp_path / "long.mcap", topic, index, field, 0xFFFFFFF0)
+    args = [] if command == "info" else ["-o", str(tmp_path / "o.rrd")]
+    line = _one_line([command, str(path), *args])
+    prefix = f"Error: {path}: channel {topic}: message {index} of "
+    assert line.startswith(prefix) and " does not match its schema: " in line, line
+    assert re.search(f"{said}.*message has \\d+ left; the recording is corrupt", line), line
+
+
+def test_a_string_length_of_zero_is_refused_as_cdr_counts_its_nul(tmp_path: Path, make_trial):
+    good, _ = make_trial(name="good.mcap", steps=12)
+    path = _rewritten(good, tmp_path / "zero.mcap", wk.WRENCH, 3, "header.frame_id", 0)
+    said = "message 3 of 12 does not match its schema: string header.frame_id has the length 0"
+    with pytest.raises(TrialFormatError, match=said) as info, TrialReader(path) as reader:
+        reader.read()
+    assert info.value.path == path
+
+
+def test_convert_refuses_a_length_field_past_its_messages_end(tmp_path: Path) -> None:
+    """A robot's bag: the message is named by its place in the topic."""
+    pytest.importorskip("rosbags")
+    wrench = _vectors(*WRENCH, np.zeros((300, 6)))
+    wrench[100] = wrench[100][:12] + (0xFFFFFFF0).to_bytes(4, "little") + wrench[100][16:]
+    twist = _vectors(*TWIST, np.zeros((300, 6)))
+    channels = {"/ft/wrench": (WRENCH[0], wrench), "/ft/twist": (TWIST[0], twist)}
+    _raw_mcap(bag := tmp_path / "robot.mcap", channels, False)
+    out = tmp_path / "t.mcap"
+    line = _one_line(["convert", str(bag), "-o", str(out), "--task", "gown"])
+    assert line == (
+        f"Error: {bag}: topic /ft/wrench: message 100 does not match "
+        "geometry_msgs/msg/WrenchStamped: string header.frame_id is 4294967280 bytes long by "
+        "its length field, but the 68-byte message has 52 left"
+    )
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("command", ["info", "convert"])

@@ -347,6 +347,13 @@ class TrialReader:
         _, payloads = self.messages(topic)
         try:
             return cdr.decode(wk.SCHEMAS[topic], payloads)
+        except cdr.MessageError as err:
+            raise TrialFormatError(
+                f"message {err.index} of {err.count} does not match its schema: {err.problem}; "
+                "the recording is corrupt, re-record or re-convert it",
+                path=self.path,
+                channel=topic,
+            ) from None
         except (ValueError, KeyError) as err:
             raise TrialFormatError(
                 f"message does not match its schema: {err}", path=self.path, channel=topic
