@@ -696,6 +696,58 @@ def test_convert_refuses_a_length_field_past_its_messages_end(tmp_path: Path) ->
     assert not out.exists()
 
 
+def _weights_changed(tmp: Path, change: Callable[[dict[str, np.ndarray]], None]) -> Path:
+    """The bundled model with its weights changed and its card's hash made to match."""
+    import json
+
+    from safetensors.numpy import load_file, save_file
+
+    from dresslog.io.files import sha256_file
+
+    model = _copied_model(tmp)
+    weights = {k: v.copy() for k, v in load_file(str(model / "model.safetensors")).items()}
+    change(weights)
+    save_file(weights, str(model / "model.safetensors"), metadata={"format": "dresslog-model"})
+    card = json.loads((model / "card.json").read_text())
+    card["weights_sha256"] = sha256_file(model / "model.safetensors")
+    (model / "card.json").write_text(json.dumps(card))
+    return model
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_weights_holding_nan_are_refused_at_load(tmp_path: Path, bad: float) -> None:
+    """Its card's hash matches: `infer` printed `RMSE nan` and wrote NaN estimates."""
+
+    def poison(weights: dict[str, np.ndarray]) -> None:
+        weights["lstm.weight_hh_l1"][7, 3] = bad
+
+    model, out = _weights_changed(tmp_path, poison), tmp_path / "o.rrd"
+    said = (
+        f"Error: {model}: model.safetensors: lstm.weight_hh_l1 holds 1 NaN or infinite value "
+        "(of 40000); the weights are corrupt, retrain the model or restore its folder"
+    )
+    assert _one_line(["infer", str(SAMPLE), "--model", str(model), "-o", str(out)]) == said
+    assert not out.exists()
+    result = CliRunner().invoke(main, ["info", str(model)])  # described, and it fails
+    assert result.exit_code == 1 and result.output.strip().splitlines()[-1] == said
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+def test_weights_that_overflow_on_a_trial_write_no_estimate(tmp_path: Path) -> None:
+    """Finite weights whose estimate is not: refused at the step, no file of NaNs."""
+
+    def overflow(weights: dict[str, np.ndarray]) -> None:
+        weights["head.weight"][:] = 3e38
+
+    model, out = _weights_changed(tmp_path, overflow), tmp_path / "o.rrd"
+    line = _one_line(["infer", str(SAMPLE), "--model", str(model), "-o", str(out)])
+    assert line.startswith(f"Error: {SAMPLE}: the model ({model} (3x100 LSTM")
+    assert re.search(
+        r"\) estimates NaN or infinite forces at step \d+; no estimate is written$", line
+    )
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("command", ["info", "convert"])
 def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
     """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""

@@ -81,7 +81,7 @@ FORMAT_VERSION = 4
 class Normalisation(BaseModel):
     """Per-channel input standardisation, (phi - mean) / std; the paper used none."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     mean: list[float] = Field(min_length=9, max_length=18)
     std: list[float] = Field(min_length=9, max_length=18)
 
@@ -276,6 +276,19 @@ def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard
         raise ModelError(f"unexpected arrays in weights: {', '.join(extra)}", path=path)
 
 
+def _check_finite(path: Path, weights: Mapping[str, np.ndarray]) -> None:
+    """Refuse weights holding NaN or infinity (a training run that diverged, a damaged
+    file whose card was re-hashed): every estimate would be NaN, scored as `RMSE nan`."""
+    for name in sorted(weights):
+        if (bad := int(np.count_nonzero(~np.isfinite(weights[name])))) > 0:
+            raise ModelError(
+                f"{WEIGHTS_FILE}: {name} holds {bad} NaN or infinite value"
+                f"{'s' if bad > 1 else ''} (of {weights[name].size}); the weights are corrupt, "
+                "retrain the model or restore its folder",
+                path=path,
+            )
+
+
 def check_model_folder(path: str | Path, overwrite: bool) -> None:
     """Fail before any work unless `path` may become a model folder (its missing parent
     folders are made when it is saved).
@@ -430,6 +443,7 @@ def load_model(path: str | Path) -> LoadedModel:
         raise ModelError(f"{WEIGHTS_FILE} is unreadable: {err}", path=path) from None
     _check_shapes(path, weights, card)
     weights = {k: np.asarray(v, dtype=np.float32) for k, v in weights.items()}
+    _check_finite(path, weights)
     norm = card.normalisation
     stats = (
         np.array([norm.mean, norm.std], np.float32)
