@@ -748,6 +748,59 @@ def test_weights_that_overflow_on_a_trial_write_no_estimate(tmp_path: Path) -> N
     assert not out.exists()
 
 
+def _steps_at(path: Path, wrench_ns: np.ndarray, twist_ns: np.ndarray) -> Path:
+    """A trial whose wrench and twist have these header stamps (mcap's own writer)."""
+    channels = {}
+    for topic, schema, stamps in (
+        (wk.WRENCH, WRENCH[0], wrench_ns),
+        (wk.TWIST, TWIST[0], twist_ns),
+    ):
+        msgs = cdr.new_messages(schema, {"header.frame_id": 2}, len(stamps))
+        cdr.set_stamp(msgs, np.asarray(stamps, np.int64), "ee")
+        channels[topic] = (schema, cdr.to_payloads(msgs))
+    _raw_mcap(path, channels, True)
+    return path
+
+
+STEP = 10_000_000
+T700 = np.arange(700) * STEP
+CURE = "re-record it, or re-convert its log"
+UNEVEN = [  # (wrench stamps, twist stamps, the line)
+    (T700, T700[:350], f"channel {wk.TWIST}: stops at 3.490 s, 3.5 s before {wk.WRENCH} does: "
+     f"the last 350 of 700 {wk.WRENCH} steps have no {wk.TWIST} message, and the model reads "
+     f"both on every step; {CURE}"),
+    (T700[:200], T700, f"channel {wk.WRENCH}: stops at 1.990 s, 5 s before {wk.TWIST} does: "
+     f"the last 500 of 700 {wk.TWIST} steps have no {wk.WRENCH} message, and the model reads "
+     f"both on every step; {CURE}"),
+    (T700, T700[100:], f"channel {wk.TWIST}: starts at 1.000 s, 1 s after {wk.WRENCH} does: "
+     f"the first 100 of 700 {wk.WRENCH} steps have no {wk.TWIST} message, and the model reads "
+     f"both on every step; {CURE}"),
+    (np.delete(T700, np.arange(300, 400)), T700, f"channel {wk.WRENCH}: has a gap: no message "
+     "between 2.990 s and 4.000 s (1 s, 100 steps missing), and the model would read the steps "
+     f"either side as consecutive; {CURE}"),
+    (T700, np.delete(T700, [10, 11, 500]), f"channel {wk.TWIST}: has a gap: no message between "
+     "0.090 s and 0.120 s (0.02 s, 2 steps missing; 2 gaps in all), and the model would read "
+     f"the steps either side as consecutive; {CURE}"),
+    (T700, T700 + STEP // 2, f"no {wk.WRENCH} message has a {wk.TWIST} message of the same "
+     "stamp, so there is no step to run the model on; re-record or re-convert it"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("wrench", "twist", "said"), UNEVEN,
+                         ids=["twist-stops", "wrench-stops", "twist-starts-late", "wrench-hole",
+                              "twist-holes", "offset"])  # fmt: skip
+@pytest.mark.parametrize("command", ["info", "infer"])
+def test_input_channels_that_do_not_cover_the_same_steps_are_refused(
+    tmp_path: Path, wrench, twist, said: str, command: str
+) -> None:
+    """Half a trial was dropped silently, and steps either side of a hole read as one apart."""
+    path = _steps_at(tmp_path / "uneven.mcap", wrench, twist)
+    out = tmp_path / "o.rrd"
+    args = [] if command == "info" else ["-o", str(out)]
+    assert _one_line([command, str(path), *args]) == f"Error: {path}: {said}"
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("command", ["info", "convert"])
 def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
     """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""
@@ -759,4 +812,37 @@ def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command:
         f"Error: {bag}: cannot read bag: its metadata.yaml nests too deeply for a YAML reader "
         "to follow, as no recorder writes it; restore the bag's metadata.yaml (`ros2 bag "
         "reindex` writes it again)"
+    )
+
+
+def test_a_dataset_trial_whose_truth_has_a_hole_is_refused(tmp_path: Path) -> None:
+    """Training read the steps either side of the hole as consecutive."""
+    from dresslog.dataset.cache import load_dataset
+    from dresslog.dataset.manifest import Entry, Manifest, Split, Status, slot_file
+    from dresslog.errors import DatasetError
+    from dresslog.io.files import sha256_file
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+    from dresslog.spec import TrialSpec
+
+    root = tmp_path / "data"
+    entries = []
+    for slot in range(2):
+        (path := root / slot_file(Split.TRAIN, slot)).parent.mkdir(parents=True, exist_ok=True)
+        spec = TrialSpec(task=Task.GOWN, seed=slot)
+        with TrialWriter(path, TrialMetadata(task=Task.GOWN, spec=spec)) as writer:
+            writer.write_limb_points(0, limb_points(build_limb(Task.GOWN)))
+            writer.write_wrench(T700[:40], np.zeros((40, 6)))
+            writer.write_twist(T700[:40], np.zeros((40, 6)))
+            truth = T700[:40] if slot == 0 else np.delete(T700[:40], np.arange(10, 20))
+            writer.write_force_map(truth, np.zeros((len(truth), 300), np.float32))
+        entries.append(Entry(split=Split.TRAIN, slot=slot, status=Status.OK,
+                             file=slot_file(Split.TRAIN, slot), spec=spec, steps=40,
+                             size=path.stat().st_size, sha256=sha256_file(path)))  # fmt: skip
+    Manifest(task=Task.GOWN, n_train=2, n_test=0, trials=entries).save(root)
+    with pytest.raises(DatasetError) as info:
+        load_dataset(root, workers=1, progress=False)
+    assert str(info.value) == (
+        f"{root}: trial train/000001.mcap has no ground-truth force map on 10 of its 40 steps "
+        "(the first at 0.100 s); run `dresslog generate` on it again to re-create it"
     )

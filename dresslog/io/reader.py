@@ -29,6 +29,7 @@ from dresslog.io.files import no_such
 from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
+    STEP_HZ,
     Contacts,
     ForceMaps,
     GarmentStates,
@@ -37,6 +38,7 @@ from dresslog.trial import (
     Stream,
     Trial,
     measurements,
+    median_rate,
 )
 
 if TYPE_CHECKING:
@@ -87,6 +89,74 @@ def _stamp_problem(stamps: np.ndarray) -> str:
     if stamps[0] < 0:
         return f"header stamp {stamps[0]} ns is negative"
     return ""
+
+
+def off_rate(rate: float) -> str:
+    """Why a channel at `rate` Hz cannot be the model's input (its steps are `STEP_HZ`)."""
+    return (
+        f"is at {rate:.4g} Hz, and the model reads {STEP_HZ} Hz steps; "
+        "resample the log onto them with `dresslog convert`"
+    )
+
+
+#: What to do about a trial whose steps are not the model's: make it again.
+_CURE = "re-record it, or re-convert its log"
+
+
+def _seconds(t_ns: int | np.integer, origin: int | np.integer) -> str:
+    return f"{(int(t_ns) - int(origin)) / 1e9:.3f} s"
+
+
+def _input_problem(wrench: np.ndarray, twist: np.ndarray) -> tuple[str, str] | None:
+    """(channel, problem and cure) of the model's two input channels' sorted stamps when they do
+    not give one run of steps that both cover: at other rates, a hole in either, or one
+    ending or starting while the other goes on. None if they do (or share no stamp at
+    all, which `measurements` words itself). Times count from the trial's first step."""
+    origin = min(wrench[0], twist[0])
+    channels = ((wk.WRENCH, wrench), (wk.TWIST, twist))
+    rates = {topic: median_rate(t) for topic, t in channels}
+    if all(rates.values()) and abs(rates[wk.WRENCH] / rates[wk.TWIST] - 1) > 0.02:
+        topic = next((t for t, r in rates.items() if abs(STEP_HZ / r - 1) > 0.02), wk.TWIST)
+        return topic, off_rate(rates[topic])
+    for topic, t_ns in channels:
+        if len(t_ns) < 3:
+            continue
+        steps = np.diff(t_ns)
+        step = np.median(steps)
+        if len(holes := np.flatnonzero(steps > 1.5 * step)):
+            at = holes[0]
+            more = f"; {len(holes)} gaps in all" if len(holes) > 1 else ""
+            return topic, (
+                f"has a gap: no message between {_seconds(t_ns[at], origin)} and "
+                f"{_seconds(t_ns[at + 1], origin)} ({(steps[at] - step) / 1e9:.3g} s, "
+                f"{round(steps[at] / step) - 1} steps missing{more}), and the model would read "
+                f"the steps either side as consecutive; {_CURE}"
+            )
+    common = np.intersect1d(wrench, twist)
+    if not len(common):
+        return None
+    for (topic, t_ns), (other, with_it) in zip(channels, channels[::-1], strict=True):
+        alone = np.setdiff1d(t_ns, with_it)
+        if not len(alone):
+            continue
+        if alone[0] > with_it[-1]:
+            return other, (
+                f"stops at {_seconds(with_it[-1], origin)}, {(t_ns[-1] - with_it[-1]) / 1e9:.3g} "
+                f"s before {topic} does: the last {len(alone)} of {len(t_ns)} {topic} steps have "
+                f"no {other} message, and the model reads both on every step; {_CURE}"
+            )
+        if alone[-1] < with_it[0]:
+            return other, (
+                f"starts at {_seconds(with_it[0], origin)}, {(with_it[0] - t_ns[0]) / 1e9:.3g} s "
+                f"after {topic} does: the first {len(alone)} of {len(t_ns)} {topic} steps have "
+                f"no {other} message, and the model reads both on every step; {_CURE}"
+            )
+        return other, (
+            f"has no message of the stamp of {len(alone)} of {len(t_ns)} {topic} steps (the "
+            f"first at {_seconds(alone[0], origin)}), and the model reads both on every step; "
+            + _CURE
+        )
+    return None
 
 
 @dataclass(frozen=True)
@@ -393,7 +463,14 @@ class TrialReader:
 
     @cached_property
     def measurements(self) -> Measurements:
-        """The network input phi_t (T, 9) on the steps that have both wrench and twist."""
+        """The network input phi_t (T, 9) on the steps of wrench and twist; refused unless
+        both cover one run of steps (a gap in either, or one that stops or starts while the
+        other goes on, would be fed to the model as consecutive steps, or dropped)."""
+        if len(self.wrench) and len(self.twist):
+            found = _input_problem(self.wrench.t_ns, self.twist.t_ns)
+            if found is not None:
+                topic, problem = found
+                raise TrialFormatError(problem, path=self.path, channel=topic)
         steps = measurements(self.wrench, self.twist)
         if not len(steps.t_ns):
             empty = [t for t, s in ((wk.WRENCH, self.wrench), (wk.TWIST, self.twist)) if not len(s)]

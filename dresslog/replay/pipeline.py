@@ -16,7 +16,7 @@ from typing import Any
 from dresslog.errors import DresslogWarning, TrialFormatError
 from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
-from dresslog.io.reader import read_trial
+from dresslog.io.reader import off_rate, read_trial
 from dresslog.model.bundled import resolve_model
 from dresslog.model.conditions import training_warning
 from dresslog.model.files import LoadedModel
@@ -84,12 +84,7 @@ def step_rate_problem(trial: Trial, path: Path) -> TrialFormatError | None:
     for topic, stream in ((wk.WRENCH, trial.wrench), (wk.TWIST, trial.twist)):
         rate = median_rate(stream.t_ns)
         if rate and abs(STEP_HZ / rate - 1) > 0.02:  # a step 2% off the model's
-            return TrialFormatError(
-                f"is at {rate:.4g} Hz, and the model reads {STEP_HZ} Hz steps; "
-                "resample the log onto them with `dresslog convert`",
-                path=path,
-                channel=topic,
-            )
+            return TrialFormatError(off_rate(rate), path=path, channel=topic)
     return None
 
 
