@@ -801,6 +801,41 @@ def test_input_channels_that_do_not_cover_the_same_steps_are_refused(
     assert not out.exists()
 
 
+def test_a_trial_of_one_step_is_refused_by_the_model_as_record_and_convert_refuse_it(
+    tmp_path: Path,
+) -> None:
+    """It was scored `RMSE 0 N`."""
+    path = _steps_at(tmp_path / "one.mcap", T700[:1], T700[:1])
+    said = (
+        f"Error: {path}: has one step ({wk.WRENCH} and {wk.TWIST} at one time), less than two "
+        "steps, and the model needs two or more; re-record it, or re-convert a longer log"
+    )
+    out = tmp_path / "o.rrd"
+    assert _one_line(["infer", str(path), "-o", str(out)]) == said
+    assert _one_line(["view", str(path), "--model", str(GOWN_MODEL), "--save", str(out)]) == said
+    assert not out.exists()
+
+
+@prints_warnings
+def test_view_shows_a_trial_of_one_step_with_ground_truth_alone(tmp_path: Path) -> None:
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+
+    path, out = tmp_path / "one.mcap", tmp_path / "v.rrd"
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_limb_points(0, limb_points(build_limb(Task.GOWN)))
+        writer.write_wrench(0, np.zeros(6))
+        writer.write_twist(0, np.zeros(6))
+        writer.write_force_map(0, np.zeros(300, np.float32))
+    shown = CliRunner().invoke(main, ["view", str(path), "--save", str(out)])
+    assert shown.exit_code == 0 and out.is_file(), shown.output
+    assert shown.stderr == (
+        f"Warning: {path}: has one step ({wk.WRENCH} and {wk.TWIST} at one time), less than "
+        "two steps, and the model needs two or more; re-record it, or re-convert a longer "
+        "log; shown with ground truth alone\n"
+    )
+
+
 @pytest.mark.parametrize("command", ["info", "convert"])
 def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
     """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""
