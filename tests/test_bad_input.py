@@ -836,6 +836,28 @@ def test_view_shows_a_trial_of_one_step_with_ground_truth_alone(tmp_path: Path) 
     )
 
 
+@pytest.mark.parametrize("name", ["pipe.mcap", "pipe.csv", "pipe.bag", "pipe"])
+def test_convert_refuses_a_pipe_as_infer_and_info_do(tmp_path: Path, name: str) -> None:
+    os.mkfifo(pipe := tmp_path / name)
+    said = f"Error: {pipe}: is not a regular file (a pipe or a device); save it to a file first"
+    assert (
+        _one_line(["convert", str(pipe), "-o", str(tmp_path / "t.mcap"), "--task", "gown"]) == said
+    )
+    assert _one_line(["info", str(pipe)]) == said
+    assert _one_line(["view", str(pipe), "--save", str(tmp_path / "v.rrd")]) == said
+    assert not (tmp_path / "t.mcap").exists()
+
+
+def test_convert_refuses_a_pipe_as_the_motion_csv(tmp_path: Path) -> None:
+    (csv := tmp_path / "ft.csv").write_text("time,fx,fy,fz,tx,ty,tz\n0,0,0,0,0,0,0\n")
+    os.mkfifo(motion := tmp_path / "motion.csv")
+    line = _one_line(["convert", str(csv), "--motion", str(motion), "-o", str(tmp_path / "t.mcap"),
+                      "--task", "gown"])  # fmt: skip
+    assert line == (
+        f"Error: {motion}: is not a regular file (a pipe or a device); save it to a file first"
+    )
+
+
 @pytest.mark.parametrize("command", ["info", "convert"])
 def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
     """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""

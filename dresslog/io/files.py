@@ -120,6 +120,11 @@ def _not_a_folder(folder: Path) -> str:
     return f"{folder} is not a folder"
 
 
+#: Why an input that is a pipe (`mkfifo`), a socket or a device is refused: it is read
+#: from its start more than once (its magic, then the whole), and a pipe gives it once.
+NOT_REGULAR = "is not a regular file (a pipe or a device); save it to a file first"
+
+
 def no_such(path: str | Path, what: str = "file") -> str:
     """Why `path`, an input that is not there, cannot be read: `no such file`, or, for a
     symbolic link to nothing, where it leads (`ls` lists the link, so that misled)."""

@@ -25,7 +25,7 @@ from zstandard import ZstdError
 from dresslog.errors import TrialFormatError, first_problem
 from dresslog.io import cdr, jsontext
 from dresslog.io import well_known as wk
-from dresslog.io.files import no_such
+from dresslog.io.files import NOT_REGULAR, no_such
 from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
@@ -196,10 +196,7 @@ class TrialReader:
             raise TrialFormatError(f"is a folder, not an MCAP file; {_folder_hint(self.path)}",
                                    path=self.path)  # fmt: skip
         if not self.path.is_file():  # read again from its start after the magic: not a pipe
-            raise TrialFormatError(
-                "is not a regular file (a pipe or a device); save it to a file first",
-                path=self.path,
-            )
+            raise TrialFormatError(NOT_REGULAR, path=self.path)
         with self.path.open("rb") as stream:
             head = stream.read(len(MAGIC))
             if not head:
