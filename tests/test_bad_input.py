@@ -858,6 +858,59 @@ def test_convert_refuses_a_pipe_as_the_motion_csv(tmp_path: Path) -> None:
     )
 
 
+def _dead_pid() -> int:
+    import subprocess
+
+    done = subprocess.Popen(["true"])
+    done.wait()
+    return done.pid
+
+
+def test_a_killed_runs_temporary_is_removed_when_its_name_is_next_written(tmp_path: Path):
+    """`kill -9` leaves `.NAME.PID.N.partial`: the next writer of NAME removes it, if its
+    process is gone (a running one's is its own), and nothing of another name."""
+    import subprocess
+
+    dead, alive = _dead_pid(), subprocess.Popen(["sleep", "60"])
+    try:
+        left = {}
+        for name in ("t.mcap", "t.rrd"):
+            left[name] = [tmp_path / f".{name}.{dead}.0.partial",
+                          tmp_path / f".{name}.{alive.pid}.3.partial"]  # fmt: skip
+        other = tmp_path / f".t.mcap.5.{dead}.0.partial"  # a temporary of `t.mcap.5`
+        for path in [*left["t.mcap"], *left["t.rrd"], other]:
+            path.write_bytes(b"half a trial")
+        trial, rrd = tmp_path / "t.mcap", tmp_path / "t.rrd"
+        args = ["record", "--task", "gown", "--duration", "0.05", "-o", str(trial)]
+        assert CliRunner().invoke(main, args).exit_code == 0
+        assert not left["t.mcap"][0].exists() and left["t.mcap"][1].exists() and other.exists()
+        assert left["t.rrd"][0].exists()  # not yet written
+        assert CliRunner().invoke(main, ["infer", str(trial), "-o", str(rrd)]).exit_code == 0
+        assert not left["t.rrd"][0].exists() and left["t.rrd"][1].exists()
+    finally:
+        alive.kill()
+        alive.wait()
+
+
+def test_a_killed_saves_temporary_folder_and_an_atomic_files_are_removed(tmp_path: Path):
+    from dresslog.io.files import atomic_path
+    from dresslog.model.files import load_model, save_model
+
+    dead = _dead_pid()
+    (stale := tmp_path / f".model.{dead}.0.partial").mkdir()
+    (stale / "model.safetensors").write_bytes(b"half")
+    loaded = load_model(GOWN_MODEL)
+    save_model(tmp_path / "model", loaded.weights, loaded.card)
+    assert not stale.exists() and load_model(tmp_path / "model").card == loaded.card
+    (stale := tmp_path / f".table.csv.{dead}.0.partial").write_text("half")
+    with atomic_path(tmp_path / "table.csv") as tmp:
+        tmp.write_text("whole")
+    assert not stale.exists() and sorted(p.name for p in tmp_path.iterdir()) == [
+        "model",
+        "table.csv",
+    ]
+
+
 @pytest.mark.parametrize("command", ["info", "convert"])
 def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
     """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""

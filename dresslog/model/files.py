@@ -54,6 +54,7 @@ from dresslog.errors import ModelError, first_problem
 from dresslog.io import jsontext
 from dresslog.io.files import (
     check_writable,
+    discard_stale_temporaries,
     is_temporary,
     named_as_recording,
     no_such,
@@ -352,7 +353,9 @@ def save_model(
     in_place = path.exists() and _replaced_in_place(path)
     # a folder behind a link or on a mount point may be another file system: beside its
     # files, not beside it, for each rename to stay on it
-    tmp = temporary_path(path / "model") if in_place else temporary_path(path)
+    beside = path / "model" if in_place else path
+    discard_stale_temporaries(beside)  # a killed save's
+    tmp = temporary_path(beside)
     tmp.mkdir()
     try:
         # written by Python, so the file gets the usual permissions (safetensors' own is 0600)
