@@ -911,6 +911,72 @@ def test_a_killed_saves_temporary_folder_and_an_atomic_files_are_removed(tmp_pat
     ]
 
 
+@pytest.mark.parametrize(("shift_ns", "to"), [(2_505_000_000, "2.495"), (2_500_000_000, "2.500")])
+def test_stamps_that_go_backwards_are_named_so_not_as_another_rate(
+    tmp_path: Path, shift_ns: int, to: str
+) -> None:
+    """A clock that jumps back by half a step read as `is at 200 Hz`, by whole steps as
+    stamps repeated: it is the stamps going backwards."""
+    jumped = np.concatenate([T700[:500], T700[500:] - shift_ns])
+    path = _steps_at(tmp_path / "back.mcap", jumped, T700)
+    line = _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")])
+    assert line == (
+        f"Error: {path}: channel {wk.WRENCH}: header stamps go backwards at message 500 of 700 "
+        f"in the order logged, from 4.990 s to {to} s (counted from the first stamp): its clock "
+        f"jumped back, and a step is one time; {CURE}"
+    )
+
+
+def test_a_gown_trial_with_a_legs_force_map_is_blamed_on_the_trial(tmp_path: Path) -> None:
+    """It was `model has 300 limb points but the trial has 400`: the model fits gown trials."""
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+
+    path = tmp_path / "gown400.mcap"
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_limb_points(0, limb_points(build_limb(Task.SHORTS)))
+        writer.write_wrench(T700[:20], np.zeros((20, 6)))
+        writer.write_twist(T700[:20], np.zeros((20, 6)))
+        writer.write_force_map(T700[:20], np.zeros((20, 400), np.float32))
+    said = (
+        f"Error: {path}: channel {wk.FORCE_MAP}: the trial's force map has 400 points where a "
+        f"gown trial has 300 (its {wk.LIMB_POINTS} too): its task or its maps are wrong; the "
+        "recording is corrupt, re-record it"
+    )
+    assert _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")]) == said
+    assert _one_line(["info", str(path)]) == said
+
+
+def test_a_gown_trial_with_a_legs_limb_points_alone_is_blamed_on_the_trial(tmp_path: Path) -> None:
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+
+    path = tmp_path / "gown400.mcap"
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_limb_points(0, limb_points(build_limb(Task.SHORTS)))
+        writer.write_wrench(T700[:20], np.zeros((20, 6)))
+        writer.write_twist(T700[:20], np.zeros((20, 6)))
+    assert _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")]) == (
+        f"Error: {path}: channel {wk.LIMB_POINTS}: the trial's limb has 400 points where a "
+        "gown trial has 300: its task or its limb points are wrong; the recording is corrupt, "
+        "re-record it"
+    )
+
+
+@pytest.mark.parametrize("metadata", [True, False], ids=["trial", "bare"])
+@pytest.mark.parametrize("registered", [True, False], ids=["empty-channels", "no-channels"])
+def test_a_file_of_no_messages_says_it_holds_none(tmp_path: Path, metadata, registered) -> None:
+    """It was `not a dresslog trial (channels: none)`."""
+    channels = {wk.WRENCH: (WRENCH[0], []), wk.TWIST: (TWIST[0], [])} if registered else {}
+    _raw_mcap(path := tmp_path / "silent.mcap", channels, metadata)
+    line = _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")])
+    assert line.startswith(f"Error: {path}: holds no messages"), line
+    if metadata:
+        assert line.endswith(": a trial with no step; re-record it")
+    else:
+        assert "and no `dresslog` metadata record: an empty MCAP file, not a trial" in line
+
+
 @pytest.mark.parametrize("command", ["info", "convert"])
 def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
     """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""

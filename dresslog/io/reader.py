@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass, replace
-from functools import cached_property
+from functools import cache, cached_property
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, BinaryIO, NoReturn, Self
@@ -26,7 +26,7 @@ from dresslog.errors import TrialFormatError, first_problem
 from dresslog.io import cdr, jsontext
 from dresslog.io import well_known as wk
 from dresslog.io.files import NOT_REGULAR, no_such
-from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
+from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, Task, TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
     STEP_HZ,
@@ -91,6 +91,24 @@ def _stamp_problem(stamps: np.ndarray) -> str:
     return ""
 
 
+def _backwards(log_ns: list[int], stamps: np.ndarray) -> str:
+    """Where a channel's header stamps, in the order its messages were logged, go back: a
+    clock that jumped back (sorted, its steps would interleave with the earlier ones as a
+    channel at twice the rate, or repeat their stamps); "" if they never do."""
+    in_log_order = stamps[np.argsort(np.asarray(log_ns, dtype=np.int64), kind="stable")]
+    back = np.flatnonzero(np.diff(in_log_order) < 0)
+    if not len(back):
+        return ""
+    i, first = int(back[0]) + 1, in_log_order[0]
+    was, now = (in_log_order[i - 1] - first) / 1e9, (in_log_order[i] - first) / 1e9
+    more = f" ({len(back)} times in all)" if len(back) > 1 else ""
+    return (
+        f"header stamps go backwards at message {i} of {len(stamps)} in the order logged, "
+        f"from {was:.3f} s to {now:.3f} s (counted from the first stamp){more}: its clock "
+        "jumped back, and a step is one time"
+    )
+
+
 def off_rate(rate: float) -> str:
     """Why a channel at `rate` Hz cannot be the model's input (its steps are `STEP_HZ`)."""
     return (
@@ -101,6 +119,14 @@ def off_rate(rate: float) -> str:
 
 #: What to do about a trial whose steps are not the model's: make it again.
 _CURE = "re-record it, or re-convert its log"
+
+
+@cache
+def _task_points(task: Task) -> int:
+    """How many force-map points the limb of `task` has (300 on the arm, 400 on the leg)."""
+    from dresslog.limb import build_limb  # lazily: the limb's geometry is not a reader's
+
+    return sum(build_limb(task).points_per_part.values())
 
 
 def _seconds(t_ns: int | np.integer, origin: int | np.integer) -> str:
@@ -312,6 +338,8 @@ class TrialReader:
                     channel=topic,
                 )
             stamps = cdr.stamp_ns(head)
+            if topic != wk.LIMB_POINTS and (back := _backwards(raw.times, stamps)):
+                raise TrialFormatError(f"{back}; {_CURE}", path=self.path, channel=topic)
             order = np.argsort(stamps, kind="stable")
             if (np.diff(order) != 1).any():
                 raw.times = [raw.times[i] for i in order]
@@ -329,6 +357,18 @@ class TrialReader:
     def _check_channels(self, metadata: dict[str, str] | None) -> None:
         """Refuse a file without our required channels, or with ours under another schema."""
         assert self._raw is not None
+        if not any(raw.info.count for raw in self._raw.values()):
+            empty = ", ".join(sorted(self._raw))
+            what = f" (its channels {empty} are empty)" if empty else ""
+            if metadata is None:
+                raise TrialFormatError(
+                    f"holds no messages{what} and no `{wk.METADATA_NAME}` metadata record: "
+                    f"an empty MCAP file, not a trial; {CONVERT_HINT}",
+                    path=self.path,
+                )
+            raise TrialFormatError(
+                f"holds no messages{what}: a trial with no step; re-record it", path=self.path
+            )
         missing = [t for t in wk.REQUIRED if t not in self._raw]
         if missing and (metadata is None or not any(t in self._raw for t in wk.SCHEMAS)):
             topics = ", ".join(sorted(self._raw)) or "none"
@@ -500,13 +540,40 @@ class TrialReader:
             at = f" in message {bad[0]} of {len(msgs)}" if len(bad) else " in a contact map"
             self._corrupt(f"NaN or infinite value{at}", topic)
         limb = self.limb_points
-        if limb is not None and maps.forces.shape[1] != len(limb.points):
+        width = maps.forces.shape[1]
+        if limb is not None and width != len(limb.points):
             self._corrupt(
-                f"force maps have {maps.forces.shape[1]} values but {wk.LIMB_POINTS} has "
+                f"force maps have {width} values but {wk.LIMB_POINTS} has "
                 f"{len(limb.points)} points",
                 topic,
             )
+        task, wanted = self.metadata.task.value, _task_points(self.metadata.task)
+        if width != wanted and limb is None:  # drawn on the task's limb, which it does not fit
+            raise TrialFormatError(
+                f"force maps have {width} values but the trial has no {wk.LIMB_POINTS} and the "
+                f"{task}'s limb has {wanted} points; write its limb points with the maps",
+                path=self.path,
+                channel=topic,
+            )
+        if width != wanted:  # the trial's fault, not that of a model that fits its task
+            what = "estimate" if estimate else "force map"
+            self._corrupt(
+                f"the trial's {what} has {width} points where a {task} trial has {wanted} (its "
+                f"{wk.LIMB_POINTS} too): its task or its maps are wrong",
+                topic,
+            )
         return maps
+
+    def _check_limb(self) -> None:
+        """Refuse limb points of another number than the trial's task's limb has: a model
+        of that task would be blamed for not fitting them."""
+        limb, wanted = self.limb_points, _task_points(self.metadata.task)
+        if limb is not None and len(limb) != wanted:
+            self._corrupt(
+                f"the trial's limb has {len(limb)} points where a {self.metadata.task.value} "
+                f"trial has {wanted}: its task or its limb points are wrong",
+                wk.LIMB_POINTS,
+            )
 
     @cached_property
     def force_map(self) -> ForceMaps | None:
@@ -574,13 +641,15 @@ class TrialReader:
     def read(self) -> Trial:
         """Every stream in memory at once (a trial with no step to run on is refused)."""
         _ = self.measurements  # refuses a file with no step
+        force_map, estimate = self.force_map, self.estimate
+        self._check_limb()
         return Trial(
             metadata=self.metadata,
             wrench=self.wrench,
             twist=self.twist,
             pose=self.pose,
-            force_map=self.force_map,
-            estimate=self.estimate,
+            force_map=force_map,
+            estimate=estimate,
             contacts=self.contacts,
             limb_points=self.limb_points,
             garment=self.garment,
