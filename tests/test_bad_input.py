@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -515,3 +516,509 @@ def test_view_shows_a_trial_at_another_rate_with_ground_truth_alone(tmp_path: Pa
     model = str(SAMPLES / "models" / "gown")
     asked = CliRunner().invoke(main, ["view", str(trial), "--save", str(out), "--model", model])
     assert asked.exit_code == 1 and "is at 50 Hz" in asked.output
+
+
+# -- hostile inputs (issue 50): one line naming the file, never a traceback ----------------
+
+#: `[` 200,000 times: Python's JSON reader raised RecursionError, a traceback.
+DEEP = "[" * 200_000
+GOWN_MODEL = SAMPLES / "models" / "gown"
+
+
+def _one_line(args: list[str], *, code: int = 1) -> str:
+    """The one line (`Error: ...`) a command prints for a bad input, checked to be one."""
+    result = CliRunner().invoke(main, args)
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == code and len(lines) == 1, result.output
+    assert "Traceback" not in result.output and not isinstance(result.exception, RecursionError)
+    return lines[0]
+
+
+def _copied_model(tmp: Path, card: str | None = None) -> Path:
+    """The bundled gown model copied, its card replaced by `card` if given."""
+    import shutil
+
+    model = Path(shutil.copytree(GOWN_MODEL, tmp / "model"))
+    if card is not None:
+        (model / "card.json").write_text(card)
+    return model
+
+
+@pytest.mark.parametrize("nested", [DEEP, '{"a": ' * 150 + "1" + "}" * 150])
+@pytest.mark.parametrize("command", ["info", "infer", "view"])
+def test_deeply_nested_trial_metadata_is_one_line(tmp_path: Path, command: str, nested: str):
+    path = _with_steps(tmp_path / "deep.mcap", {}, metadata={"task": "gown", "trial": nested})
+    args = {"info": [], "infer": ["-o", str(tmp_path / "o.rrd")]}
+    line = _one_line([command, str(path), *args.get(command, ["--save", str(tmp_path / "o.rrd")])])
+    assert line == (
+        f"Error: {path}: metadata record is invalid: it nests more than 100 levels deep, as "
+        "no dresslog file does"
+    )
+    assert not (tmp_path / "o.rrd").exists()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["info", "{model}"],
+        ["infer", str(SAMPLE), "--model", "{model}", "-o", "{tmp}/o.rrd"],
+        ["view", str(SAMPLE), "--model", "{model}", "--save", "{tmp}/o.rrd"],
+        ["eval", "{model}", "{tmp}"],
+        ["sweep", "{model}", "--speeds", "0.2", "-n", "1", "-o", "{tmp}/sweep"],
+    ],
+    ids=["info", "infer", "view", "eval", "sweep"],
+)
+def test_a_deeply_nested_model_card_is_one_line(tmp_path: Path, args: list[str]) -> None:
+    model = _copied_model(tmp_path, DEEP)
+    line = _one_line([a.format(model=model, tmp=tmp_path) for a in args])
+    assert line == (
+        f"Error: {model}: card.json is not readable JSON: it nests more than 100 levels "
+        "deep, as no dresslog file does"
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "why"),
+    [
+        (["info", "{data}"], "it nests more than 100 levels deep, as no dresslog file does"),
+        (["eval", str(GOWN_MODEL), "{data}"], "it nests more than 100 levels deep"),
+        (["train", "{data}", "-o", "{tmp}/m"], "it nests more than 100 levels deep"),
+    ],
+    ids=["info", "eval", "train"],
+)
+def test_a_deeply_nested_dataset_manifest_is_one_line(tmp_path: Path, args, why: str) -> None:
+    (data := tmp_path / "data").mkdir()
+    (data / "manifest.json").write_text(DEEP)
+    line = _one_line([a.format(data=data, tmp=tmp_path) for a in args])
+    assert line.startswith(f"Error: {data}: manifest.json is not readable JSON: {why}"), line
+
+
+def test_a_card_whose_normalisation_holds_nan_is_one_line(tmp_path: Path) -> None:
+    """`NaN` is no JSON number (Python writes it, pydantic writes null)."""
+    card = (GOWN_MODEL / "card.json").read_text().replace('"std": [', '"std": [NaN, ', 1)
+    model = _copied_model(tmp_path, card)
+    line = _one_line(["infer", str(SAMPLE), "--model", str(model), "-o", str(tmp_path / "o.rrd")])
+    assert line == f"Error: {model}: card.json is not readable JSON: NaN is not a JSON number"
+
+
+def test_json_nesting_is_measured_without_recursion() -> None:
+    from dresslog.io.jsontext import depth, loads
+
+    assert [depth(v, 100) for v in (1, [], {"a": [[1]]}, [{}, [[]]])] == [0, 1, 3, 3]
+    assert depth(loads("[" * 100 + "]" * 100), 100) == 100
+    with pytest.raises(ValueError, match="nests more than 100 levels"):
+        loads("[" * 101 + "]" * 101)
+
+
+def _rewritten(good: Path, out: Path, topic: str, index: int, field: str, value: int) -> Path:
+    """`good` with the length field `field` of message `index` of `topic` set to `value`,
+    written again by mcap's own writer (ours would not write it)."""
+    from mcap.reader import make_reader
+
+    with good.open("rb") as stream:
+        reader = make_reader(stream)
+        messages = list(reader.iter_messages())
+        metadata = [(m.name, m.metadata) for m in reader.iter_metadata()]
+    with out.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="a hostile tool")
+        channels: dict[str, int] = {}
+        seen = 0
+        for schema, channel, message in messages:
+            if channel.topic not in channels:
+                sid = writer.register_schema(schema.name, schema.encoding, schema.data)
+                channels[channel.topic] = writer.register_channel(channel.topic, "cdr", sid)
+            data = message.data
+            if channel.topic == topic and (seen := seen + 1) == index + 1:
+                layout = cdr.layout(schema.name, cdr.sizes_of(schema.name, data))
+                at = layout.fields[f"{field}.len"][1]
+                data = data[:at] + value.to_bytes(4, "little") + data[at + 4 :]
+            writer.add_message(channels[channel.topic], message.log_time, data, message.log_time)
+        for name, values in metadata:
+            writer.add_metadata(name, values)
+        writer.finish()
+    return out
+
+
+LENGTHS = [  # (topic, length field, what the error says of it)
+    (wk.WRENCH, "header.frame_id", "string header.frame_id is 4294967280 bytes long"),
+    (wk.TWIST, "header.frame_id", "string header.frame_id is 4294967280 bytes long"),
+    (wk.FORCE_MAP, "forces", "forces holds 4294967280 elements by its length field"),
+    (wk.CONTACTS, "contacts", "contacts holds 4294967280 elements by its length field"),
+    (wk.GARMENT, "vertices", "vertices holds 4294967280 elements by its length field"),
+    (wk.LIMB_POINTS, "limb", "string limb is 4294967280 bytes long"),
+    (wk.LIMB_POINTS, "segment_names.1", r"string segment_names\[1\] is 4294967280 bytes long"),
+]
+
+
+@pytest.mark.parametrize(
+    ("topic", "field", "said"), LENGTHS, ids=[f"{t}:{f}" for t, f, _ in LENGTHS]
+)
+@pytest.mark.parametrize("command", ["info", "infer"])
+def test_a_length_field_past_its_messages_end_is_one_line(
+    tmp_path: Path, make_trial, topic: str, field: str, said: str, command: str
+) -> None:
+    """0xFFFFFFF0 in a length field: numpy was asked for a 4 GB string type (TypeError)."""
+    good, _ = make_trial(name="good.mcap", steps=12)
+    index = 0 if topic == wk.LIMB_POINTS else 1
+    path = _rewritten(good, tmp_path / "long.mcap", topic, index, field, 0xFFFFFFF0)
+    args = [] if command == "info" else ["-o", str(tmp_path / "o.rrd")]
+    line = _one_line([command, str(path), *args])
+    prefix = f"Error: {path}: channel {topic}: message {index} of "
+    assert line.startswith(prefix) and " does not match its schema: " in line, line
+    assert re.search(f"{said}.*message has \\d+ left; the recording is corrupt", line), line
+
+
+def test_a_string_length_of_zero_is_refused_as_cdr_counts_its_nul(tmp_path: Path, make_trial):
+    good, _ = make_trial(name="good.mcap", steps=12)
+    path = _rewritten(good, tmp_path / "zero.mcap", wk.WRENCH, 3, "header.frame_id", 0)
+    said = "message 3 of 12 does not match its schema: string header.frame_id has the length 0"
+    with pytest.raises(TrialFormatError, match=said) as info, TrialReader(path) as reader:
+        reader.read()
+    assert info.value.path == path
+
+
+def test_convert_refuses_a_length_field_past_its_messages_end(tmp_path: Path) -> None:
+    """A robot's bag: the message is named by its place in the topic."""
+    pytest.importorskip("rosbags")
+    wrench = _vectors(*WRENCH, np.zeros((300, 6)))
+    wrench[100] = wrench[100][:12] + (0xFFFFFFF0).to_bytes(4, "little") + wrench[100][16:]
+    twist = _vectors(*TWIST, np.zeros((300, 6)))
+    channels = {"/ft/wrench": (WRENCH[0], wrench), "/ft/twist": (TWIST[0], twist)}
+    _raw_mcap(bag := tmp_path / "robot.mcap", channels, False)
+    out = tmp_path / "t.mcap"
+    line = _one_line(["convert", str(bag), "-o", str(out), "--task", "gown"])
+    assert line == (
+        f"Error: {bag}: topic /ft/wrench: message 100 does not match "
+        "geometry_msgs/msg/WrenchStamped: string header.frame_id is 4294967280 bytes long by "
+        "its length field, but the 68-byte message has 52 left"
+    )
+    assert not out.exists()
+
+
+def _weights_changed(tmp: Path, change: Callable[[dict[str, np.ndarray]], None]) -> Path:
+    """The bundled model with its weights changed and its card's hash made to match."""
+    import json
+
+    from safetensors.numpy import load_file, save_file
+
+    from dresslog.io.files import sha256_file
+
+    model = _copied_model(tmp)
+    weights = {k: v.copy() for k, v in load_file(str(model / "model.safetensors")).items()}
+    change(weights)
+    save_file(weights, str(model / "model.safetensors"), metadata={"format": "dresslog-model"})
+    card = json.loads((model / "card.json").read_text())
+    card["weights_sha256"] = sha256_file(model / "model.safetensors")
+    (model / "card.json").write_text(json.dumps(card))
+    return model
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_weights_holding_nan_are_refused_at_load(tmp_path: Path, bad: float) -> None:
+    """Its card's hash matches: `infer` printed `RMSE nan` and wrote NaN estimates."""
+
+    def poison(weights: dict[str, np.ndarray]) -> None:
+        weights["lstm.weight_hh_l1"][7, 3] = bad
+
+    model, out = _weights_changed(tmp_path, poison), tmp_path / "o.rrd"
+    said = (
+        f"Error: {model}: model.safetensors: lstm.weight_hh_l1 holds 1 NaN or infinite value "
+        "(of 40000); the weights are corrupt, retrain the model or restore its folder"
+    )
+    assert _one_line(["infer", str(SAMPLE), "--model", str(model), "-o", str(out)]) == said
+    assert not out.exists()
+    result = CliRunner().invoke(main, ["info", str(model)])  # described, and it fails
+    assert result.exit_code == 1 and result.output.strip().splitlines()[-1] == said
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+def test_weights_that_overflow_on_a_trial_write_no_estimate(tmp_path: Path) -> None:
+    """Finite weights whose estimate is not: refused at the step, no file of NaNs."""
+
+    def overflow(weights: dict[str, np.ndarray]) -> None:
+        weights["head.weight"][:] = 3e38
+
+    model, out = _weights_changed(tmp_path, overflow), tmp_path / "o.rrd"
+    line = _one_line(["infer", str(SAMPLE), "--model", str(model), "-o", str(out)])
+    assert line.startswith(f"Error: {SAMPLE}: the model ({model} (3x100 LSTM")
+    assert re.search(
+        r"\) estimates NaN or infinite forces at step \d+; no estimate is written$", line
+    )
+    assert not out.exists()
+
+
+def _steps_at(path: Path, wrench_ns: np.ndarray, twist_ns: np.ndarray) -> Path:
+    """A trial whose wrench and twist have these header stamps (mcap's own writer)."""
+    channels = {}
+    for topic, schema, stamps in (
+        (wk.WRENCH, WRENCH[0], wrench_ns),
+        (wk.TWIST, TWIST[0], twist_ns),
+    ):
+        msgs = cdr.new_messages(schema, {"header.frame_id": 2}, len(stamps))
+        cdr.set_stamp(msgs, np.asarray(stamps, np.int64), "ee")
+        channels[topic] = (schema, cdr.to_payloads(msgs))
+    _raw_mcap(path, channels, True)
+    return path
+
+
+STEP = 10_000_000
+T700 = np.arange(700) * STEP
+CURE = "re-record it, or re-convert its log"
+UNEVEN = [  # (wrench stamps, twist stamps, the line)
+    (T700, T700[:350], f"channel {wk.TWIST}: stops at 3.490 s, 3.5 s before {wk.WRENCH} does: "
+     f"the last 350 of 700 {wk.WRENCH} steps have no {wk.TWIST} message, and the model reads "
+     f"both on every step; {CURE}"),
+    (T700[:200], T700, f"channel {wk.WRENCH}: stops at 1.990 s, 5 s before {wk.TWIST} does: "
+     f"the last 500 of 700 {wk.TWIST} steps have no {wk.WRENCH} message, and the model reads "
+     f"both on every step; {CURE}"),
+    (T700, T700[100:], f"channel {wk.TWIST}: starts at 1.000 s, 1 s after {wk.WRENCH} does: "
+     f"the first 100 of 700 {wk.WRENCH} steps have no {wk.TWIST} message, and the model reads "
+     f"both on every step; {CURE}"),
+    (np.delete(T700, np.arange(300, 400)), T700, f"channel {wk.WRENCH}: has a gap: no message "
+     "between 2.990 s and 4.000 s (1 s, 100 steps missing), and the model would read the steps "
+     f"either side as consecutive; {CURE}"),
+    (T700, np.delete(T700, [10, 11, 500]), f"channel {wk.TWIST}: has a gap: no message between "
+     "0.090 s and 0.120 s (0.02 s, 2 steps missing; 2 gaps in all), and the model would read "
+     f"the steps either side as consecutive; {CURE}"),
+    (T700, T700 + STEP // 2, f"no {wk.WRENCH} message has a {wk.TWIST} message of the same "
+     "stamp, so there is no step to run the model on; re-record or re-convert it"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("wrench", "twist", "said"), UNEVEN,
+                         ids=["twist-stops", "wrench-stops", "twist-starts-late", "wrench-hole",
+                              "twist-holes", "offset"])  # fmt: skip
+@pytest.mark.parametrize("command", ["info", "infer"])
+def test_input_channels_that_do_not_cover_the_same_steps_are_refused(
+    tmp_path: Path, wrench, twist, said: str, command: str
+) -> None:
+    """Half a trial was dropped silently, and steps either side of a hole read as one apart."""
+    path = _steps_at(tmp_path / "uneven.mcap", wrench, twist)
+    out = tmp_path / "o.rrd"
+    args = [] if command == "info" else ["-o", str(out)]
+    assert _one_line([command, str(path), *args]) == f"Error: {path}: {said}"
+    assert not out.exists()
+
+
+def test_a_trial_of_one_step_is_refused_by_the_model_as_record_and_convert_refuse_it(
+    tmp_path: Path,
+) -> None:
+    """It was scored `RMSE 0 N`."""
+    path = _steps_at(tmp_path / "one.mcap", T700[:1], T700[:1])
+    said = (
+        f"Error: {path}: has one step ({wk.WRENCH} and {wk.TWIST} at one time), less than two "
+        "steps, and the model needs two or more; re-record it, or re-convert a longer log"
+    )
+    out = tmp_path / "o.rrd"
+    assert _one_line(["infer", str(path), "-o", str(out)]) == said
+    assert _one_line(["view", str(path), "--model", str(GOWN_MODEL), "--save", str(out)]) == said
+    assert not out.exists()
+
+
+@prints_warnings
+def test_view_shows_a_trial_of_one_step_with_ground_truth_alone(tmp_path: Path) -> None:
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+
+    path, out = tmp_path / "one.mcap", tmp_path / "v.rrd"
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_limb_points(0, limb_points(build_limb(Task.GOWN)))
+        writer.write_wrench(0, np.zeros(6))
+        writer.write_twist(0, np.zeros(6))
+        writer.write_force_map(0, np.zeros(300, np.float32))
+    shown = CliRunner().invoke(main, ["view", str(path), "--save", str(out)])
+    assert shown.exit_code == 0 and out.is_file(), shown.output
+    assert shown.stderr == (
+        f"Warning: {path}: has one step ({wk.WRENCH} and {wk.TWIST} at one time), less than "
+        "two steps, and the model needs two or more; re-record it, or re-convert a longer "
+        "log; shown with ground truth alone\n"
+    )
+
+
+@pytest.mark.parametrize("name", ["pipe.mcap", "pipe.csv", "pipe.bag", "pipe"])
+def test_convert_refuses_a_pipe_as_infer_and_info_do(tmp_path: Path, name: str) -> None:
+    os.mkfifo(pipe := tmp_path / name)
+    said = f"Error: {pipe}: is not a regular file (a pipe or a device); save it to a file first"
+    assert (
+        _one_line(["convert", str(pipe), "-o", str(tmp_path / "t.mcap"), "--task", "gown"]) == said
+    )
+    assert _one_line(["info", str(pipe)]) == said
+    assert _one_line(["view", str(pipe), "--save", str(tmp_path / "v.rrd")]) == said
+    assert not (tmp_path / "t.mcap").exists()
+
+
+def test_convert_refuses_a_pipe_as_the_motion_csv(tmp_path: Path) -> None:
+    (csv := tmp_path / "ft.csv").write_text("time,fx,fy,fz,tx,ty,tz\n0,0,0,0,0,0,0\n")
+    os.mkfifo(motion := tmp_path / "motion.csv")
+    line = _one_line(["convert", str(csv), "--motion", str(motion), "-o", str(tmp_path / "t.mcap"),
+                      "--task", "gown"])  # fmt: skip
+    assert line == (
+        f"Error: {motion}: is not a regular file (a pipe or a device); save it to a file first"
+    )
+
+
+def _dead_pid() -> int:
+    import subprocess
+
+    done = subprocess.Popen(["true"])
+    done.wait()
+    return done.pid
+
+
+def test_a_killed_runs_temporary_is_removed_when_its_name_is_next_written(tmp_path: Path):
+    """`kill -9` leaves `.NAME.PID.N.partial`: the next writer of NAME removes it, if its
+    process is gone (a running one's is its own), and nothing of another name."""
+    import subprocess
+
+    dead, alive = _dead_pid(), subprocess.Popen(["sleep", "60"])
+    try:
+        left = {}
+        for name in ("t.mcap", "t.rrd"):
+            left[name] = [tmp_path / f".{name}.{dead}.0.partial",
+                          tmp_path / f".{name}.{alive.pid}.3.partial"]  # fmt: skip
+        other = tmp_path / f".t.mcap.5.{dead}.0.partial"  # a temporary of `t.mcap.5`
+        for path in [*left["t.mcap"], *left["t.rrd"], other]:
+            path.write_bytes(b"half a trial")
+        trial, rrd = tmp_path / "t.mcap", tmp_path / "t.rrd"
+        args = ["record", "--task", "gown", "--duration", "0.05", "-o", str(trial)]
+        assert CliRunner().invoke(main, args).exit_code == 0
+        assert not left["t.mcap"][0].exists() and left["t.mcap"][1].exists() and other.exists()
+        assert left["t.rrd"][0].exists()  # not yet written
+        assert CliRunner().invoke(main, ["infer", str(trial), "-o", str(rrd)]).exit_code == 0
+        assert not left["t.rrd"][0].exists() and left["t.rrd"][1].exists()
+    finally:
+        alive.kill()
+        alive.wait()
+
+
+def test_a_killed_saves_temporary_folder_and_an_atomic_files_are_removed(tmp_path: Path):
+    from dresslog.io.files import atomic_path
+    from dresslog.model.files import load_model, save_model
+
+    dead = _dead_pid()
+    (stale := tmp_path / f".model.{dead}.0.partial").mkdir()
+    (stale / "model.safetensors").write_bytes(b"half")
+    loaded = load_model(GOWN_MODEL)
+    save_model(tmp_path / "model", loaded.weights, loaded.card)
+    assert not stale.exists() and load_model(tmp_path / "model").card == loaded.card
+    (stale := tmp_path / f".table.csv.{dead}.0.partial").write_text("half")
+    with atomic_path(tmp_path / "table.csv") as tmp:
+        tmp.write_text("whole")
+    assert not stale.exists() and sorted(p.name for p in tmp_path.iterdir()) == [
+        "model",
+        "table.csv",
+    ]
+
+
+@pytest.mark.parametrize(("shift_ns", "to"), [(2_505_000_000, "2.495"), (2_500_000_000, "2.500")])
+def test_stamps_that_go_backwards_are_named_so_not_as_another_rate(
+    tmp_path: Path, shift_ns: int, to: str
+) -> None:
+    """A clock that jumps back by half a step read as `is at 200 Hz`, by whole steps as
+    stamps repeated: it is the stamps going backwards."""
+    jumped = np.concatenate([T700[:500], T700[500:] - shift_ns])
+    path = _steps_at(tmp_path / "back.mcap", jumped, T700)
+    line = _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")])
+    assert line == (
+        f"Error: {path}: channel {wk.WRENCH}: header stamps go backwards at message 500 of 700 "
+        f"in the order logged, from 4.990 s to {to} s (counted from the first stamp): its clock "
+        f"jumped back, and a step is one time; {CURE}"
+    )
+
+
+def test_a_gown_trial_with_a_legs_force_map_is_blamed_on_the_trial(tmp_path: Path) -> None:
+    """It was `model has 300 limb points but the trial has 400`: the model fits gown trials."""
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+
+    path = tmp_path / "gown400.mcap"
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_limb_points(0, limb_points(build_limb(Task.SHORTS)))
+        writer.write_wrench(T700[:20], np.zeros((20, 6)))
+        writer.write_twist(T700[:20], np.zeros((20, 6)))
+        writer.write_force_map(T700[:20], np.zeros((20, 400), np.float32))
+    said = (
+        f"Error: {path}: channel {wk.FORCE_MAP}: the trial's force map has 400 points where a "
+        f"gown trial has 300 (its {wk.LIMB_POINTS} too): its task or its maps are wrong; the "
+        "recording is corrupt, re-record it"
+    )
+    assert _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")]) == said
+    assert _one_line(["info", str(path)]) == said
+
+
+def test_a_gown_trial_with_a_legs_limb_points_alone_is_blamed_on_the_trial(tmp_path: Path) -> None:
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+
+    path = tmp_path / "gown400.mcap"
+    with TrialWriter(path, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_limb_points(0, limb_points(build_limb(Task.SHORTS)))
+        writer.write_wrench(T700[:20], np.zeros((20, 6)))
+        writer.write_twist(T700[:20], np.zeros((20, 6)))
+    assert _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")]) == (
+        f"Error: {path}: channel {wk.LIMB_POINTS}: the trial's limb has 400 points where a "
+        "gown trial has 300: its task or its limb points are wrong; the recording is corrupt, "
+        "re-record it"
+    )
+
+
+@pytest.mark.parametrize("metadata", [True, False], ids=["trial", "bare"])
+@pytest.mark.parametrize("registered", [True, False], ids=["empty-channels", "no-channels"])
+def test_a_file_of_no_messages_says_it_holds_none(tmp_path: Path, metadata, registered) -> None:
+    """It was `not a dresslog trial (channels: none)`."""
+    channels = {wk.WRENCH: (WRENCH[0], []), wk.TWIST: (TWIST[0], [])} if registered else {}
+    _raw_mcap(path := tmp_path / "silent.mcap", channels, metadata)
+    line = _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")])
+    assert line.startswith(f"Error: {path}: holds no messages"), line
+    if metadata:
+        assert line.endswith(": a trial with no step; re-record it")
+    else:
+        assert "and no `dresslog` metadata record: an empty MCAP file, not a trial" in line
+
+
+@pytest.mark.parametrize("command", ["info", "convert"])
+def test_a_bags_deeply_nested_metadata_yaml_is_one_line(tmp_path: Path, command: str) -> None:
+    """YAML's flow style is JSON's: ruamel.yaml raised RecursionError, a traceback."""
+    pytest.importorskip("rosbags")
+    (bag := tmp_path / "bag").mkdir()
+    (bag / "metadata.yaml").write_text(DEEP)
+    args = ["-o", str(tmp_path / "t.mcap"), "--task", "gown"] if command == "convert" else []
+    assert _one_line([command, str(bag), *args]) == (
+        f"Error: {bag}: cannot read bag: its metadata.yaml nests too deeply for a YAML reader "
+        "to follow, as no recorder writes it; restore the bag's metadata.yaml (`ros2 bag "
+        "reindex` writes it again)"
+    )
+
+
+def test_a_dataset_trial_whose_truth_has_a_hole_is_refused(tmp_path: Path) -> None:
+    """Training read the steps either side of the hole as consecutive."""
+    from dresslog.dataset.cache import load_dataset
+    from dresslog.dataset.manifest import Entry, Manifest, Split, Status, slot_file
+    from dresslog.errors import DatasetError
+    from dresslog.io.files import sha256_file
+    from dresslog.io.writer import TrialWriter
+    from dresslog.limb import build_limb, limb_points
+    from dresslog.spec import TrialSpec
+
+    root = tmp_path / "data"
+    entries = []
+    for slot in range(2):
+        (path := root / slot_file(Split.TRAIN, slot)).parent.mkdir(parents=True, exist_ok=True)
+        spec = TrialSpec(task=Task.GOWN, seed=slot)
+        with TrialWriter(path, TrialMetadata(task=Task.GOWN, spec=spec)) as writer:
+            writer.write_limb_points(0, limb_points(build_limb(Task.GOWN)))
+            writer.write_wrench(T700[:40], np.zeros((40, 6)))
+            writer.write_twist(T700[:40], np.zeros((40, 6)))
+            truth = T700[:40] if slot == 0 else np.delete(T700[:40], np.arange(10, 20))
+            writer.write_force_map(truth, np.zeros((len(truth), 300), np.float32))
+        entries.append(Entry(split=Split.TRAIN, slot=slot, status=Status.OK,
+                             file=slot_file(Split.TRAIN, slot), spec=spec, steps=40,
+                             size=path.stat().st_size, sha256=sha256_file(path)))  # fmt: skip
+    Manifest(task=Task.GOWN, n_train=2, n_test=0, trials=entries).save(root)
+    with pytest.raises(DatasetError) as info:
+        load_dataset(root, workers=1, progress=False)
+    assert str(info.value) == (
+        f"{root}: trial train/000001.mcap has no ground-truth force map on 10 of its 40 steps "
+        "(the first at 0.100 s); run `dresslog generate` on it again to re-create it"
+    )

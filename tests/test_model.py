@@ -247,6 +247,29 @@ def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Pa
         train(more, more_forces, checkpoint=ckpt, **kwargs)
 
 
+def test_a_checkpoint_holding_nan_weights_is_refused_not_resumed(tmp_path: Path):
+    """A damaged checkpoint: the run would go on from weights that estimate NaN."""
+    from safetensors import safe_open
+    from safetensors.torch import save_file
+
+    phis, forces = synthetic(8, seed=2, n_points=4)
+    kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
+
+    def stop(record: EpochRecord) -> None:
+        raise KeyboardInterrupt
+
+    ckpt = tmp_path / "run.ckpt"
+    with pytest.raises(KeyboardInterrupt):
+        train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
+    with safe_open(str(ckpt), framework="pt") as stream:
+        metadata = stream.metadata()
+        tensors = {name: stream.get_tensor(name) for name in stream.keys()}  # noqa: SIM118
+    tensors["model.head.bias"][1] = float("nan")
+    save_file(tensors, str(ckpt), metadata)
+    with pytest.raises(ModelError, match=r"checkpoint's model\.head\.bias holds NaN or infinite"):
+        train(phis, forces, checkpoint=ckpt, **kwargs)
+
+
 def test_fine_tuning_starts_from_the_initial_weights_whatever_the_force_scale(trained):
     """`init`: the run starts where the initial model ended (its outputs in newtons, the
     loss's forces scaled by --balance-loss), not from random weights."""

@@ -35,7 +35,7 @@ from dresslog.convert.checks import (
 )
 from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError, DresslogWarning
-from dresslog.io.files import check_output, no_such, printable
+from dresslog.io.files import NOT_REGULAR, check_output, no_such, printable
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata, task_of
 
@@ -81,6 +81,9 @@ def load(
     path, motion = Path(path), None if motion is None else Path(motion)
     if not path.exists():
         raise ConversionError(no_such(path, "file or folder"), path=path)
+    for named in (path, motion):  # a pipe is read once: the sniffing would consume it
+        if named is not None and named.exists() and not named.is_file() and not named.is_dir():
+            raise ConversionError(NOT_REGULAR, path=named)
     suffix = path.suffix.lower()
     is_csv = suffix in CSV_SUFFIXES and path.is_file()
     given: dict[str, object] = {"--motion": motion, "--column": columns, "--time-unit": time_unit}

@@ -98,15 +98,15 @@ def _decode_group(
         if (messages["frame_len"] != frame_len).any():
             raise ValueError("header length field does not match the message size")
         sec, nsec, values = messages["sec"], messages["nsec"], messages["values"]
-    else:
-        msgtype = MESSAGE_TYPES[kind]
-        dtype = cdr.layout(msgtype, cdr.sizes_of(msgtype, bytes(payloads[0])))
-        messages = cdr.from_payloads(payloads, dtype)
-        if (messages["encapsulation"][:, :2] != (0, 1)).any():
+    else:  # each message's length fields checked: one of 4 GB is refused, not laid out
+        runs = cdr.decode(MESSAGE_TYPES[kind], [bytes(p) for p in payloads])
+        if any((run["encapsulation"][:, :2] != (0, 1)).any() for run in runs):
             raise ValueError("not little-endian CDR (encapsulation header is not 00 01)")
         a, b = FIELDS[kind]
-        sec, nsec = messages["header.stamp.sec"], messages["header.stamp.nanosec"]
-        values = np.concatenate([messages[a], messages[b]], axis=1)
+        sec = np.concatenate([run["header.stamp.sec"] for run in runs])
+        nsec = np.concatenate([run["header.stamp.nanosec"] for run in runs])
+        values = np.concatenate([np.concatenate([run[a], run[b]], axis=1) for run in runs])
+        messages = runs[0]
     return sec, nsec, values, _frame_id(messages[0], ros1)
 
 
@@ -122,7 +122,10 @@ def decode(
     for size in np.unique(lengths):  # one group unless frame_id lengths vary
         index = np.flatnonzero(lengths == size)
         group = payloads if len(index) == count else [payloads[int(i)] for i in index]
-        sec, nsec, vals, frame = _decode_group(kind, list(group), ros1)
+        try:
+            sec, nsec, vals, frame = _decode_group(kind, list(group), ros1)
+        except cdr.MessageError as err:  # named by its place among all the payloads
+            raise cdr.MessageError(int(index[err.index]), count, err.problem) from None
         stamps[index] = sec.astype(np.int64) * 1_000_000_000 + nsec.astype(np.int64)
         values[index] = vals
         frame_id = frame_id or frame
@@ -161,6 +164,8 @@ def _ros1_messages(reader: Any, sinks: Mapping[str, Sink]) -> bool:
                 if b"op=\x02" not in data[offset + 4 : start]:
                     return False
                 size = int.from_bytes(data[start : start + 4], "little")
+                if start + 4 + size > len(data):  # a length past the chunk: rosbags says so
+                    return False
                 sinks[topic].add(t_ns, data[start + 4 : start + 4 + size])
     except (AttributeError, KeyError, TypeError, ValueError, OSError):
         return False
@@ -223,6 +228,13 @@ class DecodedTopic:
     def _decode(self) -> None:
         try:
             stamps, values, frame_id = decode(self.kind, self.pending, ros1=self.ros1)
+        except cdr.MessageError as err:  # counted from the topic's first message
+            first = len(self.logged) - len(self.pending)
+            raise ConversionError(
+                f"topic {self.topic}: message {first + err.index} does not match "
+                f"{MESSAGE_TYPES[self.kind]}: {err.problem}",
+                path=self.path,
+            ) from None
         except ValueError as err:
             raise ConversionError(
                 f"topic {self.topic}: message does not match {MESSAGE_TYPES[self.kind]}: {err}",
@@ -431,6 +443,13 @@ def _listed_storage(folder: Path) -> list[Path]:
         return [folder / PurePath(name).name for name in names]
     except (YAMLError, OSError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
         return []
+    except RecursionError:  # `[` 200,000 times: rosbags' reader of it would fail so too
+        raise ConversionError(
+            "cannot read bag: its metadata.yaml nests too deeply for a YAML reader to follow, "
+            "as no recorder writes it; restore the bag's metadata.yaml (`ros2 bag reindex` "
+            "writes it again)",
+            path=folder,
+        ) from None
 
 
 @contextmanager

@@ -32,6 +32,7 @@ from dresslog.dataset.manifest import (
     check_files,
     damaged_error,
     load_manifest,
+    remaking,
     warn_if_incomplete,
 )
 from dresslog.errors import DatasetError, TrialFormatError
@@ -115,6 +116,14 @@ def _decode(args: tuple[str, str, str, str]) -> tuple[np.ndarray, np.ndarray]:
     if truth is None:
         raise DatasetError(f"trial {name} has no ground-truth force map", path=root)
     _, pi, fi = np.intersect1d(phi.t_ns, truth.t_ns, return_indices=True)
+    if len(pi) != len(phi):  # the steps either side of a hole would be read as consecutive
+        lacking = np.setdiff1d(phi.t_ns, truth.t_ns)
+        at = (lacking[0] - phi.t_ns[0]) / 1e9
+        raise DatasetError(
+            f"trial {name} has no ground-truth force map on {len(lacking)} of its {len(phi)} "
+            f"steps (the first at {at:.3f} s); {remaking(name)} to re-create it",
+            path=root,
+        )
     return phi.phi[pi].astype(np.float32), truth.forces[fi].astype(np.float32)
 
 

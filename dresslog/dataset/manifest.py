@@ -37,6 +37,7 @@ from pydantic import (
 
 from dresslog import __version__
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
+from dresslog.io import jsontext
 from dresslog.io.files import atomic_path, no_such, sha256_file
 from dresslog.spec import (
     RECORDED,
@@ -281,8 +282,8 @@ def load_manifest(root: str | Path) -> Manifest:
             hint = "a model folder, not a dataset (`eval MODEL DATA` takes the dataset second)"
         raise DatasetError(f"no {MANIFEST_FILE}; {hint}", path=root)
     try:
-        raw = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raw = jsontext.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:  # unreadable, not UTF-8, not JSON, nested past reading
         raise DatasetError(f"{MANIFEST_FILE} is not readable JSON: {err}", path=root) from None
     if not isinstance(raw, dict) or raw.get("format") != FORMAT:
         raise DatasetError(f"{MANIFEST_FILE} is not a dresslog dataset manifest", path=root)

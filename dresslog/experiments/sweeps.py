@@ -25,6 +25,7 @@ from dresslog.experiments.evaluation import (
     score_rows,
     warn_no_force,
 )
+from dresslog.io import jsontext
 from dresslog.io.files import atomic_path, named_as_recording, resolved
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.conditions import (
@@ -213,7 +214,7 @@ def _dresslog_folder(folder: Path) -> str | None:
     for name, what, kind in ((MANIFEST_FILE, "a dataset", DATASET_FORMAT),
                              (CARD_FILE, "a model", MODEL_FORMAT)):  # fmt: skip
         try:
-            if json.loads((folder / name).read_text(encoding="utf-8")).get("format") == kind:
+            if jsontext.loads((folder / name).read_text(encoding="utf-8")).get("format") == kind:
                 return what
         except (OSError, UnicodeDecodeError, ValueError, AttributeError):
             continue

@@ -76,7 +76,8 @@ class _Builder:
             assert match is not None
             base, is_array, fixed = match.group(1), match.group(2), match.group(3)
             if is_array:
-                count = int(fixed) if fixed else self._size(path, base == "string")
+                each = 0 if fixed else self._least_size(base, package)
+                count = int(fixed) if fixed else self._size(path, base == "string", each=each)
                 if not fixed:
                     self.add(f"{path}.len", "<u4", 4)
                 self.array(base, package, path, count)
@@ -120,25 +121,65 @@ class _Builder:
         elem = element_dtype(full)
         self.add(path, (elem, (count,)), _max_align(elem))
 
-    def _size(self, path: str, strings: bool, string: bool = False) -> int | tuple[int, ...]:
+    def _least_size(self, base: str, package: str) -> int:
+        """The fewest bytes one element of a `base[]` sequence takes: a string's length
+        field and NUL, a primitive's or a fixed message's size."""
+        if base == "string":
+            return 5
+        if base in _NUMPY:
+            return np.dtype(_NUMPY[base]).itemsize
+        full = full_type_name(base, package)
+        if uniform := _uniform_primitive(full):
+            return np.dtype(_NUMPY[uniform[0]]).itemsize * uniform[1]
+        return element_dtype(full).itemsize
+
+    def _size(
+        self, path: str, strings: bool, string: bool = False, each: int = 1
+    ) -> int | tuple[int, ...]:
+        """The length of the variable part at `path`, from `sizes` or read from the payload,
+        where every length field is checked against the bytes the payload has left: a
+        length of 4 GB in a corrupt message is refused, never laid out."""
         if path in self.sizes:
             return self.sizes[path]
         if self.payload is None:
             raise KeyError(f"layout needs the length of {path!r}")
         at = _align(self.offset, 4)
         count = self._u32(at)
+        if string:
+            self._check_string(path, count, at)
+        elif count * each > (left := len(self.payload) - at - 4):
+            raise ValueError(
+                f"{path} holds {count} elements by its length field, {count * each} bytes or "
+                f"more, but the {len(self.payload)}-byte message has {left} left"
+            )
         size: int | tuple[int, ...] = count - 1 if string else count
         if strings:
             lengths = []
             at += 4
-            for _ in range(count):
+            for i in range(count):
                 at = _align(at, 4)
                 length = self._u32(at)
+                self._check_string(f"{path}[{i}]", length, at)
                 lengths.append(length - 1)
                 at += 4 + length
             size = tuple(lengths)
         self.sizes[path] = size
         return size
+
+    def _check_string(self, path: str, length: int, at: int) -> None:
+        """A string's length field (at `at`) counts its bytes and its NUL: 1 or more, and no
+        more than the message has left after the field."""
+        assert self.payload is not None
+        left = len(self.payload) - at - 4
+        if length == 0:
+            raise ValueError(
+                f"string {path} has the length 0, and a CDR string's length counts its NUL"
+            )
+        if length > left:
+            raise ValueError(
+                f"string {path} is {length} bytes long by its length field, but the "
+                f"{len(self.payload)}-byte message has {left} left"
+            )
 
     def _u32(self, at: int) -> int:
         assert self.payload is not None
@@ -204,14 +245,31 @@ def sizes_of(msg: str, payload: bytes) -> dict[str, int | tuple[int, ...]]:
     return builder.sizes
 
 
+class MessageError(ValueError):
+    """Message `index` of `count` does not lay out as its schema says: `problem`."""
+
+    def __init__(self, index: int, count: int, problem: str) -> None:
+        self.index, self.count, self.problem = index, count, problem
+        super().__init__(f"message {index} of {count}: {problem}")
+
+
+def _sizes_of_message(msg: str, payloads: Sequence[bytes], i: int) -> Sizes:
+    """`sizes_of` payload `i`, its problem a `MessageError` naming it."""
+    try:
+        return sizes_of(msg, payloads[i])
+    except ValueError as err:
+        raise MessageError(i, len(payloads), str(err)) from None
+
+
 def decode(msg: str, payloads: Sequence[bytes]) -> list[np.ndarray]:
     """Decode payloads of any lengths: one array per run of equal layout, in order.
 
     The common case, every message with the same layout (a force-map channel),
-    takes one `frombuffer` and a vectorised check of the length fields.
+    takes one `frombuffer` and a vectorised check of the length fields. A length field
+    past its message's end is a `MessageError` naming the message.
     """
     if payloads and len({len(p) for p in payloads}) == 1:
-        dtype = _layout(msg, _key(sizes_of(msg, payloads[0])))
+        dtype = _layout(msg, _key(_sizes_of_message(msg, payloads, 0)))
         whole = from_payloads(payloads, dtype)
         lengths = [n for n in _names(dtype) if n.endswith(".len")]
         if all((whole[n] == whole[n][0]).all() for n in lengths):
@@ -219,8 +277,8 @@ def decode(msg: str, payloads: Sequence[bytes]) -> list[np.ndarray]:
     out: list[np.ndarray] = []
     run: list[bytes] = []
     run_key: tuple | None = None
-    for payload in payloads:
-        key = _key(sizes_of(msg, payload))
+    for i, payload in enumerate(payloads):
+        key = _key(_sizes_of_message(msg, payloads, i))
         if key != run_key and run:
             out.append(from_payloads(run, _layout(msg, run_key)))
             run = []

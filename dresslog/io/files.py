@@ -9,6 +9,7 @@ import hashlib
 import itertools
 import os
 import re
+import shutil
 import socket
 import tempfile
 from collections.abc import Iterator
@@ -118,6 +119,11 @@ def _not_a_folder(folder: Path) -> str:
             if err.errno == errno.ELOOP:
                 return f"{folder} is a symbolic link that leads round in a loop; remove it"
     return f"{folder} is not a folder"
+
+
+#: Why an input that is a pipe (`mkfifo`), a socket or a device is refused: it is read
+#: from its start more than once (its magic, then the whole), and a pipe gives it once.
+NOT_REGULAR = "is not a regular file (a pipe or a device); save it to a file first"
 
 
 def no_such(path: str | Path, what: str = "file") -> str:
@@ -248,6 +254,50 @@ def is_temporary(name: str) -> bool:
     return re.fullmatch(r"\..+\.partial", name) is not None
 
 
+def _gone(pid: int) -> bool:
+    """Whether no process `pid` runs any more (a killed one not yet reaped, a zombie,
+    writes no more either); one this user may not signal runs."""
+    if pid <= 0 or pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except (OverflowError, ValueError):  # a number no process can have
+        return True
+    except OSError:  # another user's
+        return False
+    try:  # Linux: field 3 of /proc/PID/stat is the state, after the name in parentheses
+        stat = Path(f"/proc/{pid}/stat").read_bytes()
+        return stat.rsplit(b")", 1)[1].split()[0] == b"Z"
+    except (OSError, IndexError):
+        return False
+
+
+def discard_stale_temporaries(path: str | Path) -> list[Path]:
+    """Remove the temporaries of `path` (`.NAME.PID.N.partial`, a file or a model's folder)
+    that a killed run left behind: those whose process is gone. Called by every writer
+    just before it makes its own, so a `kill -9` leaves its temporary until that name is
+    next written, not for ever. Returns what was removed; cleaning up never raises."""
+    path = Path(path)
+    ours = re.compile(rf"\.{re.escape(path.name)}\.(\d+)\.\d+\.partial")
+    removed = []
+    try:
+        found = sorted(path.parent.glob(f".{glob.escape(path.name)}.*.partial"))
+    except OSError:
+        return []
+    for tmp in found:
+        if (match := ours.fullmatch(tmp.name)) is None or not _gone(int(match.group(1))):
+            continue
+        if tmp.is_dir() and not tmp.is_symlink():
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            discard(tmp)
+        if not os.path.lexists(tmp):
+            removed.append(tmp)
+    return removed
+
+
 def discard_temporaries(path: str | Path) -> None:
     """Remove every temporary this process has open for `path` (an exit that cannot unwind)."""
     path = Path(path)
@@ -288,6 +338,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     and the folders made for it."""
     path = Path(path)
     made = make_folders(path)
+    discard_stale_temporaries(path)
     tmp = temporary_path(path)
     try:
         yield tmp

@@ -8,10 +8,9 @@ decoded on first use with the vectorised codec. Every problem becomes one
 
 from __future__ import annotations
 
-import json
 import struct
 from dataclasses import dataclass, replace
-from functools import cached_property
+from functools import cache, cached_property
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, BinaryIO, NoReturn, Self
@@ -24,12 +23,13 @@ from pydantic import ValidationError
 from zstandard import ZstdError
 
 from dresslog.errors import TrialFormatError, first_problem
-from dresslog.io import cdr
+from dresslog.io import cdr, jsontext
 from dresslog.io import well_known as wk
-from dresslog.io.files import no_such
-from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
+from dresslog.io.files import NOT_REGULAR, no_such
+from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, Task, TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
+    STEP_HZ,
     Contacts,
     ForceMaps,
     GarmentStates,
@@ -38,6 +38,7 @@ from dresslog.trial import (
     Stream,
     Trial,
     measurements,
+    median_rate,
 )
 
 if TYPE_CHECKING:
@@ -90,6 +91,100 @@ def _stamp_problem(stamps: np.ndarray) -> str:
     return ""
 
 
+def _backwards(log_ns: list[int], stamps: np.ndarray) -> str:
+    """Where a channel's header stamps, in the order its messages were logged, go back: a
+    clock that jumped back (sorted, its steps would interleave with the earlier ones as a
+    channel at twice the rate, or repeat their stamps); "" if they never do."""
+    in_log_order = stamps[np.argsort(np.asarray(log_ns, dtype=np.int64), kind="stable")]
+    back = np.flatnonzero(np.diff(in_log_order) < 0)
+    if not len(back):
+        return ""
+    i, first = int(back[0]) + 1, in_log_order[0]
+    was, now = (in_log_order[i - 1] - first) / 1e9, (in_log_order[i] - first) / 1e9
+    more = f" ({len(back)} times in all)" if len(back) > 1 else ""
+    return (
+        f"header stamps go backwards at message {i} of {len(stamps)} in the order logged, "
+        f"from {was:.3f} s to {now:.3f} s (counted from the first stamp){more}: its clock "
+        "jumped back, and a step is one time"
+    )
+
+
+def off_rate(rate: float) -> str:
+    """Why a channel at `rate` Hz cannot be the model's input (its steps are `STEP_HZ`)."""
+    return (
+        f"is at {rate:.4g} Hz, and the model reads {STEP_HZ} Hz steps; "
+        "resample the log onto them with `dresslog convert`"
+    )
+
+
+#: What to do about a trial whose steps are not the model's: make it again.
+_CURE = "re-record it, or re-convert its log"
+
+
+@cache
+def _task_points(task: Task) -> int:
+    """How many force-map points the limb of `task` has (300 on the arm, 400 on the leg)."""
+    from dresslog.limb import build_limb  # lazily: the limb's geometry is not a reader's
+
+    return sum(build_limb(task).points_per_part.values())
+
+
+def _seconds(t_ns: int | np.integer, origin: int | np.integer) -> str:
+    return f"{(int(t_ns) - int(origin)) / 1e9:.3f} s"
+
+
+def _input_problem(wrench: np.ndarray, twist: np.ndarray) -> tuple[str, str] | None:
+    """(channel, problem and cure) of the model's two input channels' sorted stamps when they do
+    not give one run of steps that both cover: at other rates, a hole in either, or one
+    ending or starting while the other goes on. None if they do (or share no stamp at
+    all, which `measurements` words itself). Times count from the trial's first step."""
+    origin = min(wrench[0], twist[0])
+    channels = ((wk.WRENCH, wrench), (wk.TWIST, twist))
+    rates = {topic: median_rate(t) for topic, t in channels}
+    if all(rates.values()) and abs(rates[wk.WRENCH] / rates[wk.TWIST] - 1) > 0.02:
+        topic = next((t for t, r in rates.items() if abs(STEP_HZ / r - 1) > 0.02), wk.TWIST)
+        return topic, off_rate(rates[topic])
+    for topic, t_ns in channels:
+        if len(t_ns) < 3:
+            continue
+        steps = np.diff(t_ns)
+        step = np.median(steps)
+        if len(holes := np.flatnonzero(steps > 1.5 * step)):
+            at = holes[0]
+            more = f"; {len(holes)} gaps in all" if len(holes) > 1 else ""
+            return topic, (
+                f"has a gap: no message between {_seconds(t_ns[at], origin)} and "
+                f"{_seconds(t_ns[at + 1], origin)} ({(steps[at] - step) / 1e9:.3g} s, "
+                f"{round(steps[at] / step) - 1} steps missing{more}), and the model would read "
+                f"the steps either side as consecutive; {_CURE}"
+            )
+    common = np.intersect1d(wrench, twist)
+    if not len(common):
+        return None
+    for (topic, t_ns), (other, with_it) in zip(channels, channels[::-1], strict=True):
+        alone = np.setdiff1d(t_ns, with_it)
+        if not len(alone):
+            continue
+        if alone[0] > with_it[-1]:
+            return other, (
+                f"stops at {_seconds(with_it[-1], origin)}, {(t_ns[-1] - with_it[-1]) / 1e9:.3g} "
+                f"s before {topic} does: the last {len(alone)} of {len(t_ns)} {topic} steps have "
+                f"no {other} message, and the model reads both on every step; {_CURE}"
+            )
+        if alone[-1] < with_it[0]:
+            return other, (
+                f"starts at {_seconds(with_it[0], origin)}, {(with_it[0] - t_ns[0]) / 1e9:.3g} s "
+                f"after {topic} does: the first {len(alone)} of {len(t_ns)} {topic} steps have "
+                f"no {other} message, and the model reads both on every step; {_CURE}"
+            )
+        return other, (
+            f"has no message of the stamp of {len(alone)} of {len(t_ns)} {topic} steps (the "
+            f"first at {_seconds(alone[0], origin)}), and the model reads both on every step; "
+            + _CURE
+        )
+    return None
+
+
 @dataclass(frozen=True)
 class ChannelInfo:
     """One channel of the file: its schema, encoding and message count."""
@@ -127,10 +222,7 @@ class TrialReader:
             raise TrialFormatError(f"is a folder, not an MCAP file; {_folder_hint(self.path)}",
                                    path=self.path)  # fmt: skip
         if not self.path.is_file():  # read again from its start after the magic: not a pipe
-            raise TrialFormatError(
-                "is not a regular file (a pipe or a device); save it to a file first",
-                path=self.path,
-            )
+            raise TrialFormatError(NOT_REGULAR, path=self.path)
         with self.path.open("rb") as stream:
             head = stream.read(len(MAGIC))
             if not head:
@@ -246,6 +338,8 @@ class TrialReader:
                     channel=topic,
                 )
             stamps = cdr.stamp_ns(head)
+            if topic != wk.LIMB_POINTS and (back := _backwards(raw.times, stamps)):
+                raise TrialFormatError(f"{back}; {_CURE}", path=self.path, channel=topic)
             order = np.argsort(stamps, kind="stable")
             if (np.diff(order) != 1).any():
                 raw.times = [raw.times[i] for i in order]
@@ -263,6 +357,18 @@ class TrialReader:
     def _check_channels(self, metadata: dict[str, str] | None) -> None:
         """Refuse a file without our required channels, or with ours under another schema."""
         assert self._raw is not None
+        if not any(raw.info.count for raw in self._raw.values()):
+            empty = ", ".join(sorted(self._raw))
+            what = f" (its channels {empty} are empty)" if empty else ""
+            if metadata is None:
+                raise TrialFormatError(
+                    f"holds no messages{what} and no `{wk.METADATA_NAME}` metadata record: "
+                    f"an empty MCAP file, not a trial; {CONVERT_HINT}",
+                    path=self.path,
+                )
+            raise TrialFormatError(
+                f"holds no messages{what}: a trial with no step; re-record it", path=self.path
+            )
         missing = [t for t in wk.REQUIRED if t not in self._raw]
         if missing and (metadata is None or not any(t in self._raw for t in wk.SCHEMAS)):
             topics = ", ".join(sorted(self._raw)) or "none"
@@ -295,7 +401,7 @@ class TrialReader:
                 f"`{wk.METADATA_NAME}` metadata record has no `trial` entry", path=self.path
             )
         try:
-            entry = json.loads(metadata["trial"])
+            entry = jsontext.loads(metadata["trial"])
             version = entry.get("format_version") if isinstance(entry, dict) else None
             if isinstance(version, int) and version > TRIAL_FORMAT_VERSION:
                 raise TrialFormatError(
@@ -308,7 +414,7 @@ class TrialReader:
             problem = first_problem(err, "metadata")
             message = f"metadata record is invalid: {problem}"
             raise TrialFormatError(message, path=self.path) from None
-        except json.JSONDecodeError as err:
+        except ValueError as err:  # not JSON, NaN, nested past reading
             first = str(err).splitlines()[0]
             raise TrialFormatError(f"metadata record is invalid: {first}", path=self.path) from None
 
@@ -348,6 +454,13 @@ class TrialReader:
         _, payloads = self.messages(topic)
         try:
             return cdr.decode(wk.SCHEMAS[topic], payloads)
+        except cdr.MessageError as err:
+            raise TrialFormatError(
+                f"message {err.index} of {err.count} does not match its schema: {err.problem}; "
+                "the recording is corrupt, re-record or re-convert it",
+                path=self.path,
+                channel=topic,
+            ) from None
         except (ValueError, KeyError) as err:
             raise TrialFormatError(
                 f"message does not match its schema: {err}", path=self.path, channel=topic
@@ -387,7 +500,14 @@ class TrialReader:
 
     @cached_property
     def measurements(self) -> Measurements:
-        """The network input phi_t (T, 9) on the steps that have both wrench and twist."""
+        """The network input phi_t (T, 9) on the steps of wrench and twist; refused unless
+        both cover one run of steps (a gap in either, or one that stops or starts while the
+        other goes on, would be fed to the model as consecutive steps, or dropped)."""
+        if len(self.wrench) and len(self.twist):
+            found = _input_problem(self.wrench.t_ns, self.twist.t_ns)
+            if found is not None:
+                topic, problem = found
+                raise TrialFormatError(problem, path=self.path, channel=topic)
         steps = measurements(self.wrench, self.twist)
         if not len(steps.t_ns):
             empty = [t for t, s in ((wk.WRENCH, self.wrench), (wk.TWIST, self.twist)) if not len(s)]
@@ -420,13 +540,40 @@ class TrialReader:
             at = f" in message {bad[0]} of {len(msgs)}" if len(bad) else " in a contact map"
             self._corrupt(f"NaN or infinite value{at}", topic)
         limb = self.limb_points
-        if limb is not None and maps.forces.shape[1] != len(limb.points):
+        width = maps.forces.shape[1]
+        if limb is not None and width != len(limb.points):
             self._corrupt(
-                f"force maps have {maps.forces.shape[1]} values but {wk.LIMB_POINTS} has "
+                f"force maps have {width} values but {wk.LIMB_POINTS} has "
                 f"{len(limb.points)} points",
                 topic,
             )
+        task, wanted = self.metadata.task.value, _task_points(self.metadata.task)
+        if width != wanted and limb is None:  # drawn on the task's limb, which it does not fit
+            raise TrialFormatError(
+                f"force maps have {width} values but the trial has no {wk.LIMB_POINTS} and the "
+                f"{task}'s limb has {wanted} points; write its limb points with the maps",
+                path=self.path,
+                channel=topic,
+            )
+        if width != wanted:  # the trial's fault, not that of a model that fits its task
+            what = "estimate" if estimate else "force map"
+            self._corrupt(
+                f"the trial's {what} has {width} points where a {task} trial has {wanted} (its "
+                f"{wk.LIMB_POINTS} too): its task or its maps are wrong",
+                topic,
+            )
         return maps
+
+    def _check_limb(self) -> None:
+        """Refuse limb points of another number than the trial's task's limb has: a model
+        of that task would be blamed for not fitting them."""
+        limb, wanted = self.limb_points, _task_points(self.metadata.task)
+        if limb is not None and len(limb) != wanted:
+            self._corrupt(
+                f"the trial's limb has {len(limb)} points where a {self.metadata.task.value} "
+                f"trial has {wanted}: its task or its limb points are wrong",
+                wk.LIMB_POINTS,
+            )
 
     @cached_property
     def force_map(self) -> ForceMaps | None:
@@ -494,13 +641,15 @@ class TrialReader:
     def read(self) -> Trial:
         """Every stream in memory at once (a trial with no step to run on is refused)."""
         _ = self.measurements  # refuses a file with no step
+        force_map, estimate = self.force_map, self.estimate
+        self._check_limb()
         return Trial(
             metadata=self.metadata,
             wrench=self.wrench,
             twist=self.twist,
             pose=self.pose,
-            force_map=self.force_map,
-            estimate=self.estimate,
+            force_map=force_map,
+            estimate=estimate,
             contacts=self.contacts,
             limb_points=self.limb_points,
             garment=self.garment,

@@ -25,6 +25,7 @@ from dresslog.io import well_known as wk
 from dresslog.io.files import (
     check_output,
     discard,
+    discard_stale_temporaries,
     make_folders,
     put_in_place,
     remove_folders,
@@ -112,6 +113,7 @@ class TrialWriter:
             )
         check_output(self.path, suffix=".mcap", overwrite=self.overwrite)
         self._made = make_folders(self.path)
+        discard_stale_temporaries(self.path)  # a killed run's
         self._tmp = temporary_path(self.path)
         self._stream = self._tmp.open("wb")
         self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)

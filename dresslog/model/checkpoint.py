@@ -110,6 +110,17 @@ def resume(path: Path, run: RunState) -> None:
         metadata, tensors = _read_checkpoint(path)
     except Exception:  # safetensors' and json's reasons help no one here
         raise ModelError(unreadable, path=path) from None
+    poisoned = sorted(
+        name
+        for name, value in tensors.items()
+        if name.startswith(("model.", "best.")) and not torch.isfinite(value).all()
+    )
+    if poisoned:  # a damaged file: the run would go on from weights that estimate NaN
+        raise ModelError(
+            f"checkpoint's {poisoned[0]} holds NaN or infinite values; it is corrupt: pass "
+            "--overwrite to start afresh",
+            path=path,
+        )
     saved, key = metadata["key"], json.loads(json.dumps(run.key))  # compared as stored
     if not isinstance(saved, dict):
         raise ModelError(unreadable, path=path)

@@ -38,7 +38,6 @@ Public API
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 from collections.abc import Callable, Mapping
@@ -52,8 +51,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
+from dresslog.io import jsontext
 from dresslog.io.files import (
     check_writable,
+    discard_stale_temporaries,
     is_temporary,
     named_as_recording,
     no_such,
@@ -81,7 +82,7 @@ FORMAT_VERSION = 4
 class Normalisation(BaseModel):
     """Per-channel input standardisation, (phi - mean) / std; the paper used none."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     mean: list[float] = Field(min_length=9, max_length=18)
     std: list[float] = Field(min_length=9, max_length=18)
 
@@ -276,6 +277,19 @@ def _check_shapes(path: Path, weights: Mapping[str, np.ndarray], card: ModelCard
         raise ModelError(f"unexpected arrays in weights: {', '.join(extra)}", path=path)
 
 
+def _check_finite(path: Path, weights: Mapping[str, np.ndarray]) -> None:
+    """Refuse weights holding NaN or infinity (a training run that diverged, a damaged
+    file whose card was re-hashed): every estimate would be NaN, scored as `RMSE nan`."""
+    for name in sorted(weights):
+        if (bad := int(np.count_nonzero(~np.isfinite(weights[name])))) > 0:
+            raise ModelError(
+                f"{WEIGHTS_FILE}: {name} holds {bad} NaN or infinite value"
+                f"{'s' if bad > 1 else ''} (of {weights[name].size}); the weights are corrupt, "
+                "retrain the model or restore its folder",
+                path=path,
+            )
+
+
 def check_model_folder(path: str | Path, overwrite: bool) -> None:
     """Fail before any work unless `path` may become a model folder (its missing parent
     folders are made when it is saved).
@@ -339,7 +353,9 @@ def save_model(
     in_place = path.exists() and _replaced_in_place(path)
     # a folder behind a link or on a mount point may be another file system: beside its
     # files, not beside it, for each rename to stay on it
-    tmp = temporary_path(path / "model") if in_place else temporary_path(path)
+    beside = path / "model" if in_place else path
+    discard_stale_temporaries(beside)  # a killed save's
+    tmp = temporary_path(beside)
     tmp.mkdir()
     try:
         # written by Python, so the file gets the usual permissions (safetensors' own is 0600)
@@ -391,8 +407,8 @@ def read_card(path: str | Path) -> ModelCard:
             what = "a dataset folder, not a model (`eval` and `sweep` take the model first)"
         raise ModelError(f"no {CARD_FILE}; {what}", path=path)
     try:
-        raw = json.loads(card_path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raw = jsontext.loads(card_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:  # unreadable, not UTF-8, not JSON, nested past reading
         raise ModelError(f"{CARD_FILE} is not readable JSON: {err}", path=path) from None
     if not isinstance(raw, dict) or raw.get("format") != FORMAT:
         raise ModelError(f"{CARD_FILE} is not a dresslog model card", path=path)
@@ -430,6 +446,7 @@ def load_model(path: str | Path) -> LoadedModel:
         raise ModelError(f"{WEIGHTS_FILE} is unreadable: {err}", path=path) from None
     _check_shapes(path, weights, card)
     weights = {k: np.asarray(v, dtype=np.float32) for k, v in weights.items()}
+    _check_finite(path, weights)
     norm = card.normalisation
     stats = (
         np.array([norm.mean, norm.std], np.float32)

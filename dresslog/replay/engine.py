@@ -133,6 +133,14 @@ class Replay:
         if self.estimator is not None:
             forces, contact = self.estimator.step(step.phi)
             estimate = apply_contact(forces, contact)
+            if not np.isfinite(estimate).all():  # weights that overflow on this signal
+                context = self.context
+                raise ModelError(
+                    f"the model{f' ({context.model})' if context and context.model else ''} "
+                    f"estimates NaN or infinite forces at step {step.index}; no estimate is "
+                    "written",
+                    path=context.source_path if context else None,
+                )
             rmse = None if step.truth is None else step_rmse(step.truth, estimate)
             result = StepResult(step, contact, estimate, rmse)
         for sink in self.sinks:

@@ -16,7 +16,7 @@ from typing import Any
 from dresslog.errors import DresslogWarning, TrialFormatError
 from dresslog.io import well_known as wk
 from dresslog.io.files import check_output
-from dresslog.io.reader import read_trial
+from dresslog.io.reader import off_rate, read_trial
 from dresslog.model.bundled import resolve_model
 from dresslog.model.conditions import training_warning
 from dresslog.model.files import LoadedModel
@@ -76,20 +76,25 @@ class InferenceReport:
 
 
 def step_rate_problem(trial: Trial, path: Path) -> TrialFormatError | None:
-    """Wrench or twist at another rate than the models' 100 Hz steps, as the error to raise.
+    """Wrench or twist at another rate than the models' 100 Hz steps, or a trial of one
+    step, as the error to raise.
 
     Steps are matched by stamp, so a 1 kHz wrench beside a 100 Hz twist would run as
-    every tenth sample, unaveraged, and a 50 Hz trial at half the model's speed.
+    every tenth sample, unaveraged, and a 50 Hz trial at half the model's speed. One
+    step is no sequence to run a recurrent model on (and scored `RMSE 0 N`): `record`
+    and `convert` make none.
     """
+    if len(trial.measurements) < 2:
+        return TrialFormatError(
+            f"has one step ({wk.WRENCH} and {wk.TWIST} at one time), "
+            "less than two steps, and the model needs two or more; re-record it, or "
+            "re-convert a longer log",
+            path=path,
+        )
     for topic, stream in ((wk.WRENCH, trial.wrench), (wk.TWIST, trial.twist)):
         rate = median_rate(stream.t_ns)
         if rate and abs(STEP_HZ / rate - 1) > 0.02:  # a step 2% off the model's
-            return TrialFormatError(
-                f"is at {rate:.4g} Hz, and the model reads {STEP_HZ} Hz steps; "
-                "resample the log onto them with `dresslog convert`",
-                path=path,
-                channel=topic,
-            )
+            return TrialFormatError(off_rate(rate), path=path, channel=topic)
     return None
 
 

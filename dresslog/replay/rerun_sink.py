@@ -25,6 +25,7 @@ from dresslog.errors import TrialWriteError
 from dresslog.io.files import (
     check_output,
     discard,
+    discard_stale_temporaries,
     make_folders,
     printable,
     remove_folders,
@@ -202,6 +203,7 @@ class RerunSink:
 
         assert self.path is not None and self.context is not None
         self._made = make_folders(self.path)
+        discard_stale_temporaries(self.path)  # a killed run's
         self._tmp = temporary_path(self.path)
         rec = rr.RecordingStream(
             application_id(self.context.metadata.task), recording_id=self._recording_id()

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from urllib.parse import quote, urlsplit
 
 from dresslog.errors import DresslogError, TrialWriteError
-from dresslog.io.files import atomic_path, check_output, no_such
+from dresslog.io.files import NOT_REGULAR, atomic_path, check_output, no_such
 from dresslog.io.reader import MAGIC, RRD_MAGIC, TrialReader
 from dresslog.replay.pipeline import InferenceReport, replay_file
 from dresslog.spec import Task
@@ -164,6 +164,8 @@ def is_rrd(path: str | Path, model: str | Path | None = None) -> bool:
 
 
 def _starts_with(path: Path, magic: bytes) -> bool:
+    if not path.is_file():  # a pipe would block the open, and give its bytes once
+        return False  # the reader names what it is
     try:
         with path.open("rb") as stream:
             return stream.read(len(magic)) == magic
@@ -174,6 +176,8 @@ def _starts_with(path: Path, magic: bytes) -> bool:
 def check_rrd(path: str | Path) -> None:
     """A Rerun recording by its first bytes, or a one-line error (before a viewer chokes on it)."""
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        raise DresslogError(NOT_REGULAR, path=path)
     if not path.is_file():
         raise DresslogError(no_such(path), path=path)
     if not _starts_with(path, RRD_MAGIC):
