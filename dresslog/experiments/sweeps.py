@@ -25,7 +25,13 @@ from dresslog.experiments.evaluation import (
     score_rows,
     warn_no_force,
 )
-from dresslog.io.files import atomic_path, named_as_recording, resolved
+from dresslog.io.files import (
+    atomic_path,
+    make_folders,
+    named_as_recording,
+    remove_folders,
+    resolved,
+)
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.conditions import (
     DURATION,
@@ -238,6 +244,7 @@ def sweep(
     duration: float | None = None,
     workers: int | None = None,
     executor: str = "process",
+    ray_address: str | None = None,
     progress: bool = True,
 ) -> SweepReport:
     """Re-simulate the same `n` fresh sequences per setting and score the model on each.
@@ -258,7 +265,7 @@ def sweep(
     seen = trained_conditions(loaded.card)
     wrench = seen.wrenches[0] if len(seen.wrenches) == 1 else WRENCH
     settings = sweep_settings(task, speeds, rotations, duration, wrench)  # bad: no folder
-    check_executor(executor)
+    check_executor(executor, ray_address)
     out = Path(out)
     _check_sweep_folder(out)
     longest, length = max(seen.durations), DURATION if duration is None else duration
@@ -270,21 +277,26 @@ def sweep(
             DresslogWarning,
             stacklevel=2,
         )
-    out.mkdir(parents=True, exist_ok=True)
+    made = make_folders(out / SWEEP_FILE)
     done: list[Setting] = []
     for setting in settings:
-        generate(
-            task,
-            n,
-            out / setting.folder,
-            splits={Split.SWEEP: n},
-            overrides=setting.overrides,
-            seed=seed,
-            workers=workers,
-            executor=executor,
-            progress=progress,
-            label=f"{task.value} {setting.name}",
-        )
+        try:
+            generate(
+                task,
+                n,
+                out / setting.folder,
+                splits={Split.SWEEP: n},
+                overrides=setting.overrides,
+                seed=seed,
+                workers=workers,
+                executor=executor,
+                ray_address=ray_address,
+                progress=progress,
+                label=f"{task.value} {setting.name}",
+            )
+        except BaseException:
+            remove_folders(made)  # a sweep folder this run made, if it is still empty
+            raise
         done.append(_scored(loaded, out, setting, workers))
     done += _earlier(loaded, out, settings, n, seed, workers)
     done.sort(key=lambda s: s.order)
