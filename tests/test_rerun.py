@@ -304,7 +304,7 @@ def test_view_save_refuses_to_copy_a_cut_rrd(inferred, tmp_path: Path, keep: flo
     cut.write_bytes(data[: int(len(data) * keep)])
     out = tmp_path / "copy.rrd"
     out.write_bytes(b"earlier")
-    result = CliRunner().invoke(main, ["view", str(cut), "--save", str(out)])
+    result = CliRunner().invoke(main, ["view", str(cut), "--save", str(out), "--overwrite"])
     assert result.exit_code == 1 and "cut short or damaged" in result.output, result.output
     assert len(result.output.strip().splitlines()) == 1
     assert out.read_bytes() == b"earlier"
@@ -383,8 +383,8 @@ def test_view_without_a_display_says_so_before_any_work(
 
 @pytest.mark.parametrize(
     "options",
-    [["--port", "9000"], ["--web", "--port", "-5"], ["--web", "--save", "x.rrd"]],
-    ids=["port-without-web", "port-out-of-range", "web-save"],
+    [["--port", "9000"], ["--web", "--port", "-5"], ["--web", "--save", "x.rrd"], ["--overwrite"]],
+    ids=["port-without-web", "port-out-of-range", "web-save", "overwrite-without-save"],
 )
 def test_view_options_that_cannot_go_together_are_a_usage_error(
     inferred, options: list[str]
@@ -936,7 +936,7 @@ def test_a_rerun_replaces_an_earlier_estimate_copy_without_reading_it(tmp_path: 
     for copy in (tmp_path / "first.mcap", earlier):
         tracemalloc.start()
         try:
-            replay_file(log, model=model, mcap=copy)
+            replay_file(log, model=model, mcap=copy, overwrite=True)
             peaks.append(tracemalloc.get_traced_memory()[1])
         finally:
             tracemalloc.stop()

@@ -122,23 +122,30 @@ def no_display(instead: str, path: Path | None = None) -> DresslogError:
 
 
 def save_rrd(
-    path: str | Path, out: str | Path, *, model: str | Path | None = None, progress: bool = False
+    path: str | Path,
+    out: str | Path,
+    *,
+    model: str | Path | None = None,
+    overwrite: bool = False,
+    progress: bool = False,
 ) -> str:
-    """Write what `view` would show to `out`; returns a one-line description. `progress`
-    draws the replayed steps on a progress bar when stderr is a terminal."""
+    """Write what `view` would show to `out`; returns a one-line description. An existing
+    `out` is replaced only with `overwrite`. `progress` draws the replayed steps on a
+    progress bar when stderr is a terminal."""
     path, out = Path(path), Path(out)
-    check_output(out, suffix=".rrd")
+    check_output(out, suffix=".rrd", overwrite=overwrite)
     if is_rrd(path, model):
         verify_rrd(path)  # a copy of a damaged recording would only hide the damage
         try:
-            with atomic_path(out) as tmp:
+            with atomic_path(out, overwrite=overwrite) as tmp:
                 shutil.copyfile(path, tmp)
         except OSError as err:
             raise TrialWriteError(f"could not copy: {err.strerror}", path=out) from None
         return f"{path} -> {out}"
     report: InferenceReport = replay_file(
-        path, model=model, require_model=model is not None, rrd=out, progress=progress
-    )
+        path, model=model, require_model=model is not None, rrd=out, overwrite=overwrite,
+        progress=progress,
+    )  # fmt: skip
     return report.summary()
 
 
