@@ -26,6 +26,7 @@ from .common import reports_errors
               "force, as a PNG.")  # fmt: skip
 @click.option("--per-sequence", type=click.Path(dir_okay=False), metavar="CSV",
               help="Also write each sequence's spec, outcome and scores as a CSV.")  # fmt: skip
+@click.option("--overwrite", is_flag=True, help="Replace an existing --plot or --per-sequence.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
 def evaluate(
@@ -35,6 +36,7 @@ def evaluate(
     bounds: bool,
     plot: str | None,
     per_sequence: str | None,
+    overwrite: bool,
     as_json: bool,
     quiet: bool,
 ) -> None:
@@ -43,7 +45,7 @@ def evaluate(
 
     report = evaluate_dataset(
         model, data, split=split, bounds=bounds, plot=plot, per_sequence=per_sequence,
-        progress=not quiet and not as_json,
+        overwrite=overwrite, progress=not quiet and not as_json,
     )  # fmt: skip
     click.echo(report.to_json() if as_json else report.table())
     for written in (plot, per_sequence):

@@ -14,6 +14,7 @@ from .options import (
     FiniteRange,
     duration_option,
     executor_option,
+    ray_address_option,
     rotation_option,
     rotation_spec,
     simulator_option,
@@ -43,6 +44,7 @@ from .options import (
               help="Draw each trial's rotation about AXIS, LOW to HIGH degrees.")  # fmt: skip
 @simulator_option
 @executor_option
+@ray_address_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @reports_errors
 def generate(
@@ -58,6 +60,7 @@ def generate(
     rotation_range: tuple[str, float, float] | None,
     simulator: str,
     executor: str,
+    ray_address: str | None,
     quiet: bool,
 ) -> None:
     """Simulate many trials in parallel into OUT; run again to resume or extend it.
@@ -68,6 +71,8 @@ def generate(
     """
     from dresslog.dataset import generate as generate_dataset
 
+    if ray_address is not None and executor != "ray":
+        raise click.UsageError("--address is the Ray cluster to join: give --executor ray too")
     if rotation and rotation_range:
         raise click.UsageError("--rotation fixes every trial's rotation, --rotation-range draws "
                                "it; give one")  # fmt: skip
@@ -87,6 +92,7 @@ def generate(
         if rotation_range
         else None,
         executor=executor,
+        ray_address=ray_address,
         progress=not quiet,
     )
     click.echo(f"{out}: {manifest.describe()}")

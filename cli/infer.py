@@ -22,6 +22,7 @@ from .common import error_line, reports_errors
               help="Also write the trial with the estimate (.mcap), or the folder for "
               "each TRIAL.mcap (with several trials, an existing folder, or one ending "
               "in /).")  # fmt: skip
+@click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
 @click.option("--timings", is_flag=True, help="Print the time of each stage.")
 @reports_errors
 def infer(
@@ -29,6 +30,7 @@ def infer(
     model: Path | None,
     output: str | None,  # str, not Path: `out/` names a folder by its trailing /
     mcap_out: str | None,
+    overwrite: bool,
     timings: bool,
 ) -> None:
     """Stream each TRIAL step by step through the force-map LSTM and write a Rerun recording.
@@ -54,8 +56,9 @@ def infer(
 
     try:  # -o and --mcap-out name a file; with several trials, a folder
         batch = replay_files(
-            trials, model=model, rrd=output, mcap=mcap_out, on_trial=show, progress=True
-        )
+            trials, model=model, rrd=output, mcap=mcap_out, on_trial=show, overwrite=overwrite,
+            progress=True,
+        )  # fmt: skip
     except TrialWriteError as err:  # only the folders, refused before any trial
         raise click.UsageError(error_line(err)) from None
     if len(trials) > 1:

@@ -43,7 +43,15 @@ executor_option = click.option(
     type=click.Choice(["process", "ray"]),
     default="process",
     show_default=True,
-    help="Local processes, or Ray ($RAY_ADDRESS's cluster, else local).",
+    help="Local processes, or Ray tasks on a cluster (see --address).",
+)
+
+ray_address_option = click.option(
+    "--address",
+    "ray_address",
+    metavar="HOST:PORT",
+    help="The Ray cluster to join, with --executor ray.",
+    show_default="$RAY_ADDRESS, else the one `ray start` runs here, else a new local one",
 )
 
 

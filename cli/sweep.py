@@ -10,7 +10,13 @@ from click.core import ParameterSource
 from dresslog.dataset.generate import MAX_TRIALS
 
 from .common import reports_errors
-from .options import ROTATION_RANGE, SPEED_RANGE, duration_option, executor_option
+from .options import (
+    ROTATION_RANGE,
+    SPEED_RANGE,
+    duration_option,
+    executor_option,
+    ray_address_option,
+)
 
 
 def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> list[str]:
@@ -53,6 +59,7 @@ def _items(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
 @click.option("--workers", type=click.IntRange(min=1), help="Sequences simulated at once.",
               show_default="all cores")  # fmt: skip
 @executor_option
+@ray_address_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors
 def sweep(
@@ -73,6 +80,8 @@ def sweep(
         empty = [f"--{name} is empty; " for name in ("speeds", "rotations")
                  if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE]  # fmt: skip
         raise click.UsageError(f"{''.join(empty[:1])}give --speeds, --rotations or both")
+    if options["ray_address"] is not None and options["executor"] != "ray":
+        raise click.UsageError("--address is the Ray cluster to join: give --executor ray too")
     out = out or str(default_sweep_folder(model))
     report = run_sweep(
         model, out, speeds=speeds, rotations=rotations, n=sequences,

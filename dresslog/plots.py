@@ -62,9 +62,9 @@ def _pyplot() -> Any:
     return plt
 
 
-def _save(fig: Any, path: str | Path) -> None:
+def _save(fig: Any, path: str | Path, *, overwrite: bool = True) -> None:
     fig.tight_layout()
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight")
     _pyplot().close(fig)
 
@@ -278,6 +278,8 @@ def eval_figure(profile: ErrorProfile, task: Task | str, title: str) -> Any:
     return fig
 
 
-def plot_eval(path: str | Path, profile: ErrorProfile, task: Task | str, title: str) -> None:
-    """Write ``eval_figure`` as a PNG."""
-    _save(eval_figure(profile, task, title), path)
+def plot_eval(
+    path: str | Path, profile: ErrorProfile, task: Task | str, title: str, *, overwrite: bool = True
+) -> None:
+    """Write ``eval_figure`` as a PNG; without `overwrite`, never over an existing file."""
+    _save(eval_figure(profile, task, title), path, overwrite=overwrite)

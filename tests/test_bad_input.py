@@ -514,7 +514,8 @@ def test_view_shows_a_trial_at_another_rate_with_ground_truth_alone(tmp_path: Pa
     assert "Warning: " in shown.stderr and "is at 50 Hz" in shown.stderr
     assert "shown with ground truth alone" in shown.stderr
     model = str(SAMPLES / "models" / "gown")
-    asked = CliRunner().invoke(main, ["view", str(trial), "--save", str(out), "--model", model])
+    asked = CliRunner().invoke(main, ["view", str(trial), "--save", str(out), "--model", model,
+                                      "--overwrite"])  # fmt: skip
     assert asked.exit_code == 1 and "is at 50 Hz" in asked.output
 
 

@@ -210,6 +210,7 @@ def test_infer_and_view_save_interrupted_remove_the_folders_they_made(
     monkeypatch.undo()  # the estimate copy is finished, and the recording then fails
     monkeypatch.setattr("dresslog.replay.rerun_sink.RerunSink.commit", interrupted)
     args = [*args[:2], "-o", str(rrd), "--mcap-out", str(tmp_path / "d" / "e" / "g.mcap")]
+    args += ["--overwrite"]
     assert "Aborted!" in CliRunner().invoke(main, args).output
     monkeypatch.setattr("shutil.copyfile", interrupted)
     saved = CliRunner().invoke(main, ["view", str(rrd), "--save", str(tmp_path / "c" / "g.rrd")])

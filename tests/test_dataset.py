@@ -190,6 +190,7 @@ def test_a_full_disk_stops_generation_at_once_naming_the_file(
         "    main(sys.argv[1:])"
     )
     out = tmp_path / "data"
+    out.mkdir()  # a folder generate did not make keeps its manifest (a new one is removed)
     args = ["generate", "--task", "gown", "--trials", "3", "--test-fraction", "0", "-q"]
     args += ["--duration", "1", "--workers", "1", "-o", str(out)]
     done = subprocess.run(
@@ -645,6 +646,32 @@ def test_cli_ray_executor_without_ray_says_how_to_install(tmp_path: Path, monkey
     assert result.exit_code == 1
     assert "pip install 'dresslog[ray]'" in result.output
     assert not (tmp_path / "d").exists()  # refused before anything was written
+
+
+def test_an_executor_that_cannot_start_leaves_no_folder_behind(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 50: a Ray cluster that refused `generate` left an empty dataset folder (its
+    manifest, lock and split folders). A folder it made and made no trial in is removed,
+    the folders made above it too; one that was there stays, with what it held."""
+    generate_module = sys.modules["dresslog.dataset.generate"]  # the package names the function
+
+    def refused(*args: object) -> None:
+        raise DatasetError("cannot join the Ray cluster at 10.0.0.1:6379: no answer")
+
+    monkeypatch.setattr(generate_module, "make_executor", refused)
+    args = ["generate", "--task", "gown", "--trials", "4", "-q"]
+    result = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "runs" / "d")])
+    assert result.exit_code == 1
+    assert result.output.splitlines() == [
+        "Error: cannot join the Ray cluster at 10.0.0.1:6379: no answer"
+    ]
+    assert list(tmp_path.iterdir()) == []
+    (kept := tmp_path / "kept").mkdir()
+    (kept / "notes.txt").write_text("mine")
+    with pytest.raises(DatasetError, match="cannot join"):
+        generate("gown", 4, kept / "d", recorder=FAKE, progress=False)
+    assert [p.name for p in kept.iterdir()] == ["notes.txt"]
 
 
 def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(

@@ -254,7 +254,7 @@ def test_eval_writes_each_sequences_spec_outcome_and_scores(
     table = tmp_path / "per-sequence.csv"
     for split in ("train", "test"):
         code, output = invoke("eval", model, data, "--split", split, "--per-sequence", table,
-                              "--json")  # fmt: skip
+                              "--json", "--overwrite")  # fmt: skip
         assert code == 0, output
         overall = json.loads(output)["overall"]
         rows = list(csv.DictReader(table.open()))
@@ -269,6 +269,10 @@ def test_eval_writes_each_sequences_spec_outcome_and_scores(
         assert np.mean([float(r["rmse"]) for r in rows]) == pytest.approx(overall["rmse"], 1e-5)
         zero = np.mean([float(r["zero_rmse"]) for r in rows])
         assert zero == pytest.approx(overall["zero_rmse"], 1e-5)
+    code, output = invoke("eval", model, data, "-q", "--per-sequence", table)  # no --overwrite
+    assert (code, output) == (
+        1, f"Error: {table}: file exists; pass --overwrite to replace it\n"
+    ), output  # fmt: skip
     code, output = invoke("eval", model, data, "-q", "--per-sequence", tmp_path / "s.txt")
     assert (code, output) == (
         1, f"Error: {tmp_path / 's.txt'}: a table is a CSV file; name it .csv\n"

@@ -162,7 +162,7 @@ def test_an_output_that_fails_to_write_leaves_every_earlier_output_as_it_was(
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(Writer, "finish", full_disk)
-    sinks = [McapSink(mcap), RerunSink(rrd)]
+    sinks = [McapSink(mcap, overwrite=True), RerunSink(rrd, overwrite=True)]
     if failing == "second":
         sinks.reverse()
     trial = read_trial(trial_path)
@@ -201,7 +201,10 @@ def test_infer_prints_rmse_and_writes_both_outputs(gown, tmp_path: Path) -> None
     result = CliRunner().invoke(main, [*args, "--mcap-out", str(mcap)])
     assert result.exit_code == 0, result.output
     again = CliRunner().invoke(main, [*args, "--mcap-out", str(mcap)])
-    assert again.exit_code == 0, again.output  # derived outputs are replaced on a re-run
+    assert again.exit_code == 1  # every command's rule: an output is replaced only when asked
+    assert again.output == f"Error: {rrd}: file exists; pass --overwrite to replace it\n"
+    again = CliRunner().invoke(main, [*args, "--mcap-out", str(mcap), "--overwrite"])
+    assert again.exit_code == 0, again.output
     report = replay_file(trial_path, model=model_path)  # the same replay, no outputs
     assert "40 steps" in result.output
     rmse, zero = report.rmse, report.zero_rmse
@@ -395,7 +398,7 @@ def test_a_rerun_sink_used_again_scales_its_colours_by_the_new_trial(gown, tmp_p
     scaled = read_trial(trial_path)
     assert trial.force_map is not None and scaled.force_map is not None
     scaled.force_map.forces[:] *= 5  # the same trial, pressing five times as hard
-    sink = RerunSink(tmp_path / "out.rrd")
+    sink = RerunSink(tmp_path / "out.rrd", overwrite=True)
     scales = []
     for one in (trial, scaled, trial):
         run(trial_context(one), trial_steps(one), load_model(model_path).estimator(), [sink])
@@ -713,7 +716,7 @@ def test_a_model_for_the_other_task_fails_those_trials_alone(day: Path) -> None:
 
 def test_infer_on_several_trials_writes_each_into_the_folders_given(day: Path) -> None:
     """A day's estimate copies in one command: each trial's recording and copy in the folders
-    given (made if missing), named after it; a re-run replaces them, as with one trial."""
+    given (made if missing), named after it; a re-run replaces them with --overwrite only."""
     gown, shorts = day / "gown.mcap", day / "shorts.mcap"
     rec, est = day.parent / "out" / "rec", day.parent / "out" / "est"
     args = ["infer", str(gown), str(shorts), "-o", str(rec), "--mcap-out", str(est)]
@@ -732,7 +735,11 @@ def test_infer_on_several_trials_writes_each_into_the_folders_given(day: Path) -
         assert copy.has(wk.ESTIMATE) and copy.metadata.task is Task.GOWN
         assert copy.estimate is not None and alone.estimate is not None
         np.testing.assert_array_equal(copy.estimate.forces, alone.estimate.forces)
-    assert CliRunner().invoke(main, args).exit_code == 0
+    again = CliRunner().invoke(main, args)  # each trial fails alone, its outputs kept
+    assert again.exit_code == 1
+    assert again.output.splitlines()[-1] == "Error: 2 of 2 trials failed"
+    assert f"Error: {gown}: {rec / 'gown.rrd'}: file exists; pass --overwrite" in again.output
+    assert CliRunner().invoke(main, [*args, "--overwrite"]).exit_code == 0
 
 
 def test_one_trial_goes_into_an_existing_folder_as_cp_takes_one(day: Path) -> None:

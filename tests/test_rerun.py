@@ -304,7 +304,7 @@ def test_view_save_refuses_to_copy_a_cut_rrd(inferred, tmp_path: Path, keep: flo
     cut.write_bytes(data[: int(len(data) * keep)])
     out = tmp_path / "copy.rrd"
     out.write_bytes(b"earlier")
-    result = CliRunner().invoke(main, ["view", str(cut), "--save", str(out)])
+    result = CliRunner().invoke(main, ["view", str(cut), "--save", str(out), "--overwrite"])
     assert result.exit_code == 1 and "cut short or damaged" in result.output, result.output
     assert len(result.output.strip().splitlines()) == 1
     assert out.read_bytes() == b"earlier"
@@ -383,9 +383,11 @@ def test_view_without_a_display_says_so_before_any_work(
 
 @pytest.mark.parametrize(
     "options",
-    [["--port", "9000"], ["--web", "--port", "-5"], ["--web", "--save", "x.rrd"]],
-    ids=["port-without-web", "port-out-of-range", "web-save"],
-)
+    [["--port", "9000"], ["--web", "--port", "-5"], ["--web", "--save", "x.rrd"],
+     ["--grpc-port", "9000"], ["--overwrite"]],
+    ids=["port-without-web", "port-out-of-range", "web-save", "grpc-port-without-web",
+         "overwrite-without-save"],
+)  # fmt: skip
 def test_view_options_that_cannot_go_together_are_a_usage_error(
     inferred, options: list[str]
 ) -> None:
@@ -799,6 +801,89 @@ def test_view_web_killed_outright_takes_its_viewer_with_it(inferred) -> None:
         run.stdout.close()
 
 
+def test_view_web_listens_on_the_ports_it_is_given(inferred) -> None:
+    """Issue 50: the recording was served on a random port, which an SSH tunnel cannot
+    forward. `--port` and `--grpc-port` are both listened on, and the page is pointed at the
+    second (`ssh -L 9090:localhost:9090 -L 9876:localhost:9876 host`)."""
+    import re
+    import signal
+    import time
+
+    _, _, rrd = inferred
+    web, grpc = _free_port(), _free_port()
+    run = subprocess.Popen(
+        [sys.executable, "-c", AS_FROM_A_TERMINAL, "view", str(rrd), "--web",
+         "--web-port", str(web), "--grpc-port", str(grpc)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    try:
+        assert run.stdout is not None
+        line = run.stdout.readline()
+        assert re.match(rf"Web viewer: http://127\.0\.0\.1:{web}/\?url=rerun%2Bhttp%3A%2F%2F"
+                        rf"127\.0\.0\.1%3A{grpc}%2Fproxy ", line), line  # fmt: skip
+        deadline, listening = time.monotonic() + 30, set()
+        while listening != {web, grpc} and time.monotonic() < deadline:
+            listening = {port for port in (web, grpc) if _answers(port)}
+            time.sleep(0.3)
+        assert listening == {web, grpc}
+    finally:
+        run.send_signal(signal.SIGINT)
+        try:
+            _, err = run.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(run.pid, signal.SIGKILL)
+            _, err = run.communicate()
+    assert "XDG_RUNTIME_DIR" not in err
+    time.sleep(0.5)
+    assert not _answers(web) and not _answers(grpc)  # closed with the viewer
+
+
+def _answers(port: int) -> bool:
+    import socket
+
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=1).close()
+    except OSError:
+        return False
+    return True
+
+
+def test_view_web_refuses_one_port_for_both(inferred) -> None:
+    _, _, rrd = inferred
+    port = str(_free_port())
+    result = CliRunner().invoke(main, ["view", str(rrd), "--web", "--port", port,
+                                       "--grpc-port", port])  # fmt: skip
+    assert result.exit_code == 1
+    assert result.output == f"Error: --port and --grpc-port are both {port}; give two ports\n"
+
+
+@pytest.mark.skipif(not hasattr(os, "getuid"), reason="XDG_RUNTIME_DIR is POSIX's")
+def test_a_viewer_gets_a_private_runtime_dir_where_there_is_none(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On a headless machine (no XDG_RUNTIME_DIR, or one of another user's or open to all)
+    the viewer wrote `XDG_RUNTIME_DIR is invalid or not set` on the user's terminal."""
+    import stat
+
+    from dresslog.replay.viewer import viewer_env
+
+    (private := tmp_path / "private").mkdir(mode=0o755)
+    monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
+    env = viewer_env(private)
+    assert env is not None and env["XDG_RUNTIME_DIR"] == str(private)
+    assert stat.S_IMODE(private.stat().st_mode) == 0o700
+    (open_to_all := tmp_path / "open").mkdir()
+    open_to_all.chmod(0o777)
+    for invalid in (tmp_path / "missing", open_to_all):
+        monkeypatch.setenv("XDG_RUNTIME_DIR", str(invalid))
+        env = viewer_env(private)
+        assert env is not None and env["XDG_RUNTIME_DIR"] == str(private)
+    (own := tmp_path / "own").mkdir(mode=0o700)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(own))
+    assert viewer_env(private) is None  # a valid one is the viewer's as it is
+
+
 def test_view_web_on_a_port_in_use_says_so_before_starting(inferred) -> None:
     import socket
 
@@ -808,8 +893,15 @@ def test_view_web_on_a_port_in_use_says_so_before_starting(inferred) -> None:
         taken.listen()
         port = taken.getsockname()[1]
         result = CliRunner().invoke(main, ["view", str(rrd), "--web", "--port", str(port)])
+        assert result.exit_code == 1
+        assert (
+            result.output == f"Error: port {port} is in use; pass another --port or leave it out\n"
+        )
+        result = CliRunner().invoke(main, ["view", str(rrd), "--web", "--grpc-port", str(port)])
     assert result.exit_code == 1
-    assert result.output == f"Error: port {port} is in use; pass another --port or leave it out\n"
+    assert result.output == (
+        f"Error: port {port} is in use; pass another --grpc-port or leave it out\n"
+    )
 
 
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="process groups are POSIX's")
@@ -936,7 +1028,7 @@ def test_a_rerun_replaces_an_earlier_estimate_copy_without_reading_it(tmp_path: 
     for copy in (tmp_path / "first.mcap", earlier):
         tracemalloc.start()
         try:
-            replay_file(log, model=model, mcap=copy)
+            replay_file(log, model=model, mcap=copy, overwrite=True)
             peaks.append(tracemalloc.get_traced_memory()[1])
         finally:
             tracemalloc.stop()

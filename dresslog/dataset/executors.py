@@ -235,17 +235,21 @@ class ProcessExecutor:
         return [f.result() for f in finished if f.exception() is None]
 
 
-def make_executor(name: ExecutorName | str, workers: int) -> Executor:
-    """The pool for `name`, which `check_executor` has passed."""
+def make_executor(name: ExecutorName | str, workers: int, address: str | None = None) -> Executor:
+    """The pool for `name`, which `check_executor` has passed; `address` is the Ray
+    cluster's to join (else `RAY_ADDRESS`'s, else one running here, else a new one)."""
     if name == "ray":
         from dresslog.dataset.ray_executor import RayExecutor
 
-        return RayExecutor(workers)
+        return RayExecutor(workers, address)
     return ProcessExecutor(workers)
 
 
-def check_executor(name: ExecutorName | str) -> None:
-    """Fail before anything is written when `name` cannot run here (Ray not installed)."""
+def check_executor(name: ExecutorName | str, address: str | None = None) -> None:
+    """Fail before anything is written when `name` cannot run here (Ray not installed), or
+    is given a Ray cluster's `address` it would not use."""
+    if address is not None and name != "ray":
+        raise DatasetError(f"a Ray cluster's address is for the 'ray' executor, not {name!r}")
     if name == "ray":
         from dresslog.dataset.ray_executor import import_ray
 

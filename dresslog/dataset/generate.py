@@ -11,6 +11,7 @@ folder always produces the same data, however often it was interrupted.
 
 from __future__ import annotations
 
+import contextlib
 import operator
 import os
 import re
@@ -48,7 +49,13 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogError, DresslogWarning, first_problem
-from dresslog.io.files import exclusive, is_temporary, named_as_recording, resolved
+from dresslog.io.files import (
+    exclusive,
+    is_temporary,
+    named_as_recording,
+    remove_folders,
+    resolved,
+)
 from dresslog.spec import (
     RotationRange,
     SimParams,
@@ -245,8 +252,7 @@ def _open_manifest(
         if have != want:
             # a folder of another simulator version: name the option that extends it
             made_by = simulator_of(manifest.overrides.get("sim"))
-            asked = simulator_of(overrides.get("sim"))
-            other = what == "fixed spec fields" and made_by != asked
+            other = what == "fixed spec fields" and made_by != simulator_of(overrides.get("sim"))
             hint = f" (a folder of simulator {made_by}: --simulator {made_by})" if other else ""
             raise DatasetError(
                 f"folder holds a dataset with {what} {_shown(have)}, not {_shown(want)}; "
@@ -330,6 +336,7 @@ def generate(
     overrides: Mapping[str, Any] | None = None,
     rotation_range: RotationRange | Mapping[str, Any] | None = None,
     executor: ExecutorName | str = "process",
+    ray_address: str | None = None,
     max_attempts: int = MAX_ATTEMPTS,
     progress: bool = True,
     recorder: str = RECORDER,
@@ -340,11 +347,14 @@ def generate(
     ``splits`` replaces the train/test division by explicit counts (the sweeps use
     ``{"sweep": 128}``); ``overrides`` fixes spec fields for every trial (``duration``,
     ``speed``, ``limb_rotation``); ``rotation_range`` draws each trial's ``limb_rotation``
-    (``{"axis": "z", "low": -15, "high": 15}``); ``recorder`` ("module:function", called as
+    (``{"axis": "z", "low": -15, "high": 15}``); ``ray_address`` is the Ray cluster
+    ``executor="ray"`` joins (else ``RAY_ADDRESS``'s, else one ``ray start`` runs on this
+    machine, else a new local one); ``recorder`` ("module:function", called as
     ``f(spec, path, overwrite=True)``) swaps the simulator, for tests; ``label`` names
     the progress bar (the task by default). Raises
     `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
-    written up to then lists every failure.
+    written up to then lists every failure. A folder this call made is removed again if
+    it fails before any trial is made or tried (a Ray cluster that does not answer).
     """
     task = task_of(task, DatasetError)
     if (misnamed := named_as_recording(out, "a dataset")) is not None:
@@ -361,23 +371,42 @@ def generate(
     drawn = _checked_range(rotation_range, overrides)
     with _named_as_given(root, given):  # the folder's errors, every one of them
         _check_folder(root)
-        check_executor(executor)
+        check_executor(executor, ray_address)
+        made = [f for f in (root, *root.parents) if not os.path.lexists(f)][::-1]
         root.mkdir(parents=True, exist_ok=True)
+        manifest: Manifest | None = None
         command = "dresslog sweep" if Split.SWEEP in counts else "dresslog generate"  # its folders
-        with exclusive(root / LOCK_FILE, command):
-            manifest = _open_manifest(root, task, seed, counts, overrides, drawn)
-            for split in Split:
-                if manifest.wanted(split):
-                    (root / split.value).mkdir(exist_ok=True)
-            jobs = _plan(root, manifest, recorder, workers)
-            _tidy(root, manifest)
-            manifest.save(root)
-            if splits is None:  # a sweep asks for its one split by count
-                _warn_if_a_split_is_empty(given, trials, test_fraction, counts)
-            if jobs:
-                label = (label or manifest.task.value) if progress else None
-                _run(root, manifest, jobs, executor, workers, max_attempts, label)
+        try:
+            with exclusive(root / LOCK_FILE, command):
+                manifest = _open_manifest(root, task, seed, counts, overrides, drawn)
+                for split in Split:
+                    if manifest.wanted(split):
+                        (root / split.value).mkdir(exist_ok=True)
+                jobs = _plan(root, manifest, recorder, workers)
+                _tidy(root, manifest)
+                manifest.save(root)
+                if splits is None:  # a sweep asks for its one split by count
+                    _warn_if_a_split_is_empty(given, trials, test_fraction, counts)
+                if jobs:
+                    label = (label or manifest.task.value) if progress else None
+                    _run(root, manifest, jobs, executor, workers, max_attempts, label,
+                         ray_address)  # fmt: skip
+        except BaseException:
+            if made and (manifest is None or not (manifest.trials or manifest.failures)):
+                _remove_new_folder(root, made)
+            raise
     return manifest
+
+
+def _remove_new_folder(root: Path, made: list[Path]) -> None:
+    """Remove a dataset folder this run made, which holds no trial: its manifest, lock and
+    empty split folders, then the folders made for it. Anything else in it stays."""
+    for name in (MANIFEST_FILE, LOCK_FILE):
+        (root / name).unlink(missing_ok=True)
+    for split in Split:
+        with contextlib.suppress(OSError):
+            (root / split.value).rmdir()
+    remove_folders(made)
 
 
 @contextmanager
@@ -426,11 +455,12 @@ def _run(
     workers: int,
     max_attempts: int,
     label: str | None,
+    ray_address: str | None = None,
 ) -> None:
     """Run the jobs, retrying failed slots with fresh seeds; a progress bar named `label`."""
     from tqdm import tqdm
 
-    executor = make_executor(executor_name, min(workers, len(jobs)))
+    executor = make_executor(executor_name, min(workers, len(jobs)), ray_address)
     given_up: list[Entry] = []
     bar = tqdm(total=len(jobs), unit="trial", desc=label, disable=label is None)
     saved = time.monotonic()

@@ -156,6 +156,7 @@ def evaluate_dataset(
     bounds: bool = False,
     plot: str | Path | None = None,
     per_sequence: str | Path | None = None,
+    overwrite: bool = False,
     workers: int | None = None,
     progress: bool = True,
 ) -> EvalReport:
@@ -164,13 +165,14 @@ def evaluate_dataset(
     With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
     so the model's ratio can be read against what the data allow. With `plot`, a PNG of
     where along the limb and at what total force the model errs (`plot_eval`); with
-    `per_sequence`, a CSV of each sequence's spec, outcome and scores (`PER_SEQUENCE`).
+    `per_sequence`, a CSV of each sequence's spec, outcome and scores (`PER_SEQUENCE`);
+    either replaces an existing file only with `overwrite`.
     """
     split = as_split(split)  # before anything is loaded
     if plot is not None:
-        check_output(plot, suffix=".png")
+        check_output(plot, suffix=".png", overwrite=overwrite)
     if per_sequence is not None:
-        check_output(per_sequence, suffix=".csv")
+        check_output(per_sequence, suffix=".csv", overwrite=overwrite)
     loaded = load_model(model)
     manifest = load_manifest(data)
     check_data_task(loaded, manifest.task)
@@ -209,9 +211,9 @@ def evaluate_dataset(
         outside=held.outside(trained),
     )
     if profile is not None and plot is not None:
-        plot_eval(plot, profile, arrays.task, report.headline())
+        plot_eval(plot, profile, arrays.task, report.headline(), overwrite=overwrite)
     if per_sequence is not None:
-        _write_per_sequence(per_sequence, manifest, arrays.files[rows], each)
+        _write_per_sequence(per_sequence, manifest, arrays.files[rows], each, overwrite)
     return report
 
 
@@ -223,14 +225,18 @@ PER_SEQUENCE = (
 
 
 def _write_per_sequence(
-    path: str | Path, manifest: Manifest, files: np.ndarray, each: SequenceScores
+    path: str | Path,
+    manifest: Manifest,
+    files: np.ndarray,
+    each: SequenceScores,
+    overwrite: bool = True,
 ) -> None:
     """One row per scored sequence, in the split's order: which trials the model gets
     wrong, and what their specs (speed, limb pose) have in common."""
     import csv
 
     entries = {entry.file: entry for entry in manifest.trials}
-    with atomic_path(path) as tmp, tmp.open("w", newline="") as stream:
+    with atomic_path(path, overwrite=overwrite) as tmp, tmp.open("w", newline="") as stream:
         writer = csv.writer(stream)
         writer.writerow(PER_SEQUENCE)
         for k, file in enumerate(files):

@@ -26,7 +26,13 @@ from dresslog.experiments.evaluation import (
     warn_no_force,
 )
 from dresslog.io import jsontext
-from dresslog.io.files import atomic_path, named_as_recording, resolved
+from dresslog.io.files import (
+    atomic_path,
+    make_folders,
+    named_as_recording,
+    remove_folders,
+    resolved,
+)
 from dresslog.limb import build_limb, limb_points
 from dresslog.model.conditions import (
     DURATION,
@@ -237,6 +243,7 @@ def sweep(
     duration: float | None = None,
     workers: int | None = None,
     executor: str = "process",
+    ray_address: str | None = None,
     progress: bool = True,
 ) -> SweepReport:
     """Re-simulate the same `n` fresh sequences per setting and score the model on each.
@@ -257,7 +264,7 @@ def sweep(
     seen = trained_conditions(loaded.card)
     simulator = seen.simulators[-1]  # the newest the model has seen
     settings = sweep_settings(task, speeds, rotations, duration, simulator)  # bad: no folder
-    check_executor(executor)
+    check_executor(executor, ray_address)
     out = Path(out)
     _check_sweep_folder(out)
     longest, length = max(seen.durations), DURATION if duration is None else duration
@@ -269,21 +276,26 @@ def sweep(
             DresslogWarning,
             stacklevel=2,
         )
-    out.mkdir(parents=True, exist_ok=True)
+    made = make_folders(out / SWEEP_FILE)
     done: list[Setting] = []
     for setting in settings:
-        generate(
-            task,
-            n,
-            out / setting.folder,
-            splits={Split.SWEEP: n},
-            overrides=setting.overrides,
-            seed=seed,
-            workers=workers,
-            executor=executor,
-            progress=progress,
-            label=f"{task.value} {setting.name}",
-        )
+        try:
+            generate(
+                task,
+                n,
+                out / setting.folder,
+                splits={Split.SWEEP: n},
+                overrides=setting.overrides,
+                seed=seed,
+                workers=workers,
+                executor=executor,
+                ray_address=ray_address,
+                progress=progress,
+                label=f"{task.value} {setting.name}",
+            )
+        except BaseException:
+            remove_folders(made)  # a sweep folder this run made, if it is still empty
+            raise
         done.append(_scored(loaded, out, setting, workers))
     done += _earlier(loaded, out, settings, n, seed, workers)
     done.sort(key=lambda s: s.order)

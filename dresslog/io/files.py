@@ -333,16 +333,17 @@ def put_in_place(tmp: str | Path, path: str | Path, *, overwrite: bool) -> None:
 
 
 @contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
+def atomic_path(path: str | Path, *, overwrite: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside `path`; rename it into place on success, else delete it
-    and the folders made for it."""
+    and the folders made for it. Without `overwrite`, a file that appeared at `path`
+    meanwhile is kept (`put_in_place`)."""
     path = Path(path)
     made = make_folders(path)
     discard_stale_temporaries(path)
     tmp = temporary_path(path)
     try:
         yield tmp
-        tmp.replace(path)
+        put_in_place(tmp, path, overwrite=overwrite)
     except BaseException as err:
         discard(tmp)
         remove_folders(made)

@@ -134,6 +134,7 @@ def replay_files(
     rrd: str | Path | None = None,
     mcap: str | Path | None = None,
     on_trial: Callable[[InferenceReport | TrialFailure], None] | None = None,
+    overwrite: bool = False,
     progress: bool = False,
 ) -> BatchReport:
     """Replay each trial into its `.rrd`, and with `mcap` into a copy of it with the estimate.
@@ -145,7 +146,8 @@ def replay_files(
     `OSError` is its failure and the next trial runs; `on_trial` hears each outcome as it
     comes. A given `model` that does not load fails the batch before any trial when there
     are several (it would fail each alike); with one trial, what is wrong with the trial is
-    still said first. `progress` draws each trial's steps on a progress bar when stderr is
+    still said first. An existing output is replaced only with `overwrite`, else that
+    trial fails. `progress` draws each trial's steps on a progress bar when stderr is
     a terminal.
     """
     paths = [Path(t) for t in trials]
@@ -161,8 +163,9 @@ def replay_files(
         outcome: InferenceReport | TrialFailure
         try:
             outcome = replay_file(
-                trial, model=model, rrd=out, mcap=copy, models=models, progress=progress
-            )
+                trial, model=model, rrd=out, mcap=copy, models=models, overwrite=overwrite,
+                progress=progress,
+            )  # fmt: skip
             batch.reports.append(outcome)
         except (DresslogError, OSError) as err:
             outcome = TrialFailure(trial, err)

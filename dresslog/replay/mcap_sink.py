@@ -33,8 +33,9 @@ FLUSH_STEPS = 1000
 class McapSink:
     """Copy the trial as it opens; write the estimates in blocks as they come."""
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, overwrite: bool = False) -> None:
         self.path = Path(path)
+        self.overwrite = overwrite  # an earlier estimate copy is replaced only so
         self._writer: TrialWriter | None = None  # the copy being written, until `close`
         self._t_ns: list[int] = []
         self._forces: list[np.ndarray] = []
@@ -44,16 +45,10 @@ class McapSink:
     def open(self, context: TrialContext) -> None:
         if context.trial is None:
             raise TrialWriteError("an MCAP copy needs a recorded trial as source", path=self.path)
-        check_output(self.path, context.source_path, suffix=".mcap")
-        if self.path.exists() and not _holds_an_estimate(self.path):
-            raise TrialWriteError(
-                "exists and is not an earlier estimate copy (a recording?); give --mcap-out "
-                "another name (or folder), or delete it first",
-                path=self.path,
-            )
+        check_copy_output(self.path, context.source_path, overwrite=self.overwrite)
         trial, limb = context.trial, context.limb_points
         self._t_ns, self._forces, self._contact = [], [], []
-        self._writer = TrialWriter(self.path, trial.metadata, overwrite=True)
+        self._writer = TrialWriter(self.path, trial.metadata, overwrite=self.overwrite)
         self._writing(lambda writer: copy_trial(writer.open(), trial, limb))
 
     def write(self, result: StepResult) -> None:
@@ -109,6 +104,19 @@ class McapSink:
             if writer is not None:
                 writer.abort()
         self._writer = self._finished = None
+
+
+def check_copy_output(path: Path, source: Path | None, *, overwrite: bool) -> None:
+    """Fail before any work if the estimate copy cannot go to `path`: a trial recorded or
+    converted there is never replaced, an earlier copy only with `overwrite`."""
+    check_output(path, source, suffix=".mcap")  # its name and folder
+    if path.exists() and not _holds_an_estimate(path):
+        raise TrialWriteError(
+            "exists and is not an earlier estimate copy (a recording?); give --mcap-out "
+            "another name (or folder), or delete it first",
+            path=path,
+        )
+    check_output(path, source, suffix=".mcap", overwrite=overwrite)
 
 
 def _holds_an_estimate(path: Path) -> bool:

@@ -28,7 +28,7 @@ from dresslog.replay.engine import (
     trial_context,
     trial_steps,
 )
-from dresslog.replay.mcap_sink import McapSink
+from dresslog.replay.mcap_sink import McapSink, check_copy_output
 from dresslog.replay.metrics import MetricsSink, TrialMetrics
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
@@ -138,6 +138,7 @@ def replay_file(
     mcap: str | Path | None = None,
     sinks: tuple[Sink, ...] = (),
     models: dict[Path, LoadedModel] | None = None,
+    overwrite: bool = False,
     progress: bool = False,
 ) -> InferenceReport:
     """Stream a trial file step by step through a model into .rrd / MCAP / extra sinks.
@@ -147,7 +148,8 @@ def replay_file(
     With `require_model=False` and no model given or bundled, a trial with ground
     truth is replayed with it alone (what `dresslog view` shows without a model), as
     is one at another rate than the models' (with a warning). `models` (folder -> loaded
-    model) is where a batch keeps the models it has loaded, so each is loaded once.
+    model) is where a batch keeps the models it has loaded, so each is loaded once. An
+    existing `rrd` or `mcap` is replaced only with `overwrite`.
     """
     clock = time.perf_counter
     timings: dict[str, float] = {}
@@ -157,9 +159,10 @@ def replay_file(
     timings["read"] = clock() - t0
     named = {".rrd": rrd, ".mcap": mcap}
     outputs = [Path(p) for p in named.values() if p is not None]
-    for suffix, out in named.items():
-        if out is not None:
-            check_output(Path(out), source=Path(trial_path), suffix=suffix)
+    if rrd is not None:
+        check_output(Path(rrd), source=Path(trial_path), suffix=".rrd", overwrite=overwrite)
+    if mcap is not None:
+        check_copy_output(Path(mcap), Path(trial_path), overwrite=overwrite)
     if rrd is not None:  # start-up cost, reported apart from the work itself
         t0 = clock()
         import rerun  # noqa: F401
@@ -192,9 +195,9 @@ def replay_file(
     metrics = MetricsSink()
     all_sinks: list[Sink] = [metrics, *sinks, *([ProgressBar()] if progress else [])]
     if rrd is not None:
-        all_sinks.append(RerunSink(rrd))
+        all_sinks.append(RerunSink(rrd, overwrite=overwrite))
     if mcap is not None:
-        all_sinks.append(McapSink(mcap))
+        all_sinks.append(McapSink(mcap, overwrite=overwrite))
     replay = Replay(estimator, all_sinks)
     replay.run(context, trial_steps(trial), keep=False)
     timings.update(replay.timings)

@@ -28,6 +28,7 @@ from dresslog.io.files import (
     discard_stale_temporaries,
     make_folders,
     printable,
+    put_in_place,
     remove_folders,
     temporary_path,
 )
@@ -110,10 +111,12 @@ class RerunSink:
         *,
         recording: rr.RecordingStream | None = None,
         flush_every: int | None = None,
+        overwrite: bool = False,
     ) -> None:
         if (path is None) == (recording is None):
             raise ValueError("give either an output path or a live recording stream")
         self.path = None if path is None else Path(path)
+        self.overwrite = overwrite  # an existing file at `path` is replaced only so
         self.recording = recording
         self.flush_every = flush_every if recording is not None else None
         self.vmax = self._initial_vmax()
@@ -135,7 +138,7 @@ class RerunSink:
         self._first_ns: int | None = None
         self._metrics.open(context)
         if self.path is not None:
-            check_output(self.path, context.source_path, suffix=".rrd")
+            check_output(self.path, context.source_path, suffix=".rrd", overwrite=self.overwrite)
             if (vmax := _known_vmax(context)) is not None:  # else fitted as it closes
                 self.vmax = vmax
                 self._start_file()
@@ -217,8 +220,8 @@ class RerunSink:
 
     def commit(self) -> None:
         if self.path is not None and self._tmp is not None:
-            self._tmp.replace(self.path)
-            self._tmp = None
+            tmp, self._tmp = self._tmp, None
+            put_in_place(tmp, self.path, overwrite=self.overwrite)
             self._made = []
 
     def abort(self) -> None:

@@ -13,6 +13,7 @@ import os
 import shutil
 import signal
 import socket
+import stat
 import subprocess
 import sys
 import tempfile
@@ -32,6 +33,8 @@ from dresslog.stops import stop_signals
 if TYPE_CHECKING:
     import rerun as rr
 
+#: The port a web viewer's data is served on unless asked (Rerun's own default), or taken.
+GRPC_PORT = 9876
 #: How long a viewer may take to stop on SIGTERM before it is killed.
 VIEWER_STOP_S = 5.0
 #: How often waiting for the viewer returns to Python, where Ctrl-C is noticed.
@@ -65,7 +68,8 @@ def live_viewer(task: Task | str, *, connect: str | None = None) -> rr.Recording
     if connect is not None:
         rec.connect_grpc(connect, default_blueprint=default_blueprint(live=True))
         return rec
-    rec.spawn(default_blueprint=default_blueprint(live=True))
+    with _runtime_dir_for_viewer():
+        rec.spawn(default_blueprint=default_blueprint(live=True))
     # A viewer that cannot open its window listens for a moment, then exits, and the
     # stream to it fails: it must still listen SPAWN_SETTLE_S after it first did.
     deadline, since = time.monotonic() + SPAWN_GRACE_S, None
@@ -122,23 +126,30 @@ def no_display(instead: str, path: Path | None = None) -> DresslogError:
 
 
 def save_rrd(
-    path: str | Path, out: str | Path, *, model: str | Path | None = None, progress: bool = False
+    path: str | Path,
+    out: str | Path,
+    *,
+    model: str | Path | None = None,
+    overwrite: bool = False,
+    progress: bool = False,
 ) -> str:
-    """Write what `view` would show to `out`; returns a one-line description. `progress`
-    draws the replayed steps on a progress bar when stderr is a terminal."""
+    """Write what `view` would show to `out`; returns a one-line description. An existing
+    `out` is replaced only with `overwrite`. `progress` draws the replayed steps on a
+    progress bar when stderr is a terminal."""
     path, out = Path(path), Path(out)
-    check_output(out, suffix=".rrd")
+    check_output(out, suffix=".rrd", overwrite=overwrite)
     if is_rrd(path, model):
         verify_rrd(path)  # a copy of a damaged recording would only hide the damage
         try:
-            with atomic_path(out) as tmp:
+            with atomic_path(out, overwrite=overwrite) as tmp:
                 shutil.copyfile(path, tmp)
         except OSError as err:
             raise TrialWriteError(f"could not copy: {err.strerror}", path=out) from None
         return f"{path} -> {out}"
     report: InferenceReport = replay_file(
-        path, model=model, require_model=model is not None, rrd=out, progress=progress
-    )
+        path, model=model, require_model=model is not None, rrd=out, overwrite=overwrite,
+        progress=progress,
+    )  # fmt: skip
     return report.summary()
 
 
@@ -290,6 +301,54 @@ def _stopped_by_hangup_and_term() -> Iterator[None]:
             signal.signal(n, handler)
 
 
+def has_runtime_dir() -> bool:
+    """Whether `XDG_RUNTIME_DIR` is one a viewer takes without complaint: a folder of this
+    user's that only it may enter (0700), as the XDG base directory specification asks."""
+    folder = os.environ.get("XDG_RUNTIME_DIR")
+    if not hasattr(os, "getuid"):  # not a POSIX system, which has no such folder
+        return True
+    if not folder:
+        return False
+    try:
+        st = Path(folder).stat()
+    except OSError:
+        return False
+    return stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o077
+
+
+def viewer_env(private: Path) -> dict[str, str] | None:
+    """The environment to start a viewer in: this one, where `XDG_RUNTIME_DIR` is unset or
+    not valid (a headless machine, `su`, ssh) with it set to `private`, an empty folder of
+    this user's, 0700. A viewer started without one writes `XDG_RUNTIME_DIR is invalid or
+    not set` on the terminal. None: this one as it is."""
+    if has_runtime_dir():
+        return None
+    private.chmod(0o700)
+    return {**os.environ, "XDG_RUNTIME_DIR": str(private)}
+
+
+@contextlib.contextmanager
+def _runtime_dir_for_viewer() -> Iterator[None]:
+    """`XDG_RUNTIME_DIR` a valid private folder while a viewer is spawned (by `rr.spawn`,
+    which takes this process's environment); the folder is removed when dresslog exits."""
+    if has_runtime_dir():
+        yield
+        return
+    import atexit
+
+    private = Path(tempfile.mkdtemp(prefix="dresslog-xdg-"))  # 0700
+    atexit.register(shutil.rmtree, private, ignore_errors=True)
+    before = os.environ.get("XDG_RUNTIME_DIR")
+    os.environ["XDG_RUNTIME_DIR"] = str(private)
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["XDG_RUNTIME_DIR"]
+        else:
+            os.environ["XDG_RUNTIME_DIR"] = before
+
+
 def web_address(web_port: int, grpc_port: int) -> str:
     """The URL that opens the web viewer connected to the local gRPC server."""
     proxy = quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
@@ -339,11 +398,18 @@ def _run_viewer(cmd: list[str]) -> tuple[int, str]:
     """Run the viewer until it exits; its exit status and stderr.
 
     In its own process group: `python -m rerun` starts the viewer binary as a child,
-    which terminating the wrapper alone would leave serving.
+    which terminating the wrapper alone would leave serving. With a private
+    `XDG_RUNTIME_DIR` where this one is unset or invalid (`viewer_env`).
     """
     group = hasattr(os, "killpg")
-    with _stopped_by_hangup_and_term():  # from before the viewer starts
-        process = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=group)
+    with (
+        _stopped_by_hangup_and_term(),  # from before the viewer starts
+        tempfile.TemporaryDirectory(prefix="dresslog-xdg-") as private,
+    ):
+        env = viewer_env(Path(private))
+        process = subprocess.Popen(
+            cmd, stderr=subprocess.PIPE, text=True, start_new_session=group, env=env
+        )
         try:
             err = _wait_interruptibly(process)
         except KeyboardInterrupt:
@@ -358,6 +424,7 @@ def view_file(
     model: str | Path | None = None,
     web: bool = False,
     web_port: int | None = None,
+    grpc_port: int | None = None,
     echo: Callable[[str], None] = print,
     progress: bool = False,
 ) -> None:
@@ -365,14 +432,18 @@ def view_file(
 
     `progress` draws a trial's replayed steps on a progress bar when stderr is a terminal.
 
-    Without `web_port` the web viewer takes 9090, or a free port if that one is in use
-    (a second `view --web`); its data port is always a free one. Ctrl-C, SIGTERM or
+    Without `web_port` the web viewer's page takes port 9090, or a free port if that one
+    is in use (a second `view --web`); without `grpc_port` the data it serves takes 9876,
+    or a free one. Both listen on localhost only (an SSH tunnel forwards both). Ctrl-C, SIGTERM or
     SIGHUP stop the viewer, then reach the caller as KeyboardInterrupt; on Linux the
     viewer also stops when this process is killed outright.
     """
     path = Path(path)
-    if web_port is not None and _free_port(web_port) != web_port:
-        raise DresslogError(f"port {web_port} is in use; pass another --port or leave it out")
+    for port, option in ((web_port, "--port"), (grpc_port, "--grpc-port")):
+        if port is not None and _free_port(port) != port:
+            raise DresslogError(f"port {port} is in use; pass another {option} or leave it out")
+    if web_port is not None and web_port == grpc_port:
+        raise DresslogError(f"--port and --grpc-port are both {web_port}; give two ports")
     recording = path.is_file() and is_rrd(path, model)
     if not (recording or _starts_with(path, MAGIC)):  # a typo, a folder or a file of another
         # kind is named first, not the display, which would not cure it
@@ -392,7 +463,7 @@ def view_file(
             rrd = Path(tmp) / f"{path.stem}.rrd"
             echo(save_rrd(path, rrd, model=model, progress=progress))
         web_port = web_port or _free_port(9090)
-        grpc_port = _free_port()
+        grpc_port = grpc_port or _free_port(GRPC_PORT if web_port != GRPC_PORT else 0)
         cmd = viewer_command(rrd, web=web, web_port=web_port, grpc_port=grpc_port)
         if web:
             echo(f"Web viewer: {web_address(web_port, grpc_port)}  (Ctrl-C to stop)")
