@@ -173,7 +173,12 @@ class SimParams(BaseModel):
     wind_s: float = Field(0.3, ge=0, description="duration of the random perturbing force")
     wind_accel: float = Field(2.0, ge=0, description="peak random acceleration per vertex, m/s^2")
     garment_mass: float = Field(0.25, gt=0, description="kg")
-    elastic_stiffness: float = Field(40.0, gt=0)
+    elastic_stiffness: float | None = Field(
+        None,
+        gt=0,
+        description="the springs' stretch stiffness; None takes the garment's own (v9: the "
+        "gown 40, the heavier shorts 80; v8: 40 for both)",
+    )
     damping_stiffness: float = Field(
         0.1,
         ge=0,
@@ -250,6 +255,7 @@ class SimParams(BaseModel):
 
 #: What simulator v8 used where v9 changed a default (`SimParams(simulator=8)`).
 V8_DEFAULTS: Final = {
+    "elastic_stiffness": 40.0,
     "damping_stiffness": 1.0,
     "bending_stiffness": 2.0,
     "max_grip_lift": 0.10,

@@ -57,7 +57,7 @@ def _cloth_on_box(p: SimParams) -> float:
         box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[1, 1, 0.1], physicsClientId=c)
         pb.createMultiBody(0, box, basePosition=[0, 0, -0.1], physicsClientId=c)
         with tempfile.TemporaryDirectory() as tmp:
-            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p)
+            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p, 40.0)
         reported = []
         for k in range(3 * p.physics_hz):
             pb.stepSimulation(physicsClientId=c)
@@ -76,7 +76,7 @@ def _lifted_drop(p: SimParams) -> float:
     c = _world(p)
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p)
+            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p, 40.0)
 
         def com_z() -> float:
             _, v = pb.getMeshData(cloth, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=c)
@@ -98,7 +98,7 @@ def _hanging(task: Task, p: SimParams) -> list[float]:
     """The garment's weight share that the gripper's constraint carries, hanging from it,
     averaged over each of the first 4 s."""
     limb = build_limb(task, (5.0, 0.0, 0.0))
-    scene = Scene.build(limb, garment_for(task), np.array([0.6, 0.0, 0.1]), p)
+    scene = Scene.build(limb, garment_for(task, 8), np.array([0.6, 0.0, 0.1]), p)
     try:
         fz = []
         for _ in range(4 * p.physics_hz):
@@ -111,7 +111,7 @@ def _hanging(task: Task, p: SimParams) -> list[float]:
 
 
 def main() -> None:
-    p = SimParams()
+    p = SimParams(simulator=8, wrench_from="constraint")  # the v7 world it measured
     print(f"cloth resting on a box: contacts report {_cloth_on_box(p):.1%} of its weight")
     for task in Task:
         shares = ", ".join(f"{round(share, 2) + 0.0:.0%}" for share in _hanging(task, p))

@@ -32,7 +32,8 @@ import numpy as np
 from dresslog.limb import Limb, build_limb, limb_sdf, surface_points
 from dresslog.sim._pybullet import pb
 from dresslog.sim.garments import Garment, garment_for
-from dresslog.sim.simulate import SimStart, SimStep, _gripper_path, decide_outcome, simulate
+from dresslog.sim.outcome import decide_outcome_v8 as decide_outcome
+from dresslog.sim.simulate import SimStart, SimStep, _gripper_path, simulate
 from dresslog.sim.specs import random_spec
 from dresslog.spec import SimParams, Task, TrialSpec
 
@@ -140,7 +141,7 @@ def soft_body_trial(spec: TrialSpec, stiffness: float) -> dict[str, object]:
     p = spec.sim.model_copy(update={"physics_hz": HZ})
     spec = spec.model_copy(update={"sim": p})
     limb = build_limb(spec.task, spec.limb_offset, spec.limb_rotation)
-    garment = garment_for(spec.task)
+    garment = garment_for(spec.task, 8)
     sub = HZ // p.record_hz
     path, _ = _gripper_path(spec, np.asarray(spec.control_points), limb, garment, sub)
     velocity = np.zeros_like(path)
@@ -201,8 +202,8 @@ def _summary(outcome: str, pulls: list, loads: list, depth: float) -> dict[str, 
 
 def stretch(stiffness: float) -> float:
     """The hanging gown's height (m) after 2 s in the soft-body world at this stiffness."""
-    garment = garment_for(Task.GOWN)
-    p = SimParams(elastic_stiffness=stiffness)
+    garment = garment_for(Task.GOWN, 8)
+    p = SimParams(simulator=8, wrench_from="constraint", elastic_stiffness=stiffness)
     world = SoftBodyWorld(build_limb(Task.GOWN, (5.0, 0.0, 0.0)), garment, np.zeros(3), p, 0.0)
     try:
         for _ in range(2 * HZ):
@@ -220,7 +221,7 @@ def main() -> None:
     first, last = map(int, args.seeds.split("-"))
     print("seed  world       outcome  gripper N  limb N  deepest node in limb cm")
     for seed in range(first, last + 1):
-        spec = random_spec(Task.GOWN, seed)
+        spec = random_spec(Task.GOWN, seed, sim={"simulator": 8, "wrench_from": "constraint"})
         for name, row in (
             ("deformable", deformable_trial(spec)),
             ("soft-body", soft_body_trial(spec, args.stiffness)),

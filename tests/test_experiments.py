@@ -898,13 +898,13 @@ def test_train_pools_several_dataset_folders_of_one_task(data: Path, tmp_path: P
 
 
 @pytest.mark.slow
-def test_a_model_of_balanced_wrenches_is_swept_and_scored_on_its_own_kind(tmp_path: Path) -> None:
-    """A model trained on trials whose wrench is the garment's momentum balance reads
-    such trials only: its sweep simulates them so, and `eval` names the other kind."""
+def test_a_model_of_one_simulator_is_swept_and_scored_on_its_own(tmp_path: Path) -> None:
+    """A model trained on trials of simulator v8 reads such trials only: its sweep
+    simulates them so, and `eval` names another version's."""
     near = {"duration": 0.5, "limb_offset": [0.30, 0.0, 0.05]}
     balanced = tmp_path / "balanced"
     generate("gown", 3, balanced, workers=2, test_fraction=1 / 3,
-             overrides={**near, "sim": {"wrench_from": "momentum"}})  # fmt: skip
+             overrides={**near, "sim": {"simulator": 8, "wrench_from": "momentum"}})  # fmt: skip
     model = tmp_path / "model"
     code, output = invoke("train", balanced, "-o", model, "--epochs", "1", "--hidden", "4",
                           "--layers", "1", "-q")  # fmt: skip
@@ -915,12 +915,12 @@ def test_a_model_of_balanced_wrenches_is_swept_and_scored_on_its_own_kind(tmp_pa
     assert [s.name for s in report.settings] == ["in-range", "speed:0.12"]
     for setting in report.settings:
         manifest = load_manifest(tmp_path / "sweep" / setting.folder)
-        assert manifest.overrides["sim"] == {"wrench_from": "momentum"}
-    constraint = tmp_path / "constraint"
-    generate("gown", 1, constraint, workers=1, test_fraction=1, overrides=near)
-    code, output = invoke("eval", model, constraint)
+        assert manifest.overrides["sim"] == {"simulator": 8, "wrench_from": "momentum"}
+    current = tmp_path / "v9"
+    generate("gown", 1, current, workers=1, test_fraction=1, overrides=near)
+    code, output = invoke("eval", model, current)
     assert code == 0, output
-    assert "the gripper's wrench read from its constraint (trained on the garment's " in output
+    assert "simulator v9 (trained on v8)" in output
 
 
 @pytest.mark.slow
@@ -1036,14 +1036,16 @@ def test_the_conditions_a_model_was_not_trained_on_are_named() -> None:
     assert held(far).describe() == held().describe()  # named only when outside
     assert held({"duration": 20}).outside(DEFAULTS) == ["duration 20 s (trained on 7 s)"]
     assert held({"duration": 1.5}).outside(DEFAULTS) == []  # a shorter trial: a prefix
-    long = spec_conditions(random_spec("gown", 4, duration=7.5))  # what `infer` checks
+    v7 = {"sim": {"simulator": 8, "wrench_from": "constraint"}}  # as DEFAULTS' trials
+    long = spec_conditions(random_spec("gown", 4, duration=7.5, **v7))  # what `infer` checks
     assert long.outside(DEFAULTS) == ["duration 7.5 s (trained on 7 s)"]
     balanced = {"sim": {"wrench_from": "momentum"}}
-    assert held(balanced).outside(DEFAULTS) == [
-        "the gripper's wrench read from the garment's momentum balance (trained on its constraint)"
-    ]
-    assert held().outside(held(balanced)) == [
-        "the gripper's wrench read from its constraint (trained on the garment's momentum balance)"
+    assert held(balanced).outside(DEFAULTS) == ["simulator v8 (trained on v7)"]
+    assert held().outside(held(balanced)) == ["simulator v7 (trained on v8)"]
+    v9 = held({"sim": {"simulator": 9}})
+    assert v9.outside(held(balanced)) == [
+        "limb offset z -0.2...+0.2 m (trained on z -0.1...+0.1)",
+        "simulator v9 (trained on v8)",
     ]
     assert held(balanced).outside(combined([held(), held(balanced)])) == []
     assert held(z15).describe() == "speeds 0.1-0.15 m/s; the limb turned about z -15 deg"

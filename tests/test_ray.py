@@ -65,7 +65,7 @@ def ray_tmp() -> Iterator[Path]:
 def _local(tmp_path: Path) -> str:
     """The content hash of the two trials made by the process pool, to compare with Ray's."""
     local = generate("gown", 2, tmp_path / "local", workers=2, test_fraction=0.5,
-                     overrides={"duration": 0.3, "sim": {"wrench_from": "momentum"}},
+                     overrides={"duration": 0.3, "sim": {"simulator": 9}},
                      progress=False)  # fmt: skip
     return local.content_hash()
 

@@ -502,7 +502,7 @@ def test_record_live_warns_of_a_trial_the_model_was_not_trained_on(
     rec = rr.RecordingStream("dresslog-test")
     rec.save(tmp_path / "live.rrd")
     trial = tmp_path / "fast.mcap"
-    spec = random_spec(Task.GOWN, 3, duration=0.05, speed=0.25, sim={"wrench_from": "momentum"})
+    spec = random_spec(Task.GOWN, 3, duration=0.05, speed=0.25)
     with pytest.warns(DresslogWarning) as caught:
         record_live(spec, trial, recording=rec)
     rec.disconnect()

@@ -203,8 +203,9 @@ def test_a_garment_held_back_by_the_limb_pulls_harder_than_a_free_pull() -> None
 
 def test_the_momentum_balance_puts_the_limbs_forces_at_the_gripper() -> None:
     """pybullet's constraint reads a changing share of the load; the balance, the load."""
-    caught = random_spec(Task.SHORTS, 0, duration=3.0, limb_offset=(0.0, 0.0, 0.05))
-    balance = caught.model_copy(update={"sim": SimParams(wrench_from="momentum")})
+    v7 = SimParams(simulator=8, wrench_from="constraint")
+    caught = random_spec(Task.SHORTS, 0, duration=3.0, limb_offset=(0.0, 0.0, 0.05), sim=v7)
+    balance = caught.model_copy(update={"sim": SimParams(simulator=8)})  # v8
     a, b = run(caught).steps, run(balance).steps
     assert all(np.array_equal(x.force_map, y.force_map) for x, y in zip(a, b, strict=True))
     total = np.array([s.force_map.sum() for s in a])
@@ -214,11 +215,23 @@ def test_the_momentum_balance_puts_the_limbs_forces_at_the_gripper() -> None:
     assert np.abs(balanced - total).mean() < 0.5 * np.abs(read - total).mean()
 
 
-def test_a_spec_with_the_constraints_wrench_reads_as_before_the_choice() -> None:
-    spec = random_spec(Task.GOWN, 4)
-    assert "wrench_from" not in spec.model_dump_json()  # a v7 trial's bytes are kept
-    balance = spec.model_copy(update={"sim": SimParams(wrench_from="momentum")})
-    assert TrialSpec.model_validate_json(balance.model_dump_json()) == balance
+def test_a_spec_recorded_before_v9_reads_as_the_version_it_was() -> None:
+    """A v7 trial saved no simulator and no wrench, a v8 trial no simulator: read back
+    from a file they are the versions that made them, with v8's cloth; a v9 spec round
+    trips as itself."""
+    from dresslog.spec import RECORDED, simulator_name
+
+    v8 = random_spec(Task.GOWN, 4, sim=SimParams(simulator=8))
+    saved = v8.model_dump(mode="json")
+    del saved["sim"]["simulator"]
+    assert TrialSpec.model_validate(saved, context=RECORDED) == v8
+    del saved["sim"]["wrench_from"]
+    v7 = TrialSpec.model_validate(saved, context=RECORDED)
+    assert simulator_name(v7.sim) == "v7" and v7.sim.damping_stiffness == 1.0
+    v9 = random_spec(Task.GOWN, 4)
+    assert simulator_name(v9.sim) == "v9"
+    assert TrialSpec.model_validate_json(v9.model_dump_json(), context=RECORDED) == v9
+    assert TrialSpec.model_validate_json(v8.model_dump_json(), context=RECORDED) == v8
 
 
 def test_an_unstable_trial_fails_and_leaves_no_file(tmp_path: Path) -> None:

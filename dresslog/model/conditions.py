@@ -16,7 +16,7 @@ from typing import Any
 
 from dresslog.model.files import ModelCard
 from dresslog.spec import (
-    OFFSET_RANGE,
+    OFFSET_RANGES,
     SPEED_RANGE,
     LimbRotation,
     RotationRange,
@@ -157,8 +157,9 @@ def folder_conditions(
             rotations.append((turned.axis, turned.degrees, turned.degrees))
     if rotation_range is not None:
         rotations.append((rotation_range.axis, rotation_range.low, rotation_range.high))
-    if (offset := fixed.get("limb_offset")) is None:  # drawn over the paper's ranges
-        box = tuple((-r, r) for r in OFFSET_RANGE[task])
+    simulator = simulator_in(fixed)
+    if (offset := fixed.get("limb_offset")) is None:  # drawn over its simulator's ranges
+        box = tuple((-r, r) for r in OFFSET_RANGES[9 if simulator == "v9" else 8][task])
     else:
         box = tuple((float(v), float(v)) for v in offset)
     return Conditions(
@@ -167,7 +168,7 @@ def folder_conditions(
         unturned=not rotations,
         offsets=(box,),
         durations=(float(fixed.get("duration", DURATION)),),
-        simulators=(simulator_in(fixed),),
+        simulators=(simulator,),
     )
 
 

@@ -32,6 +32,9 @@ class Garment:
     entry_rim: np.ndarray
     #: the opening the limb leaves through (cuff / the +y leg's opening)
     exit_rim: np.ndarray
+    #: the cloth's stretch stiffness where the spec leaves it to the garment
+    #: (`SimParams.elastic_stiffness` None)
+    elastic_stiffness: float = 40.0
 
     def write_obj(self, directory: str | Path) -> Path:
         """Write the mesh as a Wavefront .obj (what pybullet's loadSoftBody reads)."""
@@ -135,6 +138,7 @@ def shorts(
     waist_rows: int = 3,
     leg_rows: int = 6,
     pinch: bool = True,
+    elastic_stiffness: float = 80.0,
 ) -> Garment:
     """Shorts: a waist tube whose cross-section splits, at a crotch seam, into two leg tubes.
 
@@ -144,6 +148,8 @@ def shorts(
 
     `pinch`: the gripper holds the waistband's top three nodes at its opening, as a
     robot's gripper pinches it (v9); False holds the top of every waist ring (v8).
+    `elastic_stiffness`: the shorts' heavier cloth and waistband stretch half as much
+    as the gown's under the same pull (v9: 80; v8: 40).
     """
     r, a, rw = leg_radius, leg_spacing, waist_radius
     zc = -rw
@@ -202,6 +208,7 @@ def shorts(
         gripped=np.array(sorted(gripped)),
         entry_rim=waist_rings[0],
         exit_rim=legs[1][-1],
+        elastic_stiffness=elastic_stiffness,
     )
 
 
@@ -210,7 +217,8 @@ _V8: dict[Task, dict[str, Any]] = {
     Task.GOWN: {"armhole": 0.10, "cuff": 0.10, "length": 0.27, "rows": 10, "pinch": None,
                 "grip_nodes": 3},
     Task.SHORTS: {"waist_radius": 0.17, "leg_radius": 0.10, "leg_spacing": 0.07,
-                  "waist_length": 0.08, "leg_length": 0.25, "pinch": False},
+                  "waist_length": 0.08, "leg_length": 0.25, "pinch": False,
+                  "elastic_stiffness": 40.0},
 }  # fmt: skip
 
 

@@ -36,8 +36,11 @@ def _quat_z_to(u: np.ndarray) -> list[float]:
     return [*(axis / s * np.sin(ang / 2)), float(np.cos(ang / 2))]
 
 
-def load_cloth(client: int, obj: Path, position: np.ndarray, params: SimParams) -> int:
-    """A mass-spring cloth from a Wavefront .obj with the spec's cloth parameters."""
+def load_cloth(
+    client: int, obj: Path, position: np.ndarray, params: SimParams, stiffness: float
+) -> int:
+    """A mass-spring cloth from a Wavefront .obj with the spec's cloth parameters (its
+    stretch `stiffness` the spec's, or where it leaves it, the garment's own)."""
     return pb.loadSoftBody(
         str(obj),
         basePosition=list(map(float, position)),
@@ -45,7 +48,7 @@ def load_cloth(client: int, obj: Path, position: np.ndarray, params: SimParams) 
         useNeoHookean=0,
         useMassSpring=1,
         useBendingSprings=int(params.bending_stiffness > 0),
-        springElasticStiffness=params.elastic_stiffness,
+        springElasticStiffness=params.elastic_stiffness or stiffness,
         springDampingStiffness=params.damping_stiffness,
         springDampingAllDirections=1,
         springBendingStiffness=params.bending_stiffness,
@@ -106,7 +109,8 @@ class Scene:
                 physicsClientId=c,
             )
         with tempfile.TemporaryDirectory(prefix="dresslog-") as tmp:
-            cloth = load_cloth(c, garment.write_obj(Path(tmp)), ee_start, params)
+            obj = garment.write_obj(Path(tmp))
+            cloth = load_cloth(c, obj, ee_start, params, garment.elastic_stiffness)
         box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.01] * 3, physicsClientId=c)
         ee = pb.createMultiBody(EE_MASS, box, basePosition=ee_start.tolist(), physicsClientId=c)
         pb.setCollisionFilterGroupMask(ee, -1, 0, 0, physicsClientId=c)

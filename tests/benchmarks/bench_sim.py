@@ -1,9 +1,9 @@
 """Simulator speed: real-time factor per task and dresslog's own per-step work vs bare stepping.
 
 Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py [--seeds N]
-[--wrench-from momentum|constraint]` (N trials per task, 3 by default; the wrench read as
-`record` reads it by default, from the garment's momentum balance, which queries the
-garment at every physics step).
+[--simulator v9|v8|v7]` (N trials per task, 3 by default; the simulator `record` uses by
+default, whose wrench, the garment's momentum balance, queries the garment at every
+physics step). The peer is the bare physics: the same scene stepped with nothing read.
 Both figures come from one run per task: the simulator times its physics
 stepping and its own work (pybullet queries, contacts, force map, sensors, sink)
 separately; a second, bare run steps the same scene with no queries at all.
@@ -23,10 +23,7 @@ from dresslog.sim import WriterSink, random_spec, simulate
 from dresslog.sim.garments import garment_for
 from dresslog.sim.scene import Scene
 from dresslog.sim.trajectory import constant_speed
-from dresslog.spec import Task, TrialMetadata
-
-#: What each `--wrench-from` reads the wrench from, as the figure says it.
-SOURCE = {"momentum": "momentum balance", "constraint": "constraint"}
+from dresslog.spec import SIMULATORS, Task, TrialMetadata, simulator_fields
 
 
 def bare_physics_seconds(spec) -> float:
@@ -35,7 +32,7 @@ def bare_physics_seconds(spec) -> float:
     limb = build_limb(spec.task, spec.limb_offset, spec.limb_rotation)
     n = round(spec.duration * p.physics_hz)
     path = constant_speed(np.asarray(spec.control_points), spec.speed, np.arange(n) / p.physics_hz)
-    scene = Scene.build(limb, garment_for(spec.task), path[0], p)
+    scene = Scene.build(limb, garment_for(spec.task, p.simulator), path[0], p)
     try:
         for _ in range(round(p.settle_s * p.physics_hz)):
             scene.step()
@@ -48,13 +45,13 @@ def bare_physics_seconds(spec) -> float:
         scene.close()
 
 
-def main(seeds: int = 3, wrench_from: str = "momentum") -> None:
+def main(seeds: int = 3, simulator: str = SIMULATORS[0]) -> None:
     from dresslog.io.writer import TrialWriter
 
     for task in Task:
         rtf, own, queries, phys, bare = [], [], [], [], []
         for seed in range(seeds):
-            spec = random_spec(task, seed, sim={"wrench_from": wrench_from})
+            spec = random_spec(task, seed, sim=simulator_fields(simulator))
             with tempfile.TemporaryDirectory() as tmp:
                 meta = TrialMetadata(task=task, spec=spec)
                 with TrialWriter(Path(tmp) / "t.mcap", meta) as w:
@@ -75,13 +72,13 @@ def main(seeds: int = 3, wrench_from: str = "momentum") -> None:
             f"(pybullet queries {np.sum(queries) / np.sum(phys):.1%}) "
             f"own/bare={np.sum(own) / np.sum(bare):.1%} "
             f"physics={np.sum(phys):.1f}s bare={np.sum(bare):.1f}s over {seeds} x 7 s trials, "
-            f"the wrench from the {SOURCE[wrench_from]}"
+            f"simulator {simulator}"
         )
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, choices=range(1, 101), default=3, metavar="N")
-    parser.add_argument("--wrench-from", choices=["momentum", "constraint"], default="momentum")
+    parser.add_argument("--simulator", choices=SIMULATORS, default=SIMULATORS[0])
     args = parser.parse_args()
-    main(args.seeds, args.wrench_from)
+    main(args.seeds, args.simulator)
