@@ -1,0 +1,114 @@
+"""Simulator versions: v9 by default, v8 and v7 by name, each as it always recorded;
+v9's outcomes and a folder's fidelity figures."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dresslog.cli.main import main
+from dresslog.io import TrialReader
+from dresslog.limb import build_limb
+from dresslog.sim import random_spec, record_trial
+from dresslog.sim.outcome import CatchWatch
+from dresslog.spec import RECORDED, SimParams, Task, TrialSpec, simulator_name
+
+#: The spec of simulator v8's gown sample (seed 4), as its file saved it before v9.
+V8_GOWN = {
+    "task": "gown", "seed": 4, "speed": 0.10404180119478011,
+    "limb_offset": [0.044305610557236766, 0.004531021125744639, 0.09524874114154083],
+    "limb_rotation": {"axis": "z", "degrees": 0.0}, "duration": 1.0,
+    "control_points": [
+        [0.62, 0.0, 0.1], [0.5354463379197791, 0.01207604827943229, 0.06745278161440285],
+        [0.4880124021655451, 0.001757656030539927, 0.14022150797159885],
+        [0.38720064000178095, -0.002780148890823475, 0.12889467175443295],
+        [0.34047775142443865, -0.005210968293902849, 0.1468932869316235],
+        [0.2600272975516394, -0.012892296569520756, 0.11088516168445477],
+        [0.16943474187674162, 0.017712147165166687, 0.11656574169657535], [0.08, 0.0, 0.1],
+    ],
+    "sim": {"physics_hz": 300, "record_hz": 100, "settle_s": 1.0, "wind_s": 0.3,
+            "wind_accel": 2.0, "garment_mass": 0.25, "elastic_stiffness": 40.0,
+            "damping_stiffness": 1.0, "bending_stiffness": 2.0, "friction": 0.5,
+            "collision_margin": 0.006, "contact_spread": 3, "contact_reach": 0.012,
+            "grip_clearance": 0.01, "max_grip_lift": 0.1, "lift_smoothing": 0.25,
+            "max_limb_force": 200.0, "wrench_from": "momentum"},
+}  # fmt: skip
+#: Its wrench at step 99 and the sum of |wrench| over its first 100 steps, as v8 recorded.
+V8_STEP_99 = [-0.056735302478660196, 0.08059345155645253, -0.13269468392401773,
+              0.006950947199005118, 0.019249294299245268, 0.012914499454497784]  # fmt: skip
+V8_SUM_100 = 48.38568739151393
+
+
+@pytest.mark.slow
+def test_a_v8_spec_read_from_a_file_records_what_v8_recorded(tmp_path: Path) -> None:
+    """A spec saved before v9 (no simulator named) is v8's, and simulates bit for bit as
+    v8 did: its garment, grip, cloth and path are still there for old data."""
+    spec = TrialSpec.model_validate(V8_GOWN, context=RECORDED)
+    assert simulator_name(spec.sim) == "v8"
+    record_trial(spec, tmp_path / "v8.mcap")
+    with TrialReader(tmp_path / "v8.mcap") as trial:
+        wrench = trial.wrench.values[:100]
+    assert wrench[99].tolist() == V8_STEP_99
+    assert float(np.abs(wrench).sum()) == V8_SUM_100
+
+
+def test_record_and_the_library_default_to_one_simulator() -> None:
+    """One default: `random_spec` and `SimParams()` are what `record` records (v9)."""
+    assert simulator_name(random_spec(Task.GOWN, 1).sim) == "v9"
+    assert SimParams() == random_spec(Task.GOWN, 1, sim={"simulator": 9}).sim
+    v8 = random_spec(Task.GOWN, 1, sim={"simulator": 8})
+    assert (v8.sim.damping_stiffness, v8.sim.bending_stiffness) == (1.0, 2.0)
+    # v8 drew its offsets over the paper's numbers on our axes, v9 over its frame mapped
+    assert v8.limb_offset != random_spec(Task.GOWN, 1).limb_offset
+
+
+def _watch_gown(force: float, on: str, seconds: float, speed: float = 0.1) -> str | None:
+    limb = build_limb(Task.GOWN)
+    watch = CatchWatch(Task.GOWN, limb, 100)
+    names = limb.segment_names
+    where = {"fist": limb.spheres["fist"].center, "forearm": np.array([0.2, 0.0, -0.04])}
+    for _ in range(round(seconds * 100)):
+        watch.step(speed, force, where[on][None], np.array([names.index(on)]), np.array([1.0]))
+    return watch.finish()
+
+
+def test_a_catch_is_a_held_pull_on_a_catching_part() -> None:
+    """Held on the fist for 0.3 s while the gripper pulls with over 2 N: caught on the
+    fist. Shorter, weaker, with the gripper still, or on the forearm: no catch."""
+    assert _watch_gown(3.0, "fist", 0.5) == "fist"
+    assert _watch_gown(3.0, "fist", 0.2) is None
+    assert _watch_gown(1.0, "fist", 1.0) is None
+    assert _watch_gown(3.0, "fist", 1.0, speed=0.0) is None
+    assert _watch_gown(3.0, "forearm", 1.0) is None
+
+
+@pytest.mark.slow
+def test_a_caught_shorts_trial_names_the_foot_and_info_states_the_folders_fidelity(
+    tmp_path: Path,
+) -> None:
+    """A shorts trial whose leg opening holds on the foot while the gripper pulls is
+    caught there, in its metadata and in `info`; `info DATA` states the outcome mix,
+    where the force falls and the force scale beside the paper's."""
+    from dresslog.dataset import generate
+
+    spec = random_spec(Task.SHORTS, 7, limb_offset=(-0.038, -0.047, -0.039))
+    result = record_trial(spec, tmp_path / "caught.mcap")
+    assert (result.outcome.value, result.caught_on) == ("caught", "foot")
+    shown = CliRunner().invoke(main, ["info", str(tmp_path / "caught.mcap")])
+    assert "outcome caught on the foot" in shown.output
+    data = tmp_path / "d"
+    generate("shorts", 2, data, workers=2, test_fraction=1, overrides={"duration": 1.0},
+             progress=False)  # fmt: skip
+    shown = CliRunner().invoke(main, ["info", str(data)])
+    assert shown.exit_code == 0, shown.output
+    lines = shown.output.splitlines()
+    assert lines[3:5] == ["  fidelity  against the paper's dressing", lines[4]]
+    assert lines[4].startswith("  outcomes  ")
+    assert "(the all-zero RMSE; paper 0.102 N" in lines[5]
+    listed = json.loads(CliRunner().invoke(main, ["info", str(data), "--json"]).output)
+    assert listed["fidelity"]["trials_read"] == 2
+    assert listed["fidelity"]["paper_zero_rmse"] == 0.102
