@@ -65,6 +65,21 @@ def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
+def turned(data: Path) -> Path:
+    """3 more such trials (2 train, 1 test) of seed 1, at 0.2 m/s and the limb turned within
+    z +-15 deg: a second folder to train on, of other conditions."""
+    out = data.parent / "turned"
+    near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}
+    generate("gown", 3, out, workers=2, seed=1, test_fraction=1 / 3,
+             overrides={**near, "speed": 0.2}, rotation_range=TURNED)  # fmt: skip
+    return out
+
+
+#: The `turned` fixture's span of rotations.
+TURNED = RotationRange(axis="z", low=-15, high=15)
+
+
+@pytest.fixture(scope="module")
 def model(data: Path) -> Path:
     out = data.parent / "model"
     args = ["train", str(data), "-o", str(out), "--epochs", "2", "--hidden", "4", "--layers", "1"]
@@ -889,22 +904,21 @@ def test_a_fine_tuned_cards_signal_covers_the_initial_models_training_data_too(
 
 
 @pytest.mark.slow
-def test_train_pools_several_dataset_folders_of_one_task(data: Path, tmp_path: Path) -> None:
+def test_train_pools_several_dataset_folders_of_one_task(
+    data: Path, turned: Path, tmp_path: Path
+) -> None:
     """`train A B`: both training splits to learn from, both test splits to score on, and
     the card naming both; a folder given twice, or of the other task, is refused."""
-    near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05)}  # the `data` fixture's
-    other = tmp_path / "raised"
-    generate("gown", 3, other, workers=2, seed=1, test_fraction=1 / 3, overrides=near)
     out = tmp_path / "pooled"
-    code, output = invoke("train", data, other, "-o", out, "--epochs", "1", "--hidden", "4",
+    code, output = invoke("train", data, turned, "-o", out, "--epochs", "1", "--hidden", "4",
                           "--layers", "1", "-q")  # fmt: skip
     assert code == 0, output
     card = load_model(out).card
     assert (card.data.n_train, card.metrics["test_n_sequences"]) == (3 + 2, 1 + 1)
-    assert card.data.description == f"{data} + {other}"
-    hashes = [load_manifest(folder).content_hash() for folder in (data, other)]
+    assert card.data.description == f"{data} + {turned}"
+    hashes = [load_manifest(folder).content_hash() for folder in (data, turned)]
     assert card.data.manifest_sha256 == hashlib.sha256(" ".join(hashes).encode()).hexdigest()
-    code, output = invoke("train", data, other, data, "-o", tmp_path / "m")
+    code, output = invoke("train", data, turned, data, "-o", tmp_path / "m")
     assert (code, output) == (
         1,
         f"Error: {data}: is given twice; give each dataset folder once\n",
@@ -948,16 +962,13 @@ def test_a_model_of_balanced_wrenches_is_swept_and_scored_on_its_own_kind(tmp_pa
 
 @pytest.mark.slow
 def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuning(
-    data: Path, tmp_path: Path
+    data: Path, turned: Path, tmp_path: Path
 ) -> None:
     """A model fine-tuned for a span of rotations named its folders only by path: `sweep`
     shaded the gown's default speeds whatever it was trained on, and could not show the
     span, nor `info` what the trials held."""
     near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}  # the `data` fixture's
-    turned = tmp_path / "turned"
-    span = RotationRange(axis="z", low=-15, high=15)
-    generate("gown", 3, turned, workers=2, seed=1, test_fraction=1 / 3,
-             overrides={**near, "speed": 0.2}, rotation_range=span)  # fmt: skip
+    span = TURNED
     pooled = tmp_path / "pooled"
     train_dataset([data, turned], pooled, epochs=1, hidden=4, layers=1, progress=False)
     folders = load_model(pooled).card.data.folders
