@@ -116,6 +116,8 @@ def start_mypy() -> subprocess.Popen[str]:
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Start mypy, the suite's slowest check from a cold cache, when the run includes it:
     it type-checks on the second core while the tests before `test_lint.py` run."""
+    if session.config.option.collectonly:
+        return
     if any(item.nodeid.endswith("test_lint.py::test_mypy_is_clean") for item in session.items):
         session.config.stash[mypy_run] = start_mypy()
 
