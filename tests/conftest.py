@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
+import os
+import subprocess
+import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -77,3 +82,49 @@ def make_trial(tmp_path: Path) -> Callable[..., tuple[Path, dict]]:
         return path, write_synthetic_trial(path, task, steps)
 
     return make
+
+
+#: The run of mypy that `tests/test_lint.py::test_mypy_is_clean` reads.
+mypy_run = pytest.StashKey[subprocess.Popen[str]]()
+
+
+def mypy_cache() -> Path:
+    """mypy's incremental cache, kept across runs and checkouts of this environment.
+
+    The checkout's own `.mypy_cache` is new in every fresh clone (CI's), where mypy spent
+    20-50 s reading torch's and numpy's hints again. mypy checks each cached module against
+    its source, so a cache shared by checkouts re-checks only what differs; one per Python
+    environment and user keeps venvs of other packages from overwriting each other's.
+    """
+    user = os.getuid() if hasattr(os, "getuid") else 0  # a shared /tmp; Windows' is the user's
+    key = hashlib.sha256(f"{sys.prefix}\0{user}".encode()).hexdigest()[:16]
+    return Path(tempfile.gettempdir()) / f"dresslog-mypy-{key}"
+
+
+def start_mypy() -> subprocess.Popen[str]:
+    """mypy on the package (files and settings: pyproject.toml), running; output on stdout."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "mypy", "--cache-dir", str(mypy_cache())],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,  # no test's signal to its own process group reaches it
+    )
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """Start mypy, the suite's slowest check from a cold cache, when the run includes it:
+    it type-checks on the second core while the tests before `test_lint.py` run."""
+    if session.config.option.collectonly:
+        return
+    if any(item.nodeid.endswith("test_lint.py::test_mypy_is_clean") for item in session.items):
+        session.config.stash[mypy_run] = start_mypy()
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """A run stopped before the mypy test (-x, Ctrl-C) leaves no mypy behind."""
+    process = session.config.stash.get(mypy_run, None)
+    if process is not None and process.poll() is None:
+        process.kill()
+        process.communicate()

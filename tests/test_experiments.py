@@ -20,7 +20,7 @@ import matplotlib.image
 import matplotlib.pyplot
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 
 from dresslog.cli.main import main
 from dresslog.dataset import Manifest, generate, load_dataset, load_manifest
@@ -65,6 +65,21 @@ def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
+def turned(data: Path) -> Path:
+    """3 more such trials (2 train, 1 test) of seed 1, at 0.2 m/s and the limb turned within
+    z +-15 deg: a second folder to train on, of other conditions."""
+    out = data.parent / "turned"
+    near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}
+    generate("gown", 3, out, workers=2, seed=1, test_fraction=1 / 3,
+             overrides={**near, "speed": 0.2}, rotation_range=TURNED)  # fmt: skip
+    return out
+
+
+#: The `turned` fixture's span of rotations.
+TURNED = RotationRange(axis="z", low=-15, high=15)
+
+
+@pytest.fixture(scope="module")
 def model(data: Path) -> Path:
     out = data.parent / "model"
     args = ["train", str(data), "-o", str(out), "--epochs", "2", "--hidden", "4", "--layers", "1"]
@@ -90,6 +105,38 @@ def lines(output: str) -> list[str]:
     """`output`'s lines but the warning that no sequence carries force, which a sweep of
     0.3 s sequences (ended before the garment reaches the arm) gives."""
     return [line for line in output.splitlines() if "carries force on the limb" not in line]
+
+
+@pytest.fixture(scope="module")
+def swept(model: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int, str]:
+    """`dresslog sweep` of the `model` fixture without -o (into MODEL-sweep in the current
+    folder), of in-range, speed:0.2 and rot:z:10, 2 sequences of 0.3 s each: its folder,
+    exit code and output. Simulated once for the tests that read it; one that sweeps on
+    copies it."""
+    here = tmp_path_factory.mktemp("swept")
+    with pytest.MonkeyPatch.context() as patch, warnings.catch_warnings():
+        patch.chdir(here)
+        warnings.filterwarnings("ignore", ".*carries force on the limb", DresslogWarning)
+        code, output = invoke(
+            "sweep", model, "--speeds", "0.2", "--rotations", "z:10", "-n", "2",
+            "--duration", "0.3", "--workers", "2", "-q",
+        )  # fmt: skip
+    return here / f"{model.name}-sweep", code, output
+
+
+@pytest.fixture(scope="module")
+def sample_swept(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Result]:
+    """The bundled gown model swept over in-range, speed:0.2 and rot:z:10, 1 sequence of
+    0.3 s each (too short to reach the arm): its folder and `dresslog sweep`'s result, the
+    warning of no force printed. Simulated once; a test that sweeps on copies the folder."""
+    out = tmp_path_factory.mktemp("sample-swept") / "sweep"
+    args = ["sweep", str(SAMPLES / "models" / "gown"), "--speeds", "0.2", "--rotations", "z:10"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("default", DresslogWarning)  # printed, as in a user's shell
+        result = CliRunner().invoke(
+            main, [*args, "-n", "1", "--duration", "0.3", "--workers", "1", "-q", "-o", str(out)]
+        )
+    return out, result
 
 
 @pytest.mark.slow
@@ -460,16 +507,15 @@ def test_eval_says_why_an_outcomes_ratio_is_nan_when_that_outcome_has_no_force(
     assert missed["n"] == 1 and missed["zero_rmse"] == 0 and missed["ratio"] is None
 
 
-@prints_warnings
-def test_sweep_says_why_its_ratios_are_nan_when_no_sequence_has_force(tmp_path: Path) -> None:
+def test_sweep_says_why_its_ratios_are_nan_when_no_sequence_has_force(
+    sample_swept: tuple[Path, Result],
+) -> None:
     """As eval: sweep's table printed nan in both ratio columns, unexplained."""
-    model, out = SAMPLES / "models" / "gown", tmp_path / "sweep"
-    args = ["sweep", str(model), "--speeds", "0.2", "-n", "1", "--duration", "0.3"]
-    result = CliRunner().invoke(main, [*args, "--workers", "1", "-q", "-o", str(out)])
+    out, result = sample_swept
     assert result.exit_code == 0, result.output
     assert result.stdout.splitlines()[1].split()[-2:] == ["nan", "nan"]  # in-range
     assert result.stderr == (
-        f"Warning: {out}: no sweep sequence of in-range, speed:0.2 carries force on the "
+        f"Warning: {out}: no sweep sequence of in-range, speed:0.2, rot:z:10 carries force on the "
         "limb, so the all-zero RMSE is 0 and the ratio to it is not a number (nan), as is "
         "x in-range, the in-range RMSE being 0 too; sweep longer sequences (--duration)\n"
     )
@@ -478,14 +524,10 @@ def test_sweep_says_why_its_ratios_are_nan_when_no_sequence_has_force(tmp_path: 
 @pytest.mark.slow
 @short_sequences
 def test_sweep_writes_a_table_and_a_plot(
-    model: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    model: Path, swept: tuple[Path, int, str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.chdir(tmp_path)  # without -o: MODEL-sweep here, not beside the model
-    out = tmp_path / f"{model.name}-sweep"
-    code, output = invoke(
-        "sweep", model, "--speeds", "0.2", "--rotations", "z:10", "-n", "2",
-        "--duration", "0.3", "--workers", "2", "-q",
-    )  # fmt: skip
+    out, code, output = swept  # without -o: MODEL-sweep in the current folder
+    monkeypatch.chdir(out.parent)
     assert code == 0, output
     assert "trained at speeds 0.1-0.15 m/s, the limb never turned\n" in output  # the card's
     assert f"wrote {model.name}-sweep: sweep.csv, sweep.json and sweep.png" in output
@@ -572,16 +614,14 @@ def test_a_sweep_of_longer_sequences_than_the_training_says_so(model: Path, tmp_
 @pytest.mark.slow
 @prints_warnings
 def test_a_sweep_run_again_with_other_values_tables_every_complete_setting(
-    model: Path, tmp_path: Path
+    model: Path, swept: tuple[Path, int, str], tmp_path: Path
 ) -> None:
     """The table, JSON and plot held only the settings of the last run, the others'
     folders left on disk unsaid."""
     out = tmp_path / "sweep"
+    shutil.copytree(swept[0], out)  # a first run: speed 0.2, rotation z:10, 2 of 0.3 s
+    assert swept[1] == 0, swept[2]
     common = ["--duration", "0.3", "--workers", "2", "-q", "-o", out]
-    code, output = invoke(
-        "sweep", model, "--speeds", "0.2", "--rotations", "z:10", "-n", "2", *common
-    )
-    assert code == 0, output
     code, output = invoke("sweep", model, "--speeds", "0.15", "-n", "2", *common)
     assert code == 0 and "Warning" not in "".join(lines(output)), output
     names = ["in-range", "speed:0.15", "speed:0.2", "rot:z:10"]
@@ -602,13 +642,16 @@ def test_a_sweep_run_again_with_other_values_tables_every_complete_setting(
 
 @pytest.mark.slow
 @prints_warnings
-def test_a_damaged_earlier_sweep_setting_is_left_out_and_named_not_fatal(tmp_path: Path) -> None:
+def test_a_damaged_earlier_sweep_setting_is_left_out_and_named_not_fatal(
+    sample_swept: tuple[Path, Result], tmp_path: Path
+) -> None:
     """A corrupt trial in an earlier run's setting stopped the new sweep with "run `dresslog
     generate` on the folder again" (which refuses a sweep's folder), and a missing one was
     called "not 1 complete sequences" beside "(1/1 sweep)"."""
     model, out = SAMPLES / "models" / "gown", tmp_path / "sweep"
+    shutil.copytree(sample_swept[0], out)  # a first run: speed 0.2, rotation z:10
     common = ["-n", "1", "--duration", "0.3", "--workers", "1", "-q", "-o", out]
-    code, output = invoke("sweep", model, "--speeds", "0.2,0.25", "--rotations", "z:10", *common)
+    code, output = invoke("sweep", model, "--speeds", "0.25", *common)  # an intact one
     assert code == 0, output
     trial = out / "speed_0.2" / "sweep" / "000000.mcap"
     data = bytearray(trial.read_bytes())
@@ -637,14 +680,13 @@ def test_a_damaged_earlier_sweep_setting_is_left_out_and_named_not_fatal(tmp_pat
 @pytest.mark.slow
 @short_sequences
 def test_the_sweep_table_lists_settings_by_kind_axis_and_value_as_the_plot_does(
-    tmp_path: Path,
+    sample_swept: tuple[Path, Result], tmp_path: Path
 ) -> None:
-    """Rows came in the order asked, this run's before earlier runs': 0.25, 0.2, 0.15."""
+    """Rows came in the order asked, this run's before earlier runs': 0.25, 0.15, 0.2."""
     model, out = SAMPLES / "models" / "gown", tmp_path / "sweep"
+    shutil.copytree(sample_swept[0], out)  # a first run: speed 0.2, rotation z:10
     common = ["-n", "1", "--duration", "0.3", "--workers", "1", "-q", "-o", out]
-    code, output = invoke("sweep", model, "--speeds", "0.15", "--rotations", "z:10", *common)
-    assert code == 0, output
-    code, output = invoke("sweep", model, "--speeds", "0.25,0.2", "--rotations", "y:-5", *common)
+    code, output = invoke("sweep", model, "--speeds", "0.25,0.15", "--rotations", "y:-5", *common)
     assert code == 0, output
     names = ["in-range", "speed:0.15", "speed:0.2", "speed:0.25", "rot:y:-5", "rot:z:10"]
     assert [row.split()[0] for row in lines(output)[1:7]] == names, output
@@ -866,22 +908,21 @@ def test_a_fine_tuned_cards_signal_covers_the_initial_models_training_data_too(
 
 
 @pytest.mark.slow
-def test_train_pools_several_dataset_folders_of_one_task(data: Path, tmp_path: Path) -> None:
+def test_train_pools_several_dataset_folders_of_one_task(
+    data: Path, turned: Path, tmp_path: Path
+) -> None:
     """`train A B`: both training splits to learn from, both test splits to score on, and
     the card naming both; a folder given twice, or of the other task, is refused."""
-    near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05)}  # the `data` fixture's
-    other = tmp_path / "raised"
-    generate("gown", 3, other, workers=2, seed=1, test_fraction=1 / 3, overrides=near)
     out = tmp_path / "pooled"
-    code, output = invoke("train", data, other, "-o", out, "--epochs", "1", "--hidden", "4",
+    code, output = invoke("train", data, turned, "-o", out, "--epochs", "1", "--hidden", "4",
                           "--layers", "1", "-q")  # fmt: skip
     assert code == 0, output
     card = load_model(out).card
     assert (card.data.n_train, card.metrics["test_n_sequences"]) == (3 + 2, 1 + 1)
-    assert card.data.description == f"{data} + {other}"
-    hashes = [load_manifest(folder).content_hash() for folder in (data, other)]
+    assert card.data.description == f"{data} + {turned}"
+    hashes = [load_manifest(folder).content_hash() for folder in (data, turned)]
     assert card.data.manifest_sha256 == hashlib.sha256(" ".join(hashes).encode()).hexdigest()
-    code, output = invoke("train", data, other, data, "-o", tmp_path / "m")
+    code, output = invoke("train", data, turned, data, "-o", tmp_path / "m")
     assert (code, output) == (
         1,
         f"Error: {data}: is given twice; give each dataset folder once\n",
@@ -925,16 +966,13 @@ def test_a_model_of_one_simulator_is_swept_and_scored_on_its_own(tmp_path: Path)
 
 @pytest.mark.slow
 def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuning(
-    data: Path, tmp_path: Path
+    data: Path, turned: Path, tmp_path: Path
 ) -> None:
     """A model fine-tuned for a span of rotations named its folders only by path: `sweep`
     shaded the gown's default speeds whatever it was trained on, and could not show the
     span, nor `info` what the trials held."""
     near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}  # the `data` fixture's
-    turned = tmp_path / "turned"
-    span = RotationRange(axis="z", low=-15, high=15)
-    generate("gown", 3, turned, workers=2, seed=1, test_fraction=1 / 3,
-             overrides={**near, "speed": 0.2}, rotation_range=span)  # fmt: skip
+    span = TURNED
     pooled = tmp_path / "pooled"
     train_dataset([data, turned], pooled, epochs=1, hidden=4, layers=1, progress=False)
     folders = load_model(pooled).card.data.folders

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import importlib
 import re
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from pathlib import Path
 
 import numpy as np
@@ -274,23 +274,38 @@ def test_a_garment_flying_apart_stops_the_trial_after_the_steps_before_it(monkey
     assert t > 0 and [s.index for s in sink.steps] == list(range(round(t * 100)))
 
 
-def _outcome(args: tuple[str, int]) -> str:
-    return simulate(random_spec(args[0], args[1])).outcome.value
+def _dressed(task: Task, seed: int) -> bool:
+    return simulate(random_spec(task, seed)).outcome is Outcome.DRESSED
 
 
-@pytest.mark.parametrize("task", list(Task))
-def test_the_first_random_seeds_include_dressed_and_not_dressed(task: Task) -> None:
-    """Of at most 20 seeds; stops as soon as both have come up (seed 4 for the gown)."""
-    dressed: set[bool] = set()
-    pool = ProcessPoolExecutor(2)
-    try:
-        for future in [pool.submit(_outcome, (task.value, s)) for s in range(20)]:
-            dressed.add(future.result() == Outcome.DRESSED.value)
-            if len(dressed) == 2:
-                break
-    finally:
-        pool.shutdown(cancel_futures=True)
-    assert dressed == {True, False}
+#: Seeds that gave both outcomes when the survey was written, tried first so that it ends
+#: soonest; the rest of the first 20 follow in order, so a simulator that changes them costs
+#: the survey time, not its verdict.
+LIKELY = {Task.GOWN: (4, 0), Task.SHORTS: (0, 1)}
+
+
+def test_the_first_random_seeds_include_dressed_and_not_dressed() -> None:
+    """Of each task's first 20 seeds, one is dressed and one not. Both tasks' 7 s trials share
+    the pool, two at a time; a task runs no more at once than it still needs outcomes, and
+    stops as soon as both have come up."""
+    seen: dict[Task, set[bool]] = {task: set() for task in Task}
+    queue = {
+        task: [*LIKELY[task], *(s for s in range(20) if s not in LIKELY[task])] for task in Task
+    }
+    running: dict[Future[bool], Task] = {}
+    with ProcessPoolExecutor(2) as pool:
+        while any(len(dressed) < 2 for dressed in seen.values()):
+            for task in Task:
+                busy = sum(t is task for t in running.values())
+                while queue[task] and len(running) < 2 and busy < 2 - len(seen[task]):
+                    running[pool.submit(_dressed, task, queue[task].pop(0))] = task
+                    busy += 1
+            if not running:
+                break  # every seed tried
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                seen[running.pop(future)].add(future.result())
+    assert seen == {task: {True, False} for task in Task}
 
 
 @pytest.mark.parametrize(
