@@ -281,7 +281,7 @@ def _dressed(task: Task, seed: int) -> bool:
 #: Seeds that gave both outcomes when the survey was written, tried first so that it ends
 #: soonest; the rest of the first 20 follow in order, so a simulator that changes them costs
 #: the survey time, not its verdict.
-LIKELY = {Task.GOWN: (4, 0), Task.SHORTS: (0, 1)}
+LIKELY = {Task.GOWN: (2, 4), Task.SHORTS: (3, 0)}
 
 
 def test_the_first_random_seeds_include_dressed_and_not_dressed() -> None:
