@@ -454,7 +454,8 @@ def test_a_signal_far_from_the_training_data_is_warned_about_with_its_likely_cau
     warning = said["untared"]
     assert warning.startswith(f"Warning: {tmp_path / 'untared.mcap'}: fz lies beyond 10 ")
     share = re.search(r"on (\d+)% of steps \(median there (\S+) N", warning)
-    assert share and int(share[1]) >= 90 and float(share[2]) < -10, warning
+    # v9's gown pulls with up to 10 N, so a 15 N offset lies 10 SD away on a fifth of steps
+    assert share and int(share[1]) >= 15 and float(share[2]) < -10, warning
     assert "convert --tare" in warning
     assert len(warning.strip().splitlines()) == 1
 
@@ -548,10 +549,13 @@ def test_a_log_in_another_robots_axes_is_warned_about_and_rotate_puts_it_right(
         assert result.exit_code == 0, result.output
         said[name] = result.stderr
     assert "Warning" not in said["rotated"], said["rotated"]
-    assert said["turned"].startswith(f"Warning: {tmp_path / 'turned.mcap'}: 0% of the gripper's")
-    assert "training trials' way (-1.00, 0.00, 0.01); it moves mostly along (" in said["turned"]
+    # its forearm stroke turned aside, its rise still up: most of it one way, far off
+    assert re.match(rf"Warning: {re.escape(str(tmp_path / 'turned.mcap'))}: \d+% of the "
+                    "gripper's moving steps head within 60 degrees", said["turned"])  # fmt: skip
+    assert "training trials' way (-0.8" in said["turned"]
     mostly = re.search(r"mostly along \((\S+), (\S+), (\S+)\)", said["turned"])
-    assert mostly and float(mostly[2]) < -0.95  # the turned log's -y: the trials' -x, turned
+    # the turned log's -y (the trials' -x, turned) with the rise up the arm
+    assert mostly and float(mostly[2]) < -0.7 and abs(float(mostly[1])) < 0.1
 
 
 def test_a_log_that_returns_the_way_it_came_is_not_taken_for_one_in_other_axes() -> None:

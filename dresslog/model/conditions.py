@@ -17,6 +17,7 @@ from typing import Any
 from dresslog.model.files import ModelCard
 from dresslog.spec import (
     OFFSET_RANGES,
+    SIMULATORS,
     SPEED_RANGE,
     LimbRotation,
     RotationRange,
@@ -146,8 +147,8 @@ def folder_conditions(
     task: Task, overrides: Mapping[str, Any] | None, rotation_range: RotationRange | None
 ) -> Conditions:
     """The conditions of one folder's trials from what its manifest fixed and drew. None
-    for `overrides` (a card before format 4, as the bundled models') reads as `generate`'s
-    defaults: speeds drawn over the task's range, no rotation."""
+    for `overrides` (a card before format 4, or one made by hand) reads as `generate`'s
+    defaults: speeds drawn over the task's range, no rotation, the current simulator."""
     fixed = overrides or {}
     speed = fixed.get("speed")
     rotations: list[Turn] = []
@@ -157,7 +158,9 @@ def folder_conditions(
             rotations.append((turned.axis, turned.degrees, turned.degrees))
     if rotation_range is not None:
         rotations.append((rotation_range.axis, rotation_range.low, rotation_range.high))
-    simulator = simulator_in(fixed)
+    # a card that names no folder's fields (before format 4, or made by hand) cannot
+    # say; it reads as `generate`'s defaults, the current simulator's
+    simulator = SIMULATORS[0] if overrides is None else simulator_in(fixed)
     if (offset := fixed.get("limb_offset")) is None:  # drawn over its simulator's ranges
         box = tuple((-r, r) for r in OFFSET_RANGES[9 if simulator == "v9" else 8][task])
     else:
