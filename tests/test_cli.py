@@ -114,7 +114,7 @@ def test_info_json_is_machine_readable(make_trial) -> None:
 @pytest.mark.slow
 def test_record_makes_the_readme_trial_and_never_replaces_a_file_unasked(tmp_path: Path) -> None:
     out = tmp_path / "trial.mcap"
-    args = ["record", "--task", "gown", "--seed", "4", "-o", str(out)]
+    args = ["record", "--task", "gown", "--seed", "42", "-o", str(out)]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 0, result.output
     assert result.output.startswith("outcome=") and "steps=700" in result.output

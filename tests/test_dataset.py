@@ -210,12 +210,12 @@ def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
         generate("shorts", 2, tmp_path, workers=1, recorder=FAKE)
     with pytest.raises(
         DatasetError,
-        match=r"fields none fixed \(no --duration, --speed or --rotation\), not duration=0\.5",
+        match=r"fields sim=\{'simulator': 9\}, not duration=0\.5, sim=\{'simulator': 9\}",
     ):
         generate("gown", 2, tmp_path, workers=1, overrides={"duration": 0.5}, recorder=FAKE)
     with pytest.raises(
         DatasetError,
-        match=r"fields duration=0\.5, not none fixed \(no --duration, --speed or --rotation\)",
+        match=r"fields duration=0\.5, sim=\{'simulator': 9\}, not sim=\{'simulator': 9\}",
     ):
         short = {"workers": 1, "test_fraction": 0, "recorder": FAKE}
         generate("gown", 2, tmp_path / "short", overrides={"duration": 0.5}, **short)

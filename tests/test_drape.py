@@ -9,16 +9,26 @@ from dresslog.spec import SimParams, Task
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task", list(Task))
-def test_a_hung_garment_collapses_and_comes_to_rest(task: Task) -> None:
-    """The opening the gripper pinches (armhole, waist) falls to half its width or less
-    within 2 s, the free opening narrows too, and after 3 s the cloth swings slowly
-    from the pinch with no jitter (its fastest node accelerates at well under 1 m/s^2)."""
-    h = hang(task, seconds=3.0)
+def test_a_hung_gown_folds_and_comes_to_rest() -> None:
+    """The sleeve's free cuff narrows by a fifth within 2 s and by a third by 4 s (the
+    wide pinch at the shoulder seam holds the armhole open, at 0.8 of its width), and
+    then the cloth swings slowly from the pinch with no jitter: its fastest node
+    accelerates at well under 1 m/s^2."""
+    h = hang(Task.GOWN, seconds=4.0)
+    assert h.shrunk(2.0, free=True) < 0.8
+    assert h.shrunk(4.0, free=True) < 0.67
+    assert h.shrunk(2.0) < 0.85
+    assert h.end_speed < 0.15 and h.end_accel < 0.5
+
+
+@pytest.mark.slow
+def test_hung_shorts_fold_and_come_to_rest() -> None:
+    """The waist the gripper pinches falls to half its width or less within 2 s and the
+    free leg opening narrows by a quarter; the cloth then hangs still."""
+    h = hang(Task.SHORTS, seconds=3.0)
     assert h.shrunk(2.0) < 0.55
     assert min(h.shrunk(t, free=True) for t in (0.5, 1.0, 1.5, 2.0)) < 0.8
-    assert h.end_speed < 0.15
-    assert h.end_accel < 0.5
+    assert h.end_speed < 0.15 and h.end_accel < 0.5
 
 
 @pytest.mark.slow
