@@ -21,6 +21,12 @@ from dresslog.trial import CONTACT_DTYPE, LimbPoints
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "samples"
 
+#: torch's OpenMP threads sleep between parallel regions instead of spinning (its numbers do
+#: not change). Spinning, an idle thread held a core from the thread with the work whenever
+#: another process wanted one: test_model.py took 64-81 s beside a 2-worker generation on
+#: 2 cores, 5-6 s so. Set before torch is first imported, by a test or a spawned worker.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 N_POINTS = {Task.GOWN: 300, Task.SHORTS: 400}
 
 #: For a test of the `Warning: ...` line a command prints: the suite makes a DresslogWarning
