@@ -220,7 +220,8 @@ def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: P
         train(phis, forces, checkpoint=ckpt, **{**kwargs, "hidden": 7})
 
 
-def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Path):
+def _interrupted_run(tmp_path: Path) -> tuple[list, list, dict, Path]:
+    """A small run stopped after its first epoch: its data, options and checkpoint."""
     phis, forces = synthetic(8, seed=2, n_points=4)
     kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
 
@@ -230,6 +231,11 @@ def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Pa
     ckpt = tmp_path / "run.ckpt"
     with pytest.raises(KeyboardInterrupt):
         train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
+    return phis, forces, kwargs, ckpt
+
+
+def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Path):
+    phis, forces, kwargs, ckpt = _interrupted_run(tmp_path)
     # the checkpoint's weights carry its input statistics: resuming would silently keep them
     with pytest.raises(ModelError, match=r"\(it had no --normalise, this run --normalise\)"):
         train(phis, forces, checkpoint=ckpt, normalise=True, **kwargs)
@@ -252,15 +258,7 @@ def test_a_checkpoint_holding_nan_weights_is_refused_not_resumed(tmp_path: Path)
     from safetensors import safe_open
     from safetensors.torch import save_file
 
-    phis, forces = synthetic(8, seed=2, n_points=4)
-    kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
-
-    def stop(record: EpochRecord) -> None:
-        raise KeyboardInterrupt
-
-    ckpt = tmp_path / "run.ckpt"
-    with pytest.raises(KeyboardInterrupt):
-        train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
+    phis, forces, kwargs, ckpt = _interrupted_run(tmp_path)
     with safe_open(str(ckpt), framework="pt") as stream:
         metadata = stream.metadata()
         tensors = {name: stream.get_tensor(name) for name in stream.keys()}  # noqa: SIM118
