@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -115,6 +116,11 @@ def train_dataset(
                 "the model can only learn to estimate none",
                 "generate longer trials (--duration)",
             )
+        # torch's OpenMP threads spinning while they wait took the cores a job beside the
+        # training needs (a generation, the tests): it ran ten times slower. Waiting
+        # passively costs nothing alone; read when torch loads, so set before; a user's
+        # own setting wins.
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
         from dresslog.model.train import make_card, train  # torch once the data checks out
 
         weights, history = train(
