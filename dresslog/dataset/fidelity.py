@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.io.reader import TrialReader
+from dresslog.sim.outcome import MOVING  # "while the gripper moves", as a catch counts it
 from dresslog.spec import Outcome, Task
+from dresslog.trial import STEP_HZ
 
 #: The paper's all-zero RMSE per task, N (Sec. V-A): the force scale of its trials.
 PAPER_ZERO_RMSE = {Task.GOWN: 0.0148, Task.SHORTS: 0.102}
-#: Gripper speed (m/s) above which it is pulling.
-MOVING = 0.01
 #: Trials read at most, spread evenly over the folder: the figures settle well before.
 MAX_READ = 200
 
@@ -50,7 +50,7 @@ def trial_figures(path: str | Path) -> TrialFigures:
     if forces is None or points is None:
         return TrialFigures(meta.outcome, meta.caught_on, 0.0, {}, 0.0)
     f = forces.forces.astype(np.float64)
-    dt = 1.0 / max(len(f), 1) if len(f) < 2 else float(np.median(np.diff(forces.t_ns))) / 1e9
+    dt = 1.0 / STEP_HZ  # a dataset's trials are all recorded at it
     per_part = np.zeros((len(f), len(points.segment_names)))
     for i in range(len(points.segment_names)):
         per_part[:, i] = f[:, points.segment == i].sum(axis=1)

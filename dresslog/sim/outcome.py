@@ -112,10 +112,11 @@ class CatchWatch:
     _run: int = 0
     _run_parts: dict[str, float] = field(default_factory=dict)
     _holds: list[tuple[int, dict[str, float]]] = field(default_factory=list)
-    _names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        self._names = self.limb.segment_names
+        catch = CATCH_PARTS[self.task]
+        # each limb part's catch name ("" for none), looked up once, indexed per step
+        self._labels = np.array([catch.get(n, "") for n in self.limb.segment_names], object)
         self._elbow = self.limb.spheres["elbow"].center if self.task is Task.GOWN else None
 
     def step(
@@ -123,8 +124,9 @@ class CatchWatch:
         mags: np.ndarray,
     ) -> None:  # fmt: skip
         """One recorded step: gripper speed and force, the contacts' places, parts, forces."""
-        part = self._held_on(positions, segments, mags) if speed > MOVING else None
-        if part is not None and force > CAUGHT_FORCE:
+        pulling = speed > MOVING and force > CAUGHT_FORCE
+        part = self._held_on(positions, segments, mags) if pulling else None
+        if part is not None:
             self._run += 1
             self._run_parts[part] = self._run_parts.get(part, 0.0) + force
             return
@@ -134,9 +136,7 @@ class CatchWatch:
         total = float(mags.sum())
         if total <= 0:
             return None
-        names = np.array([self._names[i] for i in segments])
-        catch = CATCH_PARTS[self.task]
-        labels = np.array([catch.get(n, "") for n in names], dtype=object)
+        labels = self._labels[segments]  # a copy: the elbow's reach is marked on it
         if self._elbow is not None:
             near = np.linalg.norm(positions - self._elbow, axis=1) < ELBOW_REACH
             labels[near & (labels == "")] = "elbow"
