@@ -7,8 +7,9 @@ import os
 import subprocess
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -79,6 +80,45 @@ def write_synthetic_trial(path: Path, task: Task = Task.GOWN, steps: int = 50) -
         "contacts": contacts, "limb": limb, "vertices": vertices, "triangles": triangles,
         "spec": spec,
     }  # fmt: skip
+
+
+#: One message as `write_mcap` writes it: its channel's key (one channel per key), the
+#: mcap Schema, the topic, log time, payload and publish time.
+McapRow = tuple[object, Any, str, int, bytes, int]
+
+
+def mcap_records(path: Path) -> tuple[list[tuple[Any, Any, Any]], list[tuple[str, dict]]]:
+    """Every (schema, channel, message) of an MCAP file in file order, and its metadata
+    records as (name, values): what a test rewrites with a hostile or merging tool."""
+    from mcap.reader import make_reader
+
+    with path.open("rb") as stream:
+        reader = make_reader(stream)
+        messages = list(reader.iter_messages())
+        metadata = [(m.name, m.metadata) for m in reader.iter_metadata()]
+    return messages, metadata
+
+
+def write_mcap(
+    out: Path, library: str, rows: Iterable[McapRow], metadata: list[tuple[str, dict]]
+) -> Path:
+    """`rows` and `metadata` written by mcap's own writer (profile ros2, cdr), which
+    writes what dresslog's writer refuses to."""
+    from mcap.writer import Writer
+
+    with out.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library=library)
+        channels: dict[object, int] = {}
+        for key, schema, topic, log_time, data, publish_time in rows:
+            if key not in channels:
+                sid = writer.register_schema(schema.name, schema.encoding, schema.data)
+                channels[key] = writer.register_channel(topic, "cdr", sid)
+            writer.add_message(channels[key], log_time, data, publish_time)
+        for name, values in metadata:
+            writer.add_metadata(name, values)
+        writer.finish()
+    return out
 
 
 @pytest.fixture

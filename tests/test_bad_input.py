@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +19,7 @@ from dresslog.io import well_known as wk
 from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader
 from dresslog.spec import Task, TrialMetadata
-from tests.conftest import SAMPLES, prints_warnings
+from tests.conftest import SAMPLES, McapRow, mcap_records, prints_warnings, write_mcap
 
 
 def _raw_mcap(
@@ -614,31 +614,19 @@ def test_json_nesting_is_measured_without_recursion() -> None:
 def _rewritten(good: Path, out: Path, topic: str, index: int, field: str, value: int) -> Path:
     """`good` with the length field `field` of message `index` of `topic` set to `value`,
     written again by mcap's own writer (ours would not write it)."""
-    from mcap.reader import make_reader
+    messages, metadata = mcap_records(good)
 
-    with good.open("rb") as stream:
-        reader = make_reader(stream)
-        messages = list(reader.iter_messages())
-        metadata = [(m.name, m.metadata) for m in reader.iter_metadata()]
-    with out.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="ros2", library="a hostile tool")
-        channels: dict[str, int] = {}
+    def rows() -> Iterator[McapRow]:
         seen = 0
         for schema, channel, message in messages:
-            if channel.topic not in channels:
-                sid = writer.register_schema(schema.name, schema.encoding, schema.data)
-                channels[channel.topic] = writer.register_channel(channel.topic, "cdr", sid)
             data = message.data
             if channel.topic == topic and (seen := seen + 1) == index + 1:
                 layout = cdr.layout(schema.name, cdr.sizes_of(schema.name, data))
                 at = layout.fields[f"{field}.len"][1]
                 data = data[:at] + value.to_bytes(4, "little") + data[at + 4 :]
-            writer.add_message(channels[channel.topic], message.log_time, data, message.log_time)
-        for name, values in metadata:
-            writer.add_metadata(name, values)
-        writer.finish()
-    return out
+            yield channel.topic, schema, channel.topic, message.log_time, data, message.log_time
+
+    return write_mcap(out, "a hostile tool", rows(), metadata)
 
 
 LENGTHS = [  # (topic, length field, what the error says of it)

@@ -16,6 +16,7 @@ from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
+from tests.conftest import mcap_records, write_mcap
 
 SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 
@@ -579,28 +580,14 @@ def test_standard_schemas_are_ros2s_own_with_their_defaults(name: str) -> None:
 
 def _rewritten_raw(good: Path, out: Path, order: np.ndarray, split: str | None = None) -> Path:
     """`good`'s messages by mcap's own writer in `order`; `split`'s on two channels."""
-    from mcap.reader import make_reader
-    from mcap.writer import Writer
-
-    with good.open("rb") as stream:
-        reader = make_reader(stream)
-        messages = list(reader.iter_messages())
-        metadata = [(m.name, m.metadata) for m in reader.iter_metadata()]
-    with out.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="ros2", library="a merging tool")
-        channels: dict[tuple[str, int], int] = {}
-        for i in order:
-            schema, channel, message = messages[i]
-            key = (channel.topic, i % 2 if channel.topic == split else 0)
-            if key not in channels:
-                sid = writer.register_schema(schema.name, schema.encoding, schema.data)
-                channels[key] = writer.register_channel(channel.topic, "cdr", sid)
-            writer.add_message(channels[key], message.log_time, message.data, message.publish_time)
-        for name, values in metadata:
-            writer.add_metadata(name, values)
-        writer.finish()
-    return out
+    messages, metadata = mcap_records(good)
+    rows = []
+    for i in order:
+        schema, channel, message = messages[i]
+        key = (channel.topic, i % 2 if channel.topic == split else 0)
+        rows.append((key, schema, channel.topic, message.log_time, message.data,
+                     message.publish_time))  # fmt: skip
+    return write_mcap(out, "a merging tool", rows, metadata)
 
 
 @pytest.mark.parametrize("shuffled", [False, True], ids=["merged", "merged-and-shuffled"])
