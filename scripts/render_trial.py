@@ -21,6 +21,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+from dresslog.errors import DresslogError
 from dresslog.io import TrialReader
 
 #: Camera (elevation, azimuth) in degrees per named view; world z up, limb along x.
@@ -99,7 +100,10 @@ def main() -> None:
     parser.add_argument("--title")
     args = parser.parse_args()
     out = args.output or args.trial.with_suffix(".png")
-    print(render(args.trial, out, args.views, args.title))
+    try:
+        print(render(args.trial, out, args.views, args.title))
+    except DresslogError as err:  # not a trial, or a damaged one: one line, exit 1
+        raise SystemExit(f"Error: {err}") from None
 
 
 if __name__ == "__main__":
