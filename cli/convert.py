@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from dresslog.convert.convert import MAX_SENSOR_OFFSET, MAX_TRANSLATE, window_mistake
+from dresslog.convert.signal import MAX_SENSOR_OFFSET, MAX_TRANSLATE
 
 from .common import reports_errors
 from .options import FINITE, FiniteRange, task_option
@@ -63,22 +63,11 @@ from .options import FINITE, FiniteRange, task_option
 @reports_errors
 def convert(source: str, output: str, columns: tuple[str, ...], **options: object) -> None:
     """Convert a ROS 1/2 bag, ROS 2 MCAP file or force/torque CSV into a dresslog trial."""
+    from dresslog.convert import ConvertOptions, OptionError
     from dresslog.convert import convert as run
 
     if bad := [c for c in columns if "=" not in c]:
         raise click.BadParameter(f"{bad[0]!r} is not ROLE=HEADER", param_hint="'--column'")
-    if options["pose_tf"] is not None and options["pose_topic"] is not None:
-        raise click.UsageError("--pose-tf and --pose-topic both give the pose: use one")
-    mount = [o for o in ("sensor_rotation", "sensor_offset") if options[o] is not None]
-    if mount and options["wrench_frame"] != "pose":  # the library says so too, for its callers
-        raise click.UsageError(
-            f"--{mount[0].replace('_', '-')} places a sensor on the gripper: use it with "
-            "--wrench-frame pose (a sensor fixed in the world is turned with --rotate)"
-        )
-    if options["end_s"] is not None and (
-        message := window_mistake(options["start_s"], options["end_s"])  # type: ignore[arg-type]
-    ):
-        raise click.UsageError(message)
     mapping: dict[str, str] = {}
     for role, name in (c.split("=", 1) for c in columns):
         if mapping.setdefault(role, name) != name:  # else the last would win unsaid
@@ -87,6 +76,10 @@ def convert(source: str, output: str, columns: tuple[str, ...], **options: objec
                 "to one column",
                 param_hint="'--column'",
             )
-    report = run(source, output, columns=mapping, **options)  # type: ignore[arg-type]
+    try:
+        settings = ConvertOptions.build(columns=mapping or None, **options)  # type: ignore[arg-type]
+    except OptionError as err:  # options that contradict each other: how the command is used
+        raise click.UsageError(str(err)) from None
+    report = run(source, output, settings)
     click.echo(f"{output}: {report.steps} steps ({report.duration_s:.2f} s at 100 Hz) "
                f"from {report.messages_in} messages in {report.elapsed_s:.2f} s")  # fmt: skip

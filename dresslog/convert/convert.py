@@ -17,7 +17,7 @@ import time
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel
@@ -33,20 +33,15 @@ from dresslog.convert.checks import (
     tare_mistake,
     unneeded_pose_without_orientation,
 )
+from dresslog.convert.options import ConvertOptions
+from dresslog.convert.signal import SignalOptions, tare_bias, tare_mistake_before
 from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import ConversionError, DresslogWarning
 from dresslog.io.files import NOT_REGULAR, check_output, no_such, printable
 from dresslog.io.writer import TrialWriter
-from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata, task_of
+from dresslog.spec import MAX_DURATION, Outcome, Task, TrialMetadata
 
-MAX_GAP_S = 0.1
-#: Farthest a wrist sensor's origin sits from the gripper centre, m: it is on the gripper.
-MAX_SENSOR_OFFSET = 2.0
-#: Farthest --translate moves a pose, m: a robot's base is not kilometres from the limb,
-#: and a pose stored as float32 keeps millimetres only this near.
-MAX_TRANSLATE = 1000.0
 CSV_SUFFIXES = (".csv", ".tsv", ".txt")
-Quaternion = tuple[float, float, float, float]
 
 
 class ConversionWarning(DresslogWarning):
@@ -261,112 +256,85 @@ def _describe(stream: SourceStream, source: Source) -> dict[str, object]:
 def convert(
     path: str | Path,
     output: str | Path,
-    task: Task | str,
-    *,
-    wrench_topic: str | None = None,
-    twist_topic: str | None = None,
-    pose_topic: str | None = None,
-    pose_tf: str | None = None,
-    motion: str | Path | None = None,
-    columns: Mapping[str, str] | None = None,
-    time_unit: str | None = None,
-    clock: Literal["header", "log"] = "header",
-    wrench_frame: Literal["world", "pose"] = "world",
-    sensor_rotation: Quaternion | None = None,
-    sensor_offset: tuple[float, float, float] | None = None,
-    rotate: Quaternion | None = None,
-    translate: tuple[float, float, float] | None = None,
-    tare_s: float = 0.0,
-    start_s: float = 0.0,
-    end_s: float | None = None,
-    max_gap_s: float = MAX_GAP_S,
-    overwrite: bool = False,
+    options: ConvertOptions | Task | str,
+    **keywords: Any,
 ) -> ConversionReport:
     """Convert one external log into the trial `output` (100 Hz, times from 0, no ground truth).
 
-    `pose_tf` ("PARENT:CHILD", e.g. "base_link:tool0") takes a bag's pose from its /tf
-    and /tf_static, CHILD's in PARENT, where no PoseStamped topic holds it.
-    `wrench_frame="pose"` says the sensor's axes turn with the gripper: each step's
-    wrench is turned from the pose's orientation into its world axes (after the tare,
-    which belongs to the sensor's own axes), first by `sensor_rotation` (x y z w; the
-    sensor's axes in the gripper's, as mounted) if given, its torque moved from the
-    sensor's origin to the gripper centre by `sensor_offset` (m, where the sensor's
-    origin sits in the gripper's axes: tau + r x F). `rotate` then turns every vector
-    (force, torque, velocities, pose) into the model's frame, and `translate` (m) moves
-    every pose in it, so that the gripper's path lies where the viewer draws the limb
-    (the signal holds no position: the estimate is the same); `tare_s` subtracts the mean
-    wrench of the first seconds. `start_s` and `end_s` (s from the first step of the time
-    every stream covers; `end_s` None: to its end) keep the steps from one up to the
-    other, e.g. one trial of a long session: the duration cap, the tare and the checks
-    apply to them, and the output's times start at 0 at `start_s`. Gaps longer than
-    `max_gap_s` are bridged by interpolation and reported as `ConversionWarning`s (and in
-    the report), as are a tare left out under a still garment's weight and one reaching
-    into the motion.
+    `options` says how (`ConvertOptions`: topics, the signal's frame and tare, a window),
+    or is the task, with the options as keywords (`ConvertOptions.build`'s: e.g.
+    `convert(log, out, "gown", pose_tf="base_link:tool0", tare_s=0.5)`). Gaps longer than
+    the signal's `max_gap_s` are bridged by interpolation and reported as
+    `ConversionWarning`s (and in the report), as are a tare left out under a still
+    garment's weight and one reaching into the motion.
+
+    Raises:
+        ConversionError: the log cannot make a trial, or the options contradict each
+            other (`OptionError`), before anything is written.
     """
     started = time.perf_counter()
+    if not isinstance(options, ConvertOptions):
+        options = ConvertOptions.build(options, **keywords)
+    elif keywords:
+        raise TypeError(f"give {', '.join(keywords)} in the options, or the task, not both")
     path, output = Path(path), Path(output)
-    task = task_of(task, ConversionError)
-    check_output(output, source=path, suffix=".mcap", overwrite=overwrite)
-    _check_arguments(
-        path, motion, clock=clock, wrench_frame=wrench_frame, sensor_rotation=sensor_rotation,
-        sensor_offset=sensor_offset, rotate=rotate, translate=translate, tare_s=tare_s,
-        start_s=start_s, end_s=end_s, max_gap_s=max_gap_s,
-    )  # fmt: skip
+    check_output(output, source=path, suffix=".mcap", overwrite=options.overwrite)
+    options.check_names(path)
     source = load(
         path,
-        wrench_topic=wrench_topic,
-        twist_topic=twist_topic,
-        pose_topic=pose_topic,
-        pose_tf=pose_tf,
-        motion=motion,
-        columns=columns,
-        time_unit=time_unit,
-        clock=clock,
+        wrench_topic=options.wrench_topic,
+        twist_topic=options.twist_topic,
+        pose_topic=options.pose_topic,
+        pose_tf=options.pose_tf,
+        motion=options.motion,
+        columns=options.columns,
+        time_unit=options.time_unit,
+        clock=options.clock,
     )
     messages_in = source.message_count
-    if wrench_frame == "pose":
+    signal = options.signal
+    if signal.wrench_frame == "pose":
         check_turnable(source)
-        mount = source.sensor_mount
-        if mount is not None and sensor_rotation is None and sensor_offset is None:
-            sensor_rotation, sensor_offset = mount.rotation, mount.offset
-            source.notes.append(mount.describe())
-    if translate is not None and source.pose is None:
+        if (placed := signal.mounted(source.sensor_mount)) is not signal:
+            signal = placed
+            source.notes.append(source.sensor_mount.describe())  # type: ignore[union-attr]
+    if signal.translate is not None and source.pose is None:
         raise ConversionError(
             "--translate moves the gripper's pose, which the log does not hold", path=path
         )
-    left_out = unneeded_pose_without_orientation(source, wrench_frame)
+    left_out = unneeded_pose_without_orientation(source, signal.wrench_frame)
     # one CSV's streams share its time column: one message for it
     reordered = list(
         dict.fromkeys(m for stream in source.streams if (m := put_in_time_order(stream, path)))
     )
     for stream in source.streams:
         check_stream(stream, path)
-    grid = common_grid(source, time_unit, start_s, end_s)
-    windowed = start_s > 0 or end_s is not None
+    grid = common_grid(source, options.time_unit, options.start_s, options.end_s)
+    windowed = options.windowed
 
     found = source.warnings + reordered + left_out
-    found += log_warnings(source, grid, max_gap_s, windowed=windowed)
-    if message := frames_differ(source, wrench_frame, rotate is not None):
+    found += log_warnings(source, grid, signal.max_gap_s, windowed=windowed)
+    if message := frames_differ(source, signal.wrench_frame, signal.rotate is not None):
         found.append(message)
     for message in found:
         warnings.warn(message, ConversionWarning, stacklevel=2)
 
-    wrench, twist, pose, processing = _resample_all(
-        source, grid, tare_s, rotate, wrench_frame, sensor_rotation, sensor_offset, translate,
-        windowed=windowed,
-    )  # fmt: skip
+    wrench, twist, pose, processing = _resample_all(source, grid, signal, windowed=windowed)
     if windowed:  # on the grid's steps: e.g. [10.0, 70.0]
-        first = _step_at(start_s)
+        first = _step_at(options.start_s)
         processing["window_s"] = [first / rs.RATE_HZ, (first + len(grid)) / rs.RATE_HZ]
-    for message in (beyond_dressing(wrench, twist), tare_mistake(wrench, twist, tare_s)):
+    for message in (
+        beyond_dressing(wrench, twist),
+        tare_mistake(wrench, twist, signal.tare_s),
+    ):
         if message:
             warnings.warn(message, ConversionWarning, stacklevel=2)
             found.append(message)
 
-    info = _source_info(source, grid, processing, found, motion)
-    metadata = TrialMetadata(task=task, spec=None, outcome=Outcome.UNKNOWN, source=info)
+    info = _source_info(source, grid, processing, found, options.motion)
+    metadata = TrialMetadata(task=options.task, spec=None, outcome=Outcome.UNKNOWN, source=info)
     t_ns = grid - grid[0]
-    with TrialWriter(output, metadata, overwrite=overwrite) as writer:
+    with TrialWriter(output, metadata, overwrite=options.overwrite) as writer:
         writer.write_wrench(t_ns, wrench)
         writer.write_twist(t_ns, twist)
         if pose is not None:
@@ -382,166 +350,51 @@ def convert(
     )
 
 
-def _check_arguments(
-    path: Path,
-    motion: str | Path | None,
-    *,
-    clock: str,
-    wrench_frame: str,
-    sensor_rotation: Quaternion | None,
-    sensor_offset: tuple[float, float, float] | None,
-    rotate: Quaternion | None,
-    translate: tuple[float, float, float] | None,
-    tare_s: float,
-    start_s: float,
-    end_s: float | None,
-    max_gap_s: float,
-) -> None:
-    """Refuse `convert`'s arguments that could not make a trial, before the log is read."""
-    for given in (path, motion):  # their names go into the trial's notes, JSON
-        if given is not None and printable(Path(given).name) != Path(given).name:
-            raise ConversionError(
-                "its name is not UTF-8, which the trial's metadata must be; rename it",
-                path=printable(given),
-            )
-    for option, quat in (("--rotate", rotate), ("--sensor-rotation", sensor_rotation)):
-        if quat is not None and not (_finite(quat, 4) and np.abs(quat).max() > 0):
-            raise ConversionError(
-                f"{option}: a rotation quaternion is 4 finite numbers, x y z w, not all 0"
-            )
-    mount = [
-        n for n, v in (("rotation", sensor_rotation), ("offset", sensor_offset)) if v is not None
-    ]
-    if mount and wrench_frame != "pose":
-        raise ConversionError(
-            f"--sensor-{mount[0]} places a sensor on the gripper, with --wrench-frame pose; a "
-            "sensor fixed in the world is turned with --rotate"
-        )
-    if sensor_offset is not None and not (
-        _finite(sensor_offset, 3) and np.abs(sensor_offset).max() <= MAX_SENSOR_OFFSET
-    ):
-        raise ConversionError(
-            f"sensor offset must be 3 finite numbers, x y z (metres), each within "
-            f"+-{MAX_SENSOR_OFFSET:g}: the sensor is on the gripper"
-        )
-    if translate is not None and not (
-        _finite(translate, 3) and np.abs(translate).max() <= MAX_TRANSLATE
-    ):
-        raise ConversionError(
-            f"--translate: a translation is 3 finite numbers, x y z (metres), each within "
-            f"+-{MAX_TRANSLATE:g}"
-        )
-    if not (_finite(tare_s, None) and tare_s >= 0):
-        raise ConversionError(f"tare of {tare_s} s: give a duration of 0 s or more")
-    for option, value in (("--start", start_s), ("--end", end_s)):
-        if value is not None and not (_finite(value, None) and value >= 0):
-            raise ConversionError(f"{option} {value} s: give a time of 0 s or more")
-    if end_s is not None and (message := window_mistake(start_s, end_s)):
-        raise ConversionError(message)
-    if not (_finite(max_gap_s, None) and max_gap_s > 0):
-        raise ConversionError(f"max_gap_s {max_gap_s}: give a duration above 0 s")
-    if clock not in ("header", "log") or wrench_frame not in ("world", "pose"):
-        raise ConversionError(
-            f"clock {clock!r} / wrench frame {wrench_frame!r}: use header or log / world or pose"
-        )
+def resampling(source: Source) -> dict[str, str]:
+    """How `resample_streams` brings each of the source's streams onto the grid."""
+    done = {"wrench": _resampling(source.wrench.t_ns)}
+    if source.twist is not None:
+        done["twist"] = _resampling(source.twist.t_ns)
+    else:
+        assert source.pose is not None
+        done["twist"] = f"differentiated from pose, then {_resampling(source.pose.t_ns)}"
+    if source.pose is not None:
+        done["pose"] = "linear interpolation, quaternions normalised"
+    return done
 
 
-def window_mistake(start_s: float, end_s: float) -> str | None:
-    """What is wrong with a window from `start_s` to `end_s` (finite, 0 or more) before the
-    log is read: not in order, shorter than two steps or longer than a trial may last."""
-    if start_s >= end_s:
-        return f"--start {start_s:g} s is not before --end {end_s:g} s; give a start before the end"
-    if end_s - start_s < 2 / rs.RATE_HZ:
-        return (
-            f"--start {start_s:g} s to --end {end_s:g} s holds less than two 100 Hz steps; give "
-            f"a window of {2 / rs.RATE_HZ:g} s or more"
-        )
-    if end_s - start_s > MAX_DURATION:
-        return (
-            f"--start {start_s:g} s to --end {end_s:g} s is more than the {MAX_DURATION:g} s a "
-            "trial may last; give an hour or less"
-        )
-    return None
-
-
-def _finite(value: object, count: int | None) -> bool:
-    """`value` is `count` finite numbers (one number if `count` is None)."""
-    try:
-        numbers = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return False
-    shape = () if count is None else (count,)
-    return numbers.shape == shape and bool(np.isfinite(numbers).all())
-
-
-def _resample_all(
-    source: Source,
-    grid: np.ndarray,
-    tare_s: float,
-    rotate: Quaternion | None,
-    wrench_frame: Literal["world", "pose"] = "world",
-    sensor_rotation: Quaternion | None = None,
-    sensor_offset: tuple[float, float, float] | None = None,
-    translate: tuple[float, float, float] | None = None,
-    *,
-    windowed: bool = False,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
-    """Wrench, twist and pose on the grid, tared, rotated and moved, and how each was made."""
+def resample_streams(
+    source: Source, grid: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Wrench, twist and pose of the source on the grid, as measured (not yet placed)."""
     wrench = rs.resample(source.wrench.t_ns, source.wrench.values, grid)
-    processing: dict[str, object] = {"wrench": _resampling(source.wrench.t_ns)}
     if source.twist is not None:
         twist = rs.resample(source.twist.t_ns, source.twist.values, grid)
-        processing["twist"] = _resampling(source.twist.t_ns)
     else:
         assert source.pose is not None
         # a fast pose's differences are noisy: its velocity is averaged like a wrench
         velocity = rs.twist_from_pose(source.pose.t_ns, source.pose.values)
         twist = rs.resample(source.pose.t_ns, velocity, grid)
-        processing["twist"] = f"differentiated from pose, then {_resampling(source.pose.t_ns)}"
     pose = None
     if source.pose is not None:
         pose = rs.interpolate_pose(source.pose.t_ns, source.pose.values, grid)
-        processing["pose"] = "linear interpolation, quaternions normalised"
-    if tare_s > 0:
-        if (span_s := (grid[-1] - grid[0]) / 1e9) < tare_s:
-            raise ConversionError(
-                f"tare of {tare_s} s is longer than the {'window' if windowed else 'log'} "
-                f"({span_s:.2f} s); give a shorter --tare, the seconds the garment hangs still "
-                "at its start",
-                path=source.path,
-            )
-        step_s = (grid[1] - grid[0]) / 1e9
-        if tare_s < step_s:  # its window would hold no sample to average
-            raise ConversionError(
-                f"tare of {tare_s:g} s is shorter than one {step_s:g} s step; give 0 for none "
-                f"or at least {step_s:g} s",
-                path=source.path,
-            )
-        wrench = rs.tare(grid, wrench, tare_s)
-        processing["tare_s"] = tare_s
-    if wrench_frame == "pose":
-        assert pose is not None  # check_turnable
-        via = ""
-        if sensor_rotation is not None:  # the sensor's mount: its axes in the gripper's
-            wrench = rs.rotate_vectors(wrench, sensor_rotation)
-            via = f" (the sensor mounted at {[float(v) for v in sensor_rotation]})"
-        if sensor_offset is not None:  # torque about the gripper centre: tau + r x F
-            offset = np.asarray(sensor_offset, dtype=np.float64)
-            wrench = np.concatenate(
-                [wrench[:, :3], wrench[:, 3:] + np.cross(offset, wrench[:, :3])], 1
-            )
-            via += f" (torque moved by {offset.tolist()} m)"
-        wrench = rs.rotate_by_orientation(wrench, pose[:, 3:7])
-        processing["wrench_frame"] = f"from the gripper's axes{via} into world axes by the pose"
-    if rotate is not None:
-        wrench, twist = rs.rotate_vectors(wrench, rotate), rs.rotate_vectors(twist, rotate)
-        pose = rs.rotate_pose(pose, rotate) if pose is not None else None
-        processing["rotation_xyzw"] = [float(v) for v in rotate]
-    if translate is not None:
-        assert pose is not None  # checked once the log was read
-        pose = rs.translate_pose(pose, translate)
-        processing["translation_m"] = [float(v) for v in translate]
-    return wrench, twist, pose, processing
+    return wrench, twist, pose
+
+
+def _resample_all(
+    source: Source, grid: np.ndarray, signal: SignalOptions, *, windowed: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, object]]:
+    """Wrench, twist and pose on the grid, tared, rotated and moved, and how each was made."""
+    wrench, twist, pose = resample_streams(source, grid)
+    bias = None
+    if signal.tare_s > 0:
+        span_s, step_s = (grid[-1] - grid[0]) / 1e9, (grid[1] - grid[0]) / 1e9
+        what = "window" if windowed else "log"
+        if message := tare_mistake_before(span_s, step_s, signal.tare_s, what):
+            raise ConversionError(message, path=source.path)
+        bias = tare_bias(grid, wrench, signal.tare_s)
+    wrench, twist, pose = signal.place(wrench, twist, pose, bias)
+    return wrench, twist, pose, {**resampling(source), **signal.steps()}
 
 
 def _source_info(
