@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import click
 
-from dresslog.convert.signal import MAX_SENSOR_OFFSET, MAX_TRANSLATE
-
 from .common import reports_errors
-from .options import FINITE, FiniteRange, task_option
+from .options import FiniteRange, signal_options, task_option
 
 
 @click.command("convert")
@@ -33,27 +31,7 @@ from .options import FINITE, FiniteRange, task_option
               show_default="from the header, else s or ns by size")  # fmt: skip
 @click.option("--clock", type=click.Choice(["header", "log"]), default="header", show_default=True,
               help="A bag's times: header stamps, or receive times (clocks differ).")  # fmt: skip
-@click.option("--wrench-frame", type=click.Choice(["world", "pose"]), default="world",
-              show_default=True, help="The wrench's axes: world, or the gripper's own "
-              "(turned by the pose's orientation).")  # fmt: skip
-@click.option("--sensor-rotation", nargs=4, type=FINITE, metavar="QX QY QZ QW",
-              help="With --wrench-frame pose: the sensor's axes in the gripper's (quaternion).",
-              show_default="none")  # fmt: skip
-@click.option("--sensor-offset", nargs=3, metavar="X Y Z",
-              type=FiniteRange(-MAX_SENSOR_OFFSET, MAX_SENSOR_OFFSET),
-              help="With --wrench-frame pose: sensor origin from gripper centre, m.",
-              show_default="0 0 0")  # fmt: skip
-@click.option("--rotate", nargs=4, type=FINITE, metavar="QX QY QZ QW",
-              help="Rotate every vector into the model's frame (quaternion).",
-              show_default="none")  # fmt: skip
-@click.option("--translate", nargs=3, type=FiniteRange(-MAX_TRANSLATE, MAX_TRANSLATE),
-              metavar="X Y Z",
-              help="Then move every pose by X Y Z, m, to place the gripper's path in the "
-              "scene's frame (the drawing only: the estimate does not use position).",
-              show_default="none")  # fmt: skip
-@click.option("--tare", "tare_s", type=FiniteRange(min=0), default=0.0, metavar="SECONDS",
-              show_default=True,
-              help="Subtract the mean wrench of the first SECONDS, s; 0: no tare.")  # fmt: skip
+@signal_options
 @click.option("--start", "start_s", type=FiniteRange(min=0), default=0.0, metavar="SECONDS",
               show_default=True, help="Keep the steps from SECONDS (from the first step every "
               "stream covers), e.g. one trial of a session.")  # fmt: skip

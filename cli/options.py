@@ -131,3 +131,65 @@ rotation_option = click.option(
 def rotation_spec(rotation: tuple[str, float] | None) -> dict[str, Any] | None:
     """`--rotation z -15` as the spec's `limb_rotation` ({"axis": "z", "degrees": -15.0})."""
     return dict(zip(("axis", "degrees"), rotation, strict=True)) if rotation else None
+
+
+def signal_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Where the wrench is measured and how the signal is turned into the model's frame:
+    `convert`'s and `live`'s options alike (`dresslog.convert.SignalOptions`)."""
+    from dresslog.convert.signal import MAX_SENSOR_OFFSET, MAX_TRANSLATE
+
+    options = [
+        click.option(
+            "--wrench-frame",
+            type=click.Choice(["world", "pose"]),
+            default="world",
+            show_default=True,
+            help="The wrench's axes: world, or the gripper's own (turned by the pose's "
+            "orientation).",
+        ),
+        click.option(
+            "--sensor-rotation",
+            nargs=4,
+            type=FINITE,
+            metavar="QX QY QZ QW",
+            help="With --wrench-frame pose: the sensor's axes in the gripper's (quaternion).",
+            show_default="none",
+        ),
+        click.option(
+            "--sensor-offset",
+            nargs=3,
+            metavar="X Y Z",
+            type=FiniteRange(-MAX_SENSOR_OFFSET, MAX_SENSOR_OFFSET),
+            help="With --wrench-frame pose: sensor origin from gripper centre, m.",
+            show_default="0 0 0",
+        ),
+        click.option(
+            "--rotate",
+            nargs=4,
+            type=FINITE,
+            metavar="QX QY QZ QW",
+            help="Rotate every vector into the model's frame (quaternion).",
+            show_default="none",
+        ),
+        click.option(
+            "--translate",
+            nargs=3,
+            type=FiniteRange(-MAX_TRANSLATE, MAX_TRANSLATE),
+            metavar="X Y Z",
+            help="Then move every pose by X Y Z, m, to place the gripper's path in the "
+            "scene's frame (the drawing only: the estimate does not use position).",
+            show_default="none",
+        ),
+        click.option(
+            "--tare",
+            "tare_s",
+            type=FiniteRange(min=0),
+            default=0.0,
+            metavar="SECONDS",
+            show_default=True,
+            help="Subtract the mean wrench of the first SECONDS, s; 0: no tare.",
+        ),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command

@@ -50,6 +50,10 @@ class ConversionError(DresslogError):
     """An external log cannot be converted (no topics, ambiguous topics, bad timestamps)."""
 
 
+class LiveError(DresslogError):
+    """A live session cannot go on: no ROS 2, a silent or mistyped topic, a clock reset."""
+
+
 class DatasetError(DresslogError):
     """A dataset folder has no manifest, or missing or corrupt trials."""
 

@@ -143,14 +143,10 @@ def common_grid(
     few microseconds of clock jitter would move it between bins and let vibration
     above 50 Hz leak into the means.
     """
-    averaged = rs.averages(source.wrench.t_ns)
-    half = rs.PERIOD_NS // 2 if averaged else 0
-    start = max(int(s.t_ns[0]) + (half if s is source.wrench else 0) for s in source.streams)
+    half = rs.PERIOD_NS // 2 if rs.averages(source.wrench.t_ns) else 0
+    others = [s for s in source.streams if s is not source.wrench]
+    start = rs.grid_start(source.wrench.t_ns, [int(s.t_ns[0]) for s in others])
     stop = min(int(s.t_ns[-1]) - (half if s is source.wrench else 0) for s in source.streams)
-    if averaged:
-        t = source.wrench.t_ns
-        phase = int(t[0]) + half + int(np.median(np.diff(t))) // 2
-        start += (phase - start) % rs.PERIOD_NS
     windowed = start_s > 0 or end_s is not None
     if windowed and stop - start >= rs.PERIOD_NS:  # else too short or apart: said below
         start, stop = _window(source, start, stop, start_s, end_s)

@@ -38,6 +38,23 @@ def grid(start_ns: int, stop_ns: int) -> np.ndarray:
     return start_ns + PERIOD_NS * np.arange((stop_ns - start_ns) // PERIOD_NS + 1, dtype=np.int64)
 
 
+def grid_start(wrench_t_ns: np.ndarray, other_first_ns: list[int]) -> int:
+    """The first grid time over a wrench with these times and streams that begin at
+    `other_first_ns`: `convert`'s over a whole log, `live`'s over a stream's first samples.
+
+    An averaged wrench needs half a bin spare before it, and its bin edges fall midway
+    between its samples: on a sample, a few microseconds of clock jitter would move it
+    between bins and let vibration above 50 Hz leak into the means.
+    """
+    averaged = averages(wrench_t_ns)
+    half = PERIOD_NS // 2 if averaged else 0
+    start = max([int(wrench_t_ns[0]) + half, *(int(t) for t in other_first_ns)])
+    if averaged:
+        phase = int(wrench_t_ns[0]) + half + int(np.median(np.diff(wrench_t_ns))) // 2
+        start += (phase - start) % PERIOD_NS
+    return start
+
+
 def interpolate(t_ns: np.ndarray, values: np.ndarray, grid_ns: np.ndarray) -> np.ndarray:
     """Linear interpolation of each column of `values` (T, D) at `grid_ns`."""
     origin = grid_ns[0] if len(grid_ns) else 0
@@ -191,16 +208,32 @@ def rotate_by_orientation(values: np.ndarray, quats: np.ndarray) -> np.ndarray:
 
 def rotate_vectors(values: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
     """Rotate every 3-vector block of (T, 3k) rows (force and torque, linear and angular)."""
+    return rotate_by_matrix(values, rotation_matrices(quat))
+
+
+def rotate_by_matrix(values: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """`rotate_vectors` by the rotation's matrix (3, 3), for a caller that turns a row at a
+    time by one rotation (`live`) and makes its matrix once."""
     blocks = values.reshape(len(values), -1, 3)
-    return (blocks @ rotation_matrices(quat).T).reshape(values.shape)
+    return (blocks @ matrix.T).reshape(values.shape)
+
+
+def unit_rotation(quat: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """A rotation's unit quaternion (4,) and its matrix (3, 3), as `rotate_pose` uses them."""
+    q = _scaled(quat)
+    q /= np.linalg.norm(q)
+    return q, rotation_matrices(q)
 
 
 def rotate_pose(pose: np.ndarray, quat: tuple[float, float, float, float]) -> np.ndarray:
     """Express poses (T, 7) in the rotated frame: position rotated, orientation pre-multiplied."""
-    q = _scaled(quat)
-    q /= np.linalg.norm(q)
-    position = pose[:, :3] @ rotation_matrices(q).T
-    orientation = multiply(np.broadcast_to(q, (len(pose), 4)), pose[:, 3:7])
+    return rotate_pose_by(pose, *unit_rotation(quat))
+
+
+def rotate_pose_by(pose: np.ndarray, unit: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """`rotate_pose` by a rotation's unit quaternion and matrix (`unit_rotation`'s)."""
+    position = pose[:, :3] @ matrix.T
+    orientation = multiply(np.broadcast_to(unit, (len(pose), 4)), pose[:, 3:7])
     return np.concatenate([position, orientation], axis=1)
 
 

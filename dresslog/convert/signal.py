@@ -10,6 +10,7 @@ signal give the model the same numbers.
 
 from __future__ import annotations
 
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
@@ -122,6 +123,17 @@ class SignalOptions(BaseModel):
             _refuse(data)
         return data
 
+    @cached_property
+    def _matrices(self) -> dict[str, np.ndarray]:
+        """The fixed rotations' matrices, made once: `live` places a row at a time."""
+        out: dict[str, np.ndarray] = {}
+        if self.sensor_rotation is not None:
+            out["sensor"] = rs.rotation_matrices(self.sensor_rotation)
+        if self.rotate is not None:
+            out["rotate"] = rs.rotation_matrices(self.rotate)
+            out["unit"], out["pose"] = rs.unit_rotation(self.rotate)
+        return out
+
     def mounted(self, mount: SensorMount | None) -> SignalOptions:
         """These options with the tf tree's sensor mount where none is given (a wrench in
         the gripper's frame only), and whether it was taken."""
@@ -167,7 +179,7 @@ class SignalOptions(BaseModel):
         if self.wrench_frame == "pose":
             assert pose is not None  # check_turnable, or live's own check
             if self.sensor_rotation is not None:  # the sensor's mount: its axes in the gripper's
-                wrench = rs.rotate_vectors(wrench, self.sensor_rotation)
+                wrench = rs.rotate_by_matrix(wrench, self._matrices["sensor"])
             if self.sensor_offset is not None:  # torque about the gripper centre: tau + r x F
                 offset = np.asarray(self.sensor_offset, dtype=np.float64)
                 wrench = np.concatenate(
@@ -175,11 +187,11 @@ class SignalOptions(BaseModel):
                 )
             wrench = rs.rotate_by_orientation(wrench, pose[:, 3:7])
         if self.rotate is not None:
-            wrench, twist = (
-                rs.rotate_vectors(wrench, self.rotate),
-                rs.rotate_vectors(twist, self.rotate),
-            )
-            pose = rs.rotate_pose(pose, self.rotate) if pose is not None else None
+            matrices = self._matrices
+            wrench = rs.rotate_by_matrix(wrench, matrices["rotate"])
+            twist = rs.rotate_by_matrix(twist, matrices["rotate"])
+            if pose is not None:
+                pose = rs.rotate_pose_by(pose, matrices["unit"], matrices["pose"])
         if self.translate is not None and pose is not None:
             pose = rs.translate_pose(pose, self.translate)
         return wrench, twist, pose

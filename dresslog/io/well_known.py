@@ -29,6 +29,20 @@ SCHEMAS: dict[str, str] = {
     GARMENT: "dresslog_msgs/msg/GarmentState",
 }
 
+#: A live session's signal as it arrived (`dresslog live -o`), before resampling: on the
+#: robot's clock less the session's start, in the sensor's and robot's own frames. Standard
+#: messages that ROS 2 tools read; dresslog's reader only counts them.
+RECEIVED: dict[str, str] = {
+    "wrench": "/received/wrench",
+    "twist": "/received/twist",
+    "pose": "/received/pose",
+}
+RECEIVED_SCHEMAS: dict[str, str] = {
+    RECEIVED["wrench"]: SCHEMAS[WRENCH],
+    RECEIVED["twist"]: SCHEMAS[TWIST],
+    RECEIVED["pose"]: SCHEMAS[POSE],
+}
+
 #: The real-number fields of a contact (the rest are indices), which must be finite.
 CONTACT_REALS = ("position", "normal", "friction", "normal_force")
 
@@ -37,6 +51,9 @@ VECTOR_FIELDS: dict[str, tuple[str, str]] = {
     WRENCH: ("wrench.force", "wrench.torque"),
     TWIST: ("twist.linear", "twist.angular"),
     POSE: ("pose.position", "pose.orientation"),
+    RECEIVED["wrench"]: ("wrench.force", "wrench.torque"),
+    RECEIVED["twist"]: ("twist.linear", "twist.angular"),
+    RECEIVED["pose"]: ("pose.position", "pose.orientation"),
 }
 
 #: Header frame of each topic: measurements at the end effector, ground truth in the world.

@@ -204,7 +204,7 @@ class TrialWriter:
         if self._writer is None:
             raise TrialWriteError("writer is not open", path=self.path)
         if topic not in self._channels:
-            name = wk.SCHEMAS[topic]
+            name = wk.SCHEMAS.get(topic) or wk.RECEIVED_SCHEMAS[topic]
             if name not in self._schemas:
                 self._schemas[name] = self._writer.register_schema(
                     name, wk.SCHEMA_ENCODING, schema_text(name).encode()
@@ -213,7 +213,7 @@ class TrialWriter:
                 topic,
                 wk.MESSAGE_ENCODING,
                 self._schemas[name],
-                metadata={"offered_qos_profiles": wk.QOS[topic]},
+                metadata={"offered_qos_profiles": wk.QOS.get(topic, wk.STREAM_QOS)},
             )
             self._sequence[topic] = 0
         return self._channels[topic]
@@ -251,13 +251,17 @@ class TrialWriter:
         return times
 
     def _stamped(
-        self, topic: str, t_ns: int | np.ndarray, sizes: dict, count: int = 1
+        self,
+        topic: str,
+        t_ns: int | np.ndarray,
+        sizes: dict,
+        count: int = 1,
+        frame: str | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         times = self._times(topic, t_ns, count)
-        frame = wk.FRAMES[topic]
-        messages = cdr.new_messages(
-            wk.SCHEMAS[topic], {"header.frame_id": len(frame), **sizes}, count
-        )
+        frame = wk.FRAMES[topic] if frame is None else frame
+        schema = wk.SCHEMAS.get(topic) or wk.RECEIVED_SCHEMAS[topic]
+        messages = cdr.new_messages(schema, {"header.frame_id": len(frame), **sizes}, count)
         cdr.set_stamp(messages, times, frame)
         return times, messages
 
@@ -283,11 +287,24 @@ class TrialWriter:
         """End-effector position (m) and quaternion x y z w, (7,) or (T, 7)."""
         self._write_vectors(wk.POSE, t_ns, pose, 7)
 
+    def write_received(
+        self, kind: str, t_ns: int | np.ndarray, values: np.ndarray, frame_id: str
+    ) -> None:
+        """A live session's samples of `kind` (wrench, twist, pose) as they arrived, in the
+        frame `frame_id` they came in, on `wk.RECEIVED`'s topics."""
+        width = 7 if kind == "pose" else 6
+        self._write_vectors(wk.RECEIVED[kind], t_ns, values, width, frame_id)
+
     def _write_vectors(
-        self, topic: str, t_ns: int | np.ndarray, values: np.ndarray, width: int
+        self,
+        topic: str,
+        t_ns: int | np.ndarray,
+        values: np.ndarray,
+        width: int,
+        frame: str | None = None,
     ) -> None:
         rows = self._rows(topic, values, width)
-        times, msgs = self._stamped(topic, t_ns, {}, len(rows))
+        times, msgs = self._stamped(topic, t_ns, {}, len(rows), frame)
         first, second = wk.VECTOR_FIELDS[topic]
         msgs[first], msgs[second] = rows[:, :3], rows[:, 3:]
         self._write(topic, times, msgs)
