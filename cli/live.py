@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import click
 
+from dresslog.live.options import HIGH_FORCE_N, PREFIX, WAIT_S
+
 from .common import reports_errors
 from .options import FiniteRange, signal_options, task_option
 
@@ -23,15 +25,15 @@ from .options import FiniteRange, signal_options, task_option
 @click.option("--overwrite", is_flag=True, help="Replace OUTPUT if it exists.")
 @click.option("--connect", metavar="URL", help="Also stream to a Rerun viewer at this gRPC URL "
               "(rerun+http://HOST:9876/proxy), as `view` draws it.")  # fmt: skip
-@click.option("--high-force", "high_force_n", type=FiniteRange(0, min_open=True), default=5.0,
-              show_default=True, metavar="N",
+@click.option("--high-force", "high_force_n", type=FiniteRange(0, min_open=True),
+              default=HIGH_FORCE_N, show_default=True, metavar="N",
               help="The summary flags a total estimated force above N newtons.")  # fmt: skip
-@click.option("--wait", "wait_s", type=FiniteRange(0, min_open=True), default=5.0,
+@click.option("--wait", "wait_s", type=FiniteRange(0, min_open=True), default=WAIT_S,
               show_default=True, metavar="SECONDS",
               help="Give up if a topic stays silent this long at the start.")  # fmt: skip
 @click.option("--frame-id", default="world", show_default=True,
               help="Frame of the published force and contact maps.")  # fmt: skip
-@click.option("--prefix", default="/dresslog", show_default=True,
+@click.option("--prefix", default=PREFIX, show_default=True,
               help="Topics published: PREFIX/force_map, /contact_map, /summary.")  # fmt: skip
 @click.option("--best-effort", is_flag=True,
               help="Subscribe best effort, as a sensor-data QoS publisher needs.")  # fmt: skip
@@ -45,8 +47,5 @@ def live(**options: object) -> None:
         settings = LiveOptions.build(**options)  # type: ignore[arg-type]
     except OptionError as err:  # options that contradict each other: how the command is used
         raise click.UsageError(str(err)) from None
-    topics = ", ".join(settings.topics.values())
-    click.echo(f"Listening to {topics}; publishing on {settings.prefix}/force_map (Ctrl-C ends)",
-               err=True)  # fmt: skip
-    report = run_live(settings)
+    report = run_live(settings, announce=lambda line: click.echo(line, err=True))
     click.echo(report.summary())

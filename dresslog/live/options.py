@@ -13,7 +13,7 @@ from dresslog.errors import ConversionError
 from dresslog.spec import Task, task_of
 
 #: Total estimated force on the limb above which the summary raises its flag, N.
-HIGH_FORCE_N = 5.0
+HIGH_FORCE_N = 10.0
 #: How long each topic may stay silent at the start before `live` gives up, s.
 WAIT_S = 5.0
 #: Where the estimate goes: `<prefix>/force_map`, `/contact_map`, `/summary`.

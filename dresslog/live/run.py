@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,10 +41,15 @@ class LiveReport:
 
 
 def run_live(
-    options: LiveOptions, *, stop_after: float | None = None, context: Any = None
+    options: LiveOptions,
+    *,
+    announce: Callable[[str], object] | None = None,
+    stop_after: float | None = None,
+    context: Any = None,
 ) -> LiveReport:
     """Listen to the options' topics and publish the estimate until Ctrl-C or SIGTERM (or
-    `stop_after` s), recording the session to `options.output` if given.
+    `stop_after` s), recording the session to `options.output` if given; `announce` is
+    told what is listened to once all is ready (`context`: an rclpy context to run in).
 
     The session file is finished whatever ends the session, an error in the stream too (a
     clock reset): it then holds what came before, and the error is raised after.
@@ -67,6 +73,9 @@ def run_live(
         sinks.append(RerunSink(recording=recording, flush_every=10))
     model = loaded.describe()
     session = LiveSession(options, loaded.estimator(), sinks, model=model)
+    if announce is not None:
+        topics = ", ".join(options.topics.values())
+        announce(f"Listening to {topics}; publishing on {options.prefix}/force_map (Ctrl-C ends)")
     ended = "stopped"
     try:
         spin(options, session, stop_after=stop_after, context=context)

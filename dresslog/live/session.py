@@ -228,6 +228,7 @@ class LiveSession:
         processing |= self.options.signal.steps()
         info: dict[str, object] = {
             "format": "ros2 live",
+            "file": "topics " + ", ".join(self.options.topics.values()),
             "start_ns": self.origin_ns,
             "time": "output t = source t - start_ns",
             "rate_hz": rs.RATE_HZ,
