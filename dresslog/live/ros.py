@@ -162,6 +162,8 @@ class LiveNode:
         self.last_message: dict[str, float] = {}
         #: per wrench message that completed a step: ns from its arrival to the last publication
         self.latency_ns: list[int] = []
+        #: per wrench message: ns from its arrival to the end of its handling
+        self.handled_ns: list[int] = []
         kinds = {"wrench": WrenchStamped, "twist": TwistStamped, "pose": PoseStamped}
         self.subscriptions = [
             node.create_subscription(kinds[kind], topic, self._callback(kind), qos)
@@ -172,7 +174,7 @@ class LiveNode:
     def _callback(self, kind: str) -> Any:
         receive, clock = self.session.receive, time.perf_counter_ns
         last = self.last_message
-        latency = self.latency_ns
+        latency, handled = self.latency_ns, self.handled_ns
 
         if kind == "wrench":
 
@@ -180,8 +182,11 @@ class LiveNode:
                 arrived = clock()
                 f, tq = msg.wrench.force, msg.wrench.torque
                 values = np.array([f.x, f.y, f.z, tq.x, tq.y, tq.z])
-                if receive("wrench", _stamp_ns(msg), values, msg.header.frame_id):
-                    latency.append(clock() - arrived)
+                published = receive("wrench", _stamp_ns(msg), values, msg.header.frame_id)
+                took = clock() - arrived
+                handled.append(took)
+                if published:
+                    latency.append(took)
                 last["wrench"] = time.monotonic()
 
             return on_wrench
@@ -271,6 +276,7 @@ def spin(
         publisher = Publisher(node, options, session)
         session.replay.sinks.insert(0, publisher)
         live = LiveNode(options, session, node)
+        session.node = live  # its timings, for the report however the session ends
         executor.add_node(node)
         checked = time.monotonic()
         end = None if stop_after is None else time.monotonic() + stop_after

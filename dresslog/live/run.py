@@ -17,13 +17,17 @@ from dresslog.replay.engine import Sink
 @dataclass
 class LiveReport:
     """What a live session did: steps estimated, messages received, the file written, the
-    time each step took (placing, estimating, publishing, ms), and why it ended."""
+    time each step took (placing, estimating, publishing, ms), the latency from each wrench
+    message's arrival to the estimate's publication where it completed a step, the time
+    every wrench message took to handle (ms), and why it ended."""
 
     steps: int
     messages: int
     output: Path | None
     model: str | None
     compute_ms: list[float] = field(default_factory=list)
+    latency_ms: list[float] = field(default_factory=list)
+    handled_ms: list[float] = field(default_factory=list)
     ended: str = "stopped"
 
     def summary(self) -> str:
@@ -32,9 +36,9 @@ class LiveReport:
         line += f" from {self.messages} messages"
         if self.model:
             line += f", model {self.model}"
-        if self.compute_ms:
-            p50, p99 = np.percentile(self.compute_ms, [50, 99])
-            line += f"; {p50:.2f} ms a step at p50, {p99:.2f} ms at p99"
+        if self.latency_ms:
+            p50, p99 = np.percentile(self.latency_ms, [50, 99])
+            line += f"; a wrench's arrival to the estimate {p50:.2f} ms at p50, {p99:.2f} ms at p99"
         if self.output is not None:
             line += f" -> {self.output}"
         return line
@@ -85,11 +89,14 @@ def run_live(
         session.finish()
         raise
     output = session.finish()
+    node = session.node
     return LiveReport(
         steps=session.steps,
         messages=session.messages,
         output=output,
         model=model,
         compute_ms=[ns / 1e6 for ns in session.compute_ns],
+        latency_ms=[] if node is None else [ns / 1e6 for ns in node.latency_ns],
+        handled_ms=[] if node is None else [ns / 1e6 for ns in node.handled_ns],
         ended=ended,
     )

@@ -14,6 +14,7 @@ import time
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -74,12 +75,14 @@ class LiveSession:
         self._first: dict[str, int] = {}
         self._frames: dict[str, str] = {}
         self._said: set[str] = set()
+        self._topics = options.topics  # looked up at every sample: made once
         self._counts: dict[str, int] = dict.fromkeys(options.topics, 0)
         self._late: dict[str, int] = dict.fromkeys(options.topics, 0)
         self._pending: list[GridStep] = []  # steps inside the tare, until it is known
         self._bias: np.ndarray | None = None
         self._started = False
         self.compute_ns: list[int] = []  # per step: placing, estimating, publishing
+        self.node: Any = None  # the ROS 2 node feeding it, if one does (`ros.LiveNode`)
 
     # -- samples -------------------------------------------------------------------
     def receive(
@@ -87,10 +90,9 @@ class LiveSession:
     ) -> list[StepResult]:
         """One sample of `kind` (wrench, twist, pose) stamped `t_ns` on the robot's clock;
         the results of the steps it completed (published by the sinks already)."""
-        topic = self.options.topics[kind]
         last = self._last.get(kind)
         if last is not None and t_ns <= last:
-            behind = (last - t_ns) / 1e9
+            behind, topic = (last - t_ns) / 1e9, self._topics[kind]
             if behind > MAX_LATE_S:
                 raise LiveError(
                     f"{topic}: time goes back {behind:.3g} s (a clock reset, or a log played "
@@ -105,7 +107,7 @@ class LiveSession:
             return []
         values = np.asarray(values, dtype=np.float64)
         if not np.isfinite(values).all():
-            self._warn_once(f"nan:{kind}", f"{topic}: NaN or infinite values; dropped")
+            self._warn_once(f"nan:{kind}", f"{self._topics[kind]}: NaN or infinite values; dropped")
             return []
         self._last[kind] = t_ns
         self._first.setdefault(kind, t_ns)
