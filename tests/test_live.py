@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -168,6 +169,12 @@ class Robot:
         self.context.try_shutdown()
 
 
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
 def start_live(args: list[str], env: dict[str, str]) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [DRESSLOG, "live", "--task", "gown", *args],
@@ -178,12 +185,18 @@ def start_live(args: list[str], env: dict[str, str]) -> subprocess.Popen[str]:
     )
 
 
-@pytest.mark.parametrize("speed", [1.0, 4.0], ids=["recorded-rate", "4x"])
+@pytest.mark.parametrize("speed", [1.0, 4.0], ids=["recorded-rate", "4x-and-to-rerun"])
 def test_live_publishes_what_convert_and_infer_make_of_the_bag_and_records_it(
     tmp_path: Path, ros_env: dict[str, str], bag_source: Any, converted: Any, speed: float
 ) -> None:
     session = tmp_path / "session.mcap"
     args = ["--wrench-topic", WRENCH, "--pose-topic", POSE, *SIGNAL, "-o", str(session)]
+    server = None
+    if speed > 1:  # and to a Rerun viewer elsewhere, as `record --connect` streams
+        import rerun as rr
+
+        server = rr.RecordingStream("dresslog-test-server")  # stands in for the viewer
+        args += ["--connect", rr.serve_grpc(grpc_port=_free_port(), recording=server)]
     live = start_live(args, ros_env)
     robot = Robot()
     try:
@@ -196,6 +209,8 @@ def test_live_publishes_what_convert_and_infer_make_of_the_bag_and_records_it(
         if live.poll() is None:
             live.kill()
         robot.close()
+        if server is not None:
+            server.disconnect()
     assert live.returncode == 0, err
     assert "Traceback" not in err and f"-> {session}" in out
 
