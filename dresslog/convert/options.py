@@ -93,12 +93,7 @@ class ConvertOptions(BaseModel):
     def build(cls, task: Task | str, **options: Any) -> ConvertOptions:
         """The options from flat keywords, as `convert` and the command take them: the
         signal's (`SignalOptions`' fields) go into `signal`."""
-        signal = options.pop("signal", None)
-        flat = {k: options.pop(k) for k in list(options) if k in SignalOptions.model_fields}
-        if signal is None:
-            signal = SignalOptions(**flat)
-        elif flat:
-            raise TypeError(f"give {', '.join(flat)} in signal, or leave signal out")
+        signal = SignalOptions.take(options)
         return cls.model_validate(dict(options, task=task, signal=signal))
 
     @property

@@ -123,6 +123,16 @@ class SignalOptions(BaseModel):
             _refuse(data)
         return data
 
+    @classmethod
+    def take(cls, options: dict[str, Any]) -> SignalOptions:
+        """The signal's options among a command's flat keywords, taken out of `options`:
+        the given `signal`, or one made of its fields there (not both)."""
+        flat = {k: options.pop(k) for k in list(options) if k in cls.model_fields}
+        signal = options.pop("signal", None)
+        if signal is not None and flat:
+            raise TypeError(f"give {', '.join(flat)} in signal, or leave signal out")
+        return signal if signal is not None else cls(**flat)
+
     @cached_property
     def _matrices(self) -> dict[str, np.ndarray]:
         """The fixed rotations' matrices, made once: `live` places a row at a time."""

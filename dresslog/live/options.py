@@ -9,7 +9,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, model_validator
 
 from dresslog.convert.signal import OptionError, SignalOptions
-from dresslog.errors import ConversionError
+from dresslog.errors import LiveError
 from dresslog.spec import Task, task_of
 
 #: Total estimated force on the limb above which the summary raises its flag, N.
@@ -55,7 +55,7 @@ class LiveOptions(BaseModel):
         if not isinstance(data, dict):
             return data
         data = dict(data)
-        data["task"] = task_of(data.get("task"), ConversionError)
+        data["task"] = task_of(data.get("task"), LiveError)
         signal = data.get("signal") or SignalOptions()
         if isinstance(signal, dict):
             signal = SignalOptions(**signal)
@@ -69,7 +69,7 @@ class LiveOptions(BaseModel):
         for name in ("high_force_n", "wait_s"):
             value = data.get(name)
             if value is not None and not (math.isfinite(value) and value > 0):
-                raise ConversionError(f"{name} {value}: give a number above 0")
+                raise LiveError(f"{name} {value}: give a number above 0")
         topics = [data.get(k) for k in ("wrench_topic", "twist_topic", "pose_topic")]
         given = [t for t in topics if t is not None]
         if len(set(given)) != len(given):
@@ -80,8 +80,8 @@ class LiveOptions(BaseModel):
     def build(cls, task: Task | str, **options: Any) -> LiveOptions:
         """The options from flat keywords, as the command takes them: the signal's
         (`SignalOptions`' fields) go into `signal`."""
-        flat = {k: options.pop(k) for k in list(options) if k in SignalOptions.model_fields}
-        return cls.model_validate(dict(options, task=task, signal=SignalOptions(**flat)))
+        signal = SignalOptions.take(options)
+        return cls.model_validate(dict(options, task=task, signal=signal))
 
     @property
     def motion(self) -> str:

@@ -49,16 +49,20 @@ class SessionRecorder:
         self._writer.write_limb_points(0, limb)
 
     def step(
-        self, t_ns: int, wrench: np.ndarray, twist: np.ndarray, pose: np.ndarray | None
+        self,
+        result: StepResult,
+        wrench: np.ndarray,
+        twist: np.ndarray,
+        pose: np.ndarray | None,
     ) -> None:
-        """One 100 Hz step as the model gets it, at session time `t_ns`."""
+        """One 100 Hz step as the model got it (placed `wrench`, `twist`, `pose`) and what
+        it made of it (`result`, at session time `result.step.t_ns`)."""
+        t_ns = result.step.t_ns
         self._steps.append((t_ns, wrench, twist, pose))
+        if result.estimate is not None and result.contact is not None:
+            self._estimates.append((t_ns, result.estimate, result.contact))
         if len(self._steps) >= FLUSH_STEPS:
             self.flush()
-
-    def estimate(self, result: StepResult) -> None:
-        if result.estimate is not None and result.contact is not None:
-            self._estimates.append((result.step.t_ns, result.estimate, result.contact))
 
     def flush(self) -> None:
         """Write what was held; samples stamped before session time 0 are kept apart."""

@@ -21,6 +21,7 @@ What is published, under the options' prefix (default `/dresslog`):
 from __future__ import annotations
 
 import time
+from array import array
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -161,9 +162,9 @@ class LiveNode:
         self.started = time.monotonic()
         self.last_message: dict[str, float] = {}
         #: per wrench message that completed a step: ns from its arrival to the last publication
-        self.latency_ns: list[int] = []
+        self.latency_ns = array("q")
         #: per wrench message: ns from its arrival to the end of its handling
-        self.handled_ns: list[int] = []
+        self.handled_ns = array("q")
         kinds = {"wrench": WrenchStamped, "twist": TwistStamped, "pose": PoseStamped}
         self.subscriptions = [
             node.create_subscription(kinds[kind], topic, self._callback(kind), qos)
@@ -244,7 +245,7 @@ class LiveNode:
             if since is not None and now - since > self.options.wait_s:
                 if topic not in self._silent_said:
                     self._silent_said.add(topic)
-                    self.session._warn(
+                    self.session.warn(
                         f"no message on {topic} for {self.options.wait_s:g} s; waiting (Ctrl-C "
                         "ends the session)"
                     )

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from array import array
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -81,7 +82,7 @@ class LiveSession:
         self._pending: list[GridStep] = []  # steps inside the tare, until it is known
         self._bias: np.ndarray | None = None
         self._started = False
-        self.compute_ns: list[int] = []  # per step: placing, estimating, publishing
+        self.compute_ns = array("q")  # per step, ns: placing, estimating, publishing
         self.node: Any = None  # the ROS 2 node feeding it, if one does (`ros.LiveNode`)
 
     # -- samples -------------------------------------------------------------------
@@ -100,7 +101,7 @@ class LiveSession:
                 )
             self._late[kind] += 1
             if self._late[kind] == 1:
-                self._warn(
+                self.warn(
                     f"{topic}: a message stamped {behind * 1e3:.3g} ms before one received "
                     "earlier; dropped (as are any more such, counted in the session's notes)"
                 )
@@ -124,14 +125,15 @@ class LiveSession:
             results += self._tared(grid_step)
         return results
 
-    def _warn(self, message: str) -> None:
+    def warn(self, message: str) -> None:
+        """Warn of `message` and keep it for the session's metadata."""
         self.found.append(message)
         warnings.warn(message, LiveWarning, stacklevel=3)
 
     def _warn_once(self, key: str, message: str) -> None:
         if key not in self._said:
             self._said.add(key)
-            self._warn(message)
+            self.warn(message)
 
     # -- steps ---------------------------------------------------------------------
     def _start(self) -> None:
@@ -146,13 +148,13 @@ class LiveSession:
                     f"model's 100 Hz steps; is it the right topic?"
                 )
             if rate < SLOW_HZ:
-                self._warn(
+                self.warn(
                     f"{topic} arrives at {rate:.3g} Hz, slower than the model's 100 Hz steps: "
                     "interpolated onto them, so the model sees a smoothed signal"
                 )
         if message := frames_differ(self._source(), self.options.signal.wrench_frame,
                                     self.options.signal.rotate is not None):  # fmt: skip
-            self._warn(f"{message}; going on with the options as given")
+            self.warn(f"{message}; going on with the options as given")
         self.origin_ns = min(self._first.values())
         if self.recorder is not None:
             self.recorder.start(self.origin_ns, self.limb)
@@ -195,13 +197,11 @@ class LiveSession:
             grid_step.wrench[None], grid_step.twist[None], pose, self._bias
         )
         t_ns = grid_step.t_ns - self.origin_ns
-        if self.recorder is not None:
-            self.recorder.step(t_ns, wrench[0], twist[0], None if pose is None else pose[0])
         phi = np.concatenate([wrench[0], twist[0, :3]]).astype(np.float32)
         step = Step(grid_step.index, t_ns, phi, pose=None if pose is None else pose[0])
-        result = self.replay.push(step)
+        result = self.replay.push(step)  # published: what is written waits till after
         if self.recorder is not None:
-            self.recorder.estimate(result)
+            self.recorder.step(result, wrench[0], twist[0], None if pose is None else pose[0])
         self.steps += 1
         self.compute_ns.append(time.perf_counter_ns() - began)
         return result
