@@ -166,11 +166,27 @@ class LiveNode:
         #: per wrench message: ns from its arrival to the end of its handling
         self.handled_ns = array("q")
         kinds = {"wrench": WrenchStamped, "twist": TwistStamped, "pose": PoseStamped}
+        #: what a callback raised (a clock reset, Ctrl-C), for `spin` to raise in its stead:
+        #: rclpy's executors log a callback's exception with its traceback first
+        self.failure: BaseException | None = None
         self.subscriptions = [
-            node.create_subscription(kinds[kind], topic, self._callback(kind), qos)
+            node.create_subscription(kinds[kind], topic, self._guarded(self._callback(kind)), qos)
             for kind, topic in options.topics.items()
         ]
         self._silent_said: set[str] = set()
+
+    def _guarded(self, callback: Any) -> Any:
+        """`callback`, its exception kept in `failure` (and every message after it ignored)."""
+
+        def guarded(msg: Any) -> None:
+            if self.failure is not None:
+                return
+            try:
+                callback(msg)
+            except BaseException as err:  # Ctrl-C landing in a callback too
+                self.failure = err
+
+        return guarded
 
     def _callback(self, kind: str) -> Any:
         receive, clock = self.session.receive, time.perf_counter_ns
@@ -253,6 +269,18 @@ class LiveNode:
                 self._silent_said.discard(topic)
 
 
+def _executor(context: Any) -> Any:
+    """rclpy's events executor (C++, Jazzy's `rclpy.experimental`), where there is one: at
+    1 kHz the Python executor's wait set alone took a third of a core; else the usual one."""
+    try:
+        from rclpy.experimental import EventsExecutor
+    except ImportError:
+        from rclpy.executors import SingleThreadedExecutor
+
+        return SingleThreadedExecutor(context=context)
+    return EventsExecutor(context=context)
+
+
 def spin(
     options: LiveOptions,
     session: LiveSession,
@@ -264,7 +292,6 @@ def spin(
     caller finishes the session. rclpy leaves the signals to Python, so an interrupt lands
     here as KeyboardInterrupt and the session file is still finished."""
     rclpy = import_rclpy()
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
     own = context is None
@@ -272,7 +299,7 @@ def spin(
         context = rclpy.Context()
         rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("dresslog_live", context=context)
-    executor = SingleThreadedExecutor(context=context)
+    executor = _executor(context)
     try:
         publisher = Publisher(node, options, session)
         session.replay.sinks.insert(0, publisher)
@@ -283,6 +310,8 @@ def spin(
         end = None if stop_after is None else time.monotonic() + stop_after
         while end is None or time.monotonic() < end:
             executor.spin_once(timeout_sec=0.1)
+            if live.failure is not None:
+                raise live.failure
             if time.monotonic() - checked > 0.5:
                 live.check_topics()
                 checked = time.monotonic()
