@@ -6,8 +6,9 @@ process beside it. Reported: the latency from a wrench message's arrival in `liv
 callback to the end of the publication of the force map, contact map and summary it
 completed (p50, p99), the time every wrench message took to handle, and `live`'s CPU time
 as a share of one core while the messages came; beside the wall-clock latency, the CPU
-time of the same handling, which a busy machine's preemption does not inflate. Peer, in the same run: the estimator's
-bare step (`NumpyEstimator.step`), what a robot's own loop would pay at the least.
+time of the same handling, which a busy machine's preemption does not inflate. Peer, in
+the same run: the estimator's bare step (`NumpyEstimator.step`), what a robot's own loop
+would pay at the least.
 Target: p99 <= 2 ms.
 
     python tests/benchmarks/bench_live.py [--messages 10000] [--rate 1000]
