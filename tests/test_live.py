@@ -374,3 +374,49 @@ def test_a_wrench_in_a_frame_the_options_do_not_place_is_warned_of(
     with pytest.warns(LiveWarning, match="the wrench is in frame 'ft_sensor', the motion in "):
         _feed(session, bag_source, upto_s=0.5)
     assert session.finish() is not None
+
+
+def test_unset_header_stamps_are_timed_by_arrival_with_a_warning(
+    tmp_path: Path, ros_env: dict[str, str]
+) -> None:
+    """A driver that never fills its headers: `live` runs in this process, on its clock."""
+    import rclpy
+    from geometry_msgs.msg import PoseStamped, WrenchStamped
+
+    from dresslog.live import run_live
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("unstamped", context=context)
+    wrench_pub = node.create_publisher(WrenchStamped, "/raw_wrench", 100)
+    pose_pub = node.create_publisher(PoseStamped, "/raw_pose", 100)
+
+    def play() -> None:
+        while not (wrench_pub.get_subscription_count() and pose_pub.get_subscription_count()):
+            time.sleep(0.02)
+        pose = PoseStamped()
+        pose.pose.orientation.w = 1.0
+        for i in range(150):  # 1.5 s at 100 Hz, stamps left 0
+            pose.pose.position.x = 0.001 * i
+            wrench_pub.publish(WrenchStamped())
+            pose_pub.publish(pose)
+            time.sleep(0.01)
+
+    options = LiveOptions.build(
+        "gown", wrench_topic="/raw_wrench", pose_topic="/raw_pose", output=tmp_path / "s.mcap"
+    )
+    player = threading.Thread(target=play)
+    player.start()
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            report = run_live(options, stop_after=3.0, context=context)
+    finally:
+        player.join()
+        node.destroy_node()
+        context.try_shutdown()
+    said = sorted(str(w.message) for w in caught if w.category is LiveWarning)
+    assert said == [f"{topic}: header stamps unset, timed by their arrival"
+                    for topic in ("/raw_pose", "/raw_wrench")]  # fmt: skip
+    assert report.steps > 50 and report.output == tmp_path / "s.mcap"
+    assert CliRunner().invoke(main, ["info", str(report.output)]).exit_code == 0

@@ -60,10 +60,6 @@ def import_rclpy() -> Any:
     return rclpy
 
 
-def _stamp_ns(msg: Any) -> int:
-    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
-
-
 def _cloud(points: np.ndarray, field: str, frame_id: str) -> tuple[Any, np.ndarray]:
     """A PointCloud2 of `points` (N, 3) with float32 x y z and `field`, and the (N, 4) float32
     buffer its data is made from (column 3: the field's values)."""
@@ -174,6 +170,7 @@ class LiveNode:
             for kind, topic in options.topics.items()
         ]
         self._silent_said: set[str] = set()
+        self._unstamped: set[str] = set()
 
     def _guarded(self, callback: Any) -> Any:
         """`callback`, its exception kept in `failure` (and every message after it ignored)."""
@@ -188,8 +185,21 @@ class LiveNode:
 
         return guarded
 
+    def _stamp_ns(self, kind: str, msg: Any) -> int:
+        """The message's header stamp; where a driver left it unset (0), the node's clock
+        as it arrives, said once, as `convert` takes a bag's receive times then."""
+        stamp = msg.header.stamp
+        if stamp.sec or stamp.nanosec:
+            return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+        if kind not in self._unstamped:
+            self._unstamped.add(kind)
+            self.session.warn(
+                f"{self.options.topics[kind]}: header stamps unset, timed by their arrival"
+            )
+        return int(self.node.get_clock().now().nanoseconds)
+
     def _callback(self, kind: str) -> Any:
-        receive, clock = self.session.receive, time.perf_counter_ns
+        receive, clock, stamp = self.session.receive, time.perf_counter_ns, self._stamp_ns
         last = self.last_message
         latency, handled = self.latency_ns, self.handled_ns
 
@@ -199,7 +209,7 @@ class LiveNode:
                 arrived = clock()
                 f, tq = msg.wrench.force, msg.wrench.torque
                 values = np.array([f.x, f.y, f.z, tq.x, tq.y, tq.z])
-                published = receive("wrench", _stamp_ns(msg), values, msg.header.frame_id)
+                published = receive("wrench", stamp("wrench", msg), values, msg.header.frame_id)
                 took = clock() - arrived
                 handled.append(took)
                 if published:
@@ -212,7 +222,7 @@ class LiveNode:
             def on_twist(msg: Any) -> None:
                 v, w = msg.twist.linear, msg.twist.angular
                 values = np.array([v.x, v.y, v.z, w.x, w.y, w.z])
-                receive("twist", _stamp_ns(msg), values, msg.header.frame_id)
+                receive("twist", stamp("twist", msg), values, msg.header.frame_id)
                 last["twist"] = time.monotonic()
 
             return on_twist
@@ -220,7 +230,7 @@ class LiveNode:
         def on_pose(msg: Any) -> None:
             p, q = msg.pose.position, msg.pose.orientation
             values = np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
-            receive("pose", _stamp_ns(msg), values, msg.header.frame_id)
+            receive("pose", stamp("pose", msg), values, msg.header.frame_id)
             last["pose"] = time.monotonic()
 
         return on_pose
