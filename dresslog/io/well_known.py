@@ -43,6 +43,9 @@ RECEIVED_SCHEMAS: dict[str, str] = {
     RECEIVED["pose"]: SCHEMAS[POSE],
 }
 
+#: A live session's `source.format` in its metadata (a converted log's is its input's kind).
+LIVE_FORMAT = "ros2 live"
+
 #: The real-number fields of a contact (the rest are indices), which must be finite.
 CONTACT_REALS = ("position", "normal", "friction", "normal_force")
 

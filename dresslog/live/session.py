@@ -24,6 +24,7 @@ from dresslog.convert.checks import MAX_LATE_S, frames_differ
 from dresslog.convert.signal import tare_bias
 from dresslog.convert.source import MESSAGE_TYPES, Source, SourceStream
 from dresslog.errors import DresslogWarning, LiveError
+from dresslog.io import well_known as wk
 from dresslog.limb import build_limb, limb_points
 from dresslog.live.options import LiveOptions
 from dresslog.live.recorder import SessionRecorder
@@ -158,7 +159,10 @@ class LiveSession:
         self.origin_ns = min(self._first.values())
         if self.recorder is not None:
             self.recorder.start(self.origin_ns, self.limb)
-        metadata = TrialMetadata(task=self.options.task)
+        topics = "topics " + ", ".join(self.options.topics.values())
+        metadata = TrialMetadata(
+            task=self.options.task, source={"format": wk.LIVE_FORMAT, "file": topics}
+        )
         self.replay.start(TrialContext(metadata, self.limb, has_truth=False, model=self.model))
         self._started = True
 
@@ -229,8 +233,8 @@ class LiveSession:
             processing["pose"] = "linear interpolation, quaternions normalised"
         processing |= self.options.signal.steps()
         info: dict[str, object] = {
-            "format": "ros2 live",
-            "file": "topics " + ", ".join(self.options.topics.values()),
+            "format": wk.LIVE_FORMAT,
+            "file": "topics " + ", ".join(self._topics.values()),
             "start_ns": self.origin_ns,
             "time": "output t = source t - start_ns",
             "rate_hz": rs.RATE_HZ,

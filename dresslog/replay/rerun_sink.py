@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dresslog.errors import TrialWriteError
+from dresslog.io import well_known as wk
 from dresslog.io.files import (
     check_output,
     discard,
@@ -324,7 +325,10 @@ class RerunSink:
         assert ctx is not None
         md = ctx.metadata
         origin = md.source.get("file")
-        if ctx.source_path:
+        if md.source.get("format") == wk.LIVE_FORMAT:  # a `dresslog live` session, or its file
+            where = f" from `{printable(ctx.source_path.name)}`" if ctx.source_path else ""
+            what = f"**{md.task.value}** trial{where}, live from ROS 2 {origin}"
+        elif ctx.source_path:
             what = f"**{md.task.value}** trial from `{printable(ctx.source_path.name)}`"
             if origin:  # a robot's log: no simulation decided an outcome
                 what += f", converted from `{printable(Path(str(origin)).name)}`"
