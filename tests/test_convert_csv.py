@@ -1076,3 +1076,42 @@ def test_a_tare_left_out_or_reaching_into_the_motion_is_warned_about(
     with pytest.warns(ConversionWarning, match=message):
         report = convert(source, tmp_path / "t.mcap", "gown", tare_s=tare_s)
     assert report.warnings == report.source["warnings"] and len(report.warnings) == 1
+
+
+def test_options_passed_whole_or_as_keywords_make_the_same_trial(tmp_path: Path) -> None:
+    """`ConvertOptions` is what the command builds and passes whole; a Python caller's
+    keywords build the same one, so both make the same file."""
+    from dresslog.convert import ConvertOptions, SignalOptions
+
+    robot = SAMPLES / "robot"
+    keywords = {"motion": robot / "pose.csv", "wrench_frame": "pose", "tare_s": 0.5,
+                "rotate": (0.0, 0.0, -0.7071068, 0.7071068)}  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConversionWarning)
+        convert(robot / "ft.csv", tmp_path / "keywords.mcap", "gown", **keywords)
+        signal = SignalOptions(wrench_frame="pose", tare_s=0.5, rotate=keywords["rotate"])
+        whole = ConvertOptions(task="gown", motion=keywords["motion"], signal=signal)
+        assert whole == ConvertOptions.build("gown", **keywords)
+        convert(robot / "ft.csv", tmp_path / "whole.mcap", whole)
+    made = [read_trial(tmp_path / f"{name}.mcap") for name in ("keywords", "whole")]
+    np.testing.assert_array_equal(made[0].measurements.phi, made[1].measurements.phi)
+    assert made[0].metadata.source == made[1].metadata.source
+    with pytest.raises(TypeError, match="tare_s"):
+        convert(robot / "ft.csv", tmp_path / "both.mcap", whole, tare_s=1.0)
+
+
+def test_convert_and_live_take_one_set_of_signal_options() -> None:
+    """The frame, mount, axis and tare options are one decorator and one SignalOptions."""
+    import click
+
+    from dresslog.convert import SignalOptions
+
+    ctx = click.Context(main)
+    commands = [main.get_command(ctx, name) for name in ("convert", "live")]
+    shared = set(SignalOptions.model_fields) - {"max_gap_s"}
+    described = [
+        {p.name: (p.opts, p.help, p.default) for p in c.params if p.name in shared}
+        for c in commands
+        if c is not None
+    ]
+    assert set(described[0]) == shared and described[0] == described[1]
