@@ -15,6 +15,7 @@ from dresslog.errors import SimulationError
 from dresslog.limb import build_limb, limb_sdf
 from dresslog.sim import SimStart, SimStep, random_spec, record_trial, simulate
 from dresslog.sim.garments import garment_for
+from dresslog.sim.scene import touching
 from dresslog.sim.simulate import _contacts_of_steps
 from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import contact_magnitudes
@@ -147,7 +148,7 @@ def test_a_recorded_contact_is_the_mean_over_the_substeps() -> None:
 
     substeps = [[raw(0, 2.0, -0.01)], [raw(0, 4.0, 0.0), raw(1, 0.0, 0.0)], [raw(0, 0.0, 0.0)]]
     raw = [c for s in substeps for c in s]
-    contacts, counts = _contacts_of_steps([raw], limb, verts[None], len(substeps))
+    contacts, counts = _contacts_of_steps([touching(raw)], limb, verts[None], len(substeps))
     assert list(counts) == [1]
     assert len(contacts) == 1 and contacts["vertex"][0] == 0
     assert contacts["normal_force"][0] == pytest.approx(2.0)

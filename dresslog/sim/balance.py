@@ -23,12 +23,12 @@ from dresslog.sim.scene import Scene
 
 class WrenchReading(Protocol):
     def __call__(
-        self, scene: Scene, verts: np.ndarray, contacts: list[tuple], ee: np.ndarray
+        self, scene: Scene, verts: np.ndarray, contacts: np.ndarray, ee: np.ndarray
     ) -> np.ndarray: ...
 
 
 def constraint_reading(
-    scene: Scene, verts: np.ndarray, contacts: list[tuple], ee: np.ndarray
+    scene: Scene, verts: np.ndarray, contacts: np.ndarray, ee: np.ndarray
 ) -> np.ndarray:
     """What the gripper's constraint reports: the garment's load and the gripper's own."""
     return -scene.constraint_wrench()
@@ -51,7 +51,7 @@ class MomentumBalance:
         self._before, self._last = rest, rest
 
     def __call__(
-        self, scene: Scene, verts: np.ndarray, contacts: list[tuple], ee: np.ndarray
+        self, scene: Scene, verts: np.ndarray, contacts: np.ndarray, ee: np.ndarray
     ) -> np.ndarray:
         # the step's velocity change comes from the forces where the nodes were
         before, at, self._before, self._last = self._before, self._last, self._last, verts
@@ -60,13 +60,11 @@ class MomentumBalance:
         wrench = np.empty(6)
         wrench[:3] = pull.sum(axis=0)
         wrench[3:] = cross_rows(at - ee, pull).sum(axis=0)
-        touching = [c for c in contacts if c[9] > 0]  # as the force map counts them
-        if touching:
-            # positionOnB (the limb), normal on B towards the garment, force, two frictions
-            c = np.array([(*c[6], *c[7], c[9], c[10], *c[11], c[12], *c[13]) for c in touching])
-            f = c[:, 3:6] * c[:, 6:7] + c[:, 7:8] * c[:, 8:11] + c[:, 11:12] * c[:, 12:15]
+        if len(contacts):  # those that carry force, as the force map counts them
+            c = contacts  # CONTACT_COLUMNS: the limb's point, normal, force, two frictions
+            f = c[:, 6:9] * c[:, 9:10] + c[:, 10:11] * c[:, 11:14] + c[:, 14:15] * c[:, 15:18]
             wrench[:3] += f.sum(axis=0)
-            wrench[3:] += cross_rows(c[:, 0:3] - ee, f).sum(axis=0)
+            wrench[3:] += cross_rows(c[:, 3:6] - ee, f).sum(axis=0)
         return wrench
 
 

@@ -10,6 +10,7 @@ so the constraint's force is what a force/torque sensor at the gripper reads
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from itertools import chain
 from pathlib import Path
@@ -58,6 +59,22 @@ def load_cloth(
         collisionMargin=params.collision_margin,
         physicsClientId=client,
     )
+
+
+#: The columns of `Scene.contacts`, each contact read once for all that use it:
+#: positionOnA (the garment's node), positionOnB (the limb), normal on B towards the
+#: garment, normal force, two frictions with their directions.
+CONTACT_COLUMNS = {"on_garment": slice(0, 3), "on_limb": slice(3, 6), "normal": slice(6, 9),
+                   "force": 9, "friction1": 10, "dir1": slice(11, 14), "friction2": 14,
+                   "dir2": slice(15, 18)}  # fmt: skip
+
+
+def touching(raw: Iterable[tuple]) -> np.ndarray:
+    """getContactPoints' tuples (garment = body A) as `CONTACT_COLUMNS` rows, each that
+    carries force: pybullet also lists garment nodes merely within the collision margin,
+    with zero force; those are not contacts."""
+    rows = [(*c[5], *c[6], *c[7], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0]
+    return np.array(rows).reshape(-1, 18)
 
 
 @dataclass
@@ -148,9 +165,9 @@ class Scene:
         )
         return np.fromiter(chain.from_iterable(v), np.float64, 3 * len(v)).reshape(-1, 3)
 
-    def contacts(self) -> list[tuple]:
-        """Raw garment-limb contact tuples (getContactPoints with the garment as body A)."""
-        return pb.getContactPoints(bodyA=self.cloth, physicsClientId=self.client)
+    def contacts(self) -> np.ndarray:
+        """The garment-limb contacts that carry force, (C, 18) by `CONTACT_COLUMNS`."""
+        return touching(pb.getContactPoints(bodyA=self.cloth, physicsClientId=self.client))
 
     def close(self) -> None:
         if pb.isConnected(self.client):

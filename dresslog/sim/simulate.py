@@ -92,30 +92,28 @@ class SimResult:
 
 
 def _contacts_of_steps(
-    raws: list[list[tuple]], limb: Limb, verts: np.ndarray, substeps: int
+    steps: list[np.ndarray], limb: Limb, verts: np.ndarray, substeps: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """CONTACT_DTYPE array of the contacts that carry force at B steps, and their counts (B,).
 
-    `raws[j]` holds the contact tuples (garment = body A, limb = B) of step j's
-    `substeps` physics steps, `verts[j]` the garment then (B, V, 3). Each garment
-    vertex becomes one contact whose forces are the mean over those steps and whose
-    place is its latest. pybullet also lists garment nodes merely within the collision
-    margin, with zero force; those are not contacts. The garment-side point is
-    projected onto the limb surface, the normal there points from the limb to the
-    garment. The contacts come out step after step, each step's as alone.
+    `steps[j]` holds the contacts (`CONTACT_COLUMNS` rows, as `Scene.contacts` reads
+    them) of step j's `substeps` physics steps, `verts[j]` the garment then (B, V, 3).
+    Each garment vertex becomes one contact whose forces are the mean over those steps
+    and whose place is its latest. The garment-side point is projected onto the limb
+    surface, the normal there points from the limb to the garment. The contacts come
+    out step after step, each step's as alone.
     """
     n_steps, n = verts.shape[:2]
-    # positionOnA, normalForce, friction1, dir1, friction2, dir2
-    rows = [[(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0] for raw in raws]
+    rows = [len(s) for s in steps]
     if not any(rows):
         return np.zeros(0, dtype=CONTACT_DTYPE), np.zeros(n_steps, np.int64)
-    flat = np.array([r for step in rows for r in step])
+    flat = np.concatenate(steps)
     sq = sum_xyz(verts * verts)
     vertex = np.empty(len(flat), np.int64)
     end = 0
-    for j, step in enumerate(rows):
-        if step:
-            lo, end = end, end + len(step)
+    for j, count in enumerate(rows):
+        if count:
+            lo, end = end, end + count
             # nearest vertex by |v|^2 - 2 p.v (|p|^2 is the same for every vertex): one
             # small matmul per step (BLAS rounds a row by where it falls in the matrix)
             # instead of a (rows, vertices, 3) difference; garment nodes are centimetres
@@ -126,8 +124,8 @@ def _contacts_of_steps(
     np.maximum.at(latest, vertex, np.arange(len(vertex)))  # each vertex's last row
     ids = np.flatnonzero(latest >= 0)  # by step, then vertex
     forces = np.empty((len(flat), 4))
-    forces[:, 0] = flat[:, 3]
-    forces[:, 1:] = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
+    forces[:, 0] = flat[:, 9]
+    forces[:, 1:] = flat[:, 10:11] * flat[:, 11:14] + flat[:, 14:15] * flat[:, 15:18]
     # per-vertex sums over the rows in order, as the substeps' impulses add up
     sums = np.bincount(
         (vertex[:, None] * 4 + np.arange(4)).ravel(), forces.ravel(), 4 * len(latest)
@@ -168,6 +166,8 @@ def _guard(verts: np.ndarray, ee: np.ndarray, t: float) -> None:
 BATCH = 10
 #: The garment handed to a wrench reading that does not look at it.
 _NONE = np.empty((0, 3))
+#: The contacts handed to a wrench reading that does not look at them.
+_NO_CONTACTS = np.empty((0, 18))
 
 
 @dataclass(frozen=True)
@@ -204,13 +204,15 @@ class _StepBatch:
         self.force_map, self.spread, self.sink, self.timings = force_map, spread, sink, timings
         self.substeps = spec.sim.physics_hz // spec.sim.record_hz
         self.garment_every = max(1, spec.sim.record_hz // GARMENT_HZ)
-        self._held: list[tuple[int, list[tuple], np.ndarray, np.ndarray]] = []
+        self._held: list[tuple[int, list[np.ndarray], np.ndarray, np.ndarray]] = []
         self.peak_limb = 0.0
         self.ee_forces: list[float] = []  # |force| at the gripper of each step handed on
 
-    def add(self, index: int, raw: list[tuple], wrench: np.ndarray, verts: np.ndarray) -> None:
-        """Hold step `index`: its substeps' raw contacts, summed constraint wrench, garment."""
-        self._held.append((index, raw, wrench, verts))
+    def add(
+        self, index: int, contacts: list[np.ndarray], wrench: np.ndarray, verts: np.ndarray
+    ) -> None:
+        """Hold step `index`: its substeps' contacts, summed wrench reading, garment."""
+        self._held.append((index, contacts, wrench, verts))
         if len(self._held) >= BATCH:
             self.flush()
 
@@ -224,7 +226,9 @@ class _StepBatch:
         exploded = self._exploded(index, verts)
         if exploded is not None:  # the steps before it go first, as they happened first
             held, index, verts = held[: exploded[0]], index[: exploded[0]], verts[: exploded[0]]
-        every, counts = _contacts_of_steps([h[1] for h in held], self.limb, verts, self.substeps)
+        every, counts = _contacts_of_steps(
+            [np.concatenate(h[1]) for h in held], self.limb, verts, self.substeps
+        )
         mags = contact_magnitudes(every)
         maps = self._force_maps(verts, every, counts, mags)
         m = self.motion
@@ -356,7 +360,7 @@ def _settle(
         if momentum:
             wrench = read(scene, scene.vertices(), scene.contacts(), ee)
         elif k >= n_settle - n_tare:
-            wrench = read(scene, _NONE, [], ee)
+            wrench = read(scene, _NONE, _NO_CONTACTS, ee)
         if k >= n_settle - n_tare:
             tare += wrench
     return tare / n_tare
@@ -377,7 +381,7 @@ def _record(
     """
     momentum = isinstance(read, MomentumBalance)  # which must see every step's garment
     for i in range(len(path_phys) // sub):
-        raw: list[tuple] = []
+        contacts: list[np.ndarray] = []
         wrench = np.zeros(6)
         for k in range(sub):
             t0 = time.thread_time()
@@ -385,13 +389,12 @@ def _record(
             scene.move_ee(ee)
             scene.step()
             t1 = time.thread_time()
-            contacts = scene.contacts()
-            raw += contacts
+            contacts.append(scene.contacts())
             verts = scene.vertices() if momentum or k == sub - 1 else _NONE
-            wrench += read(scene, verts, contacts, ee)
+            wrench += read(scene, verts, contacts[-1], ee)
             timings["physics"] += t1 - t0
             timings["queries"] += time.thread_time() - t1
-        steps.add(i, raw, wrench, verts)
+        steps.add(i, contacts, wrench, verts)
     steps.flush()
 
 
