@@ -18,7 +18,8 @@ _SORTED_WHOLE = 256
 
 
 def nearest(d2: np.ndarray, k: int) -> np.ndarray:
-    """`np.argpartition(d2, k - 1, axis=1)[:, :k]` (R, k), same points in the same order.
+    """`np.argpartition(d2, k - 1, axis=1)[:, :k]` (R, k), same points in the same order
+    (`d2` is worked on in place and left as it was).
 
     The order matters: a contact's k distances are summed in it. numpy (x86-simd-sort's
     argselect, which it uses on x86-64 with AVX-512) sorts a row of at most
@@ -33,13 +34,14 @@ def nearest(d2: np.ndarray, k: int) -> np.ndarray:
     if not _SELECT_SORTS:
         return np.argpartition(d2, k - 1, axis=1)[:, :k]
     rows, n = d2.shape
-    work = d2.copy()
     at = np.arange(rows)
     idx = np.empty((rows, k + 1), np.intp)
-    for j in range(k + 1):
-        idx[:, j] = i = work.argmin(axis=1)
-        work[at, i] = np.inf
-    vals = d2[at[:, None], idx]
+    vals = np.empty((rows, k + 1))
+    for j in range(k + 1):  # in place, each minimum set aside (a copy costs more)
+        idx[:, j] = i = d2.argmin(axis=1)
+        vals[:, j] = d2[at, i]
+        d2[at, i] = np.inf
+    d2[at[:, None], idx] = vals  # d2 as it was, bit for bit
     sure = vals[:, k - 1] < vals[:, k]  # False for NaN and for a tie at the k-th
     if n > _SORTED_WHOLE:
         size = (n - 1) // 8
@@ -93,6 +95,7 @@ class ForceDistributor:
         self.k = min(k, len(limb_points))
         self._sq = np.sum(limb_points**2, axis=1)[None, :]
         self._points_t = limb_points.T
+        self._scratch = np.empty((0, len(limb_points)))
 
     def __call__(self, positions: np.ndarray, magnitudes: np.ndarray) -> np.ndarray:
         """Force map (N,) float32 from contacts at `positions` (C, 3) with `magnitudes` (C,)."""
@@ -118,7 +121,9 @@ class ForceDistributor:
             )
         if len(positions) == 0:
             return np.zeros((b, n), dtype=np.float32)
-        cross = np.empty((len(positions), n))
+        if len(self._scratch) < len(positions):  # kept: a fresh block page-faults
+            self._scratch = np.empty((2 * len(positions), n))
+        cross = self._scratch[: len(positions)]
         ends = np.cumsum(counts)
         for lo, hi in zip(ends - counts, ends, strict=True):
             if hi > lo:

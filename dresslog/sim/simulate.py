@@ -353,16 +353,27 @@ def _settle(
     wind *= p.wind_accel / np.linalg.norm(wind)
     n_settle, n_wind, n_tare = p.settle_steps()  # the spec leaves the tare after the wind
     tare = np.zeros(6)
-    momentum = isinstance(read, MomentumBalance)  # which must see every step
+    if isinstance(read, MomentumBalance):  # which must see every step: read them at the end
+        seen, contacts = [], []
+        for k in range(n_settle):
+            scene.set_gravity(g + wind if k < n_wind else g)
+            scene.step()
+            seen.append(scene.vertices())
+            contacts.append(scene.contacts())
+        windy = min(n_wind, n_settle)
+        for lo, hi, gravity in ((0, windy, g + wind), (windy, n_settle, g)):
+            if hi > lo:
+                readings = read.steps(
+                    gravity, np.stack(seen[lo:hi]), contacts[lo:hi], np.tile(ee, (hi - lo, 1))
+                )
+                for k in range(max(lo, n_settle - n_tare), hi):
+                    tare += readings[k - lo]
+        return tare / n_tare
     for k in range(n_settle):
         scene.set_gravity(g + wind if k < n_wind else g)
         scene.step()
-        if momentum:
-            wrench = read(scene, scene.vertices(), scene.contacts(), ee)
-        elif k >= n_settle - n_tare:
-            wrench = read(scene, _NONE, _NO_CONTACTS, ee)
         if k >= n_settle - n_tare:
-            tare += wrench
+            tare += read(scene, _NONE, _NO_CONTACTS, ee)
     return tare / n_tare
 
 
@@ -377,11 +388,15 @@ def _record(
     """Move the gripper along the path; each recorded step averages its physics substeps.
 
     Contacts and wrench are averaged over the substeps: a recorded step carries the
-    impulse of its whole interval, not the chatter of its last substep.
+    impulse of its whole interval, not the chatter of its last substep. The garment's
+    momentum balance, which must see every physics step, reads BATCH steps' at once.
     """
-    momentum = isinstance(read, MomentumBalance)  # which must see every step's garment
-    for i in range(len(path_phys) // sub):
+    balance = read if isinstance(read, MomentumBalance) else None
+    n_rec = len(path_phys) // sub
+    held: list[tuple[int, list[np.ndarray], list[np.ndarray]]] = []
+    for i in range(n_rec):
         contacts: list[np.ndarray] = []
+        seen: list[np.ndarray] = []
         wrench = np.zeros(6)
         for k in range(sub):
             t0 = time.thread_time()
@@ -390,11 +405,33 @@ def _record(
             scene.step()
             t1 = time.thread_time()
             contacts.append(scene.contacts())
-            verts = scene.vertices() if momentum or k == sub - 1 else _NONE
-            wrench += read(scene, verts, contacts[-1], ee)
+            if balance is not None:
+                seen.append(scene.vertices())
+            else:
+                verts = scene.vertices() if k == sub - 1 else _NONE
+                wrench += read(scene, verts, contacts[-1], ee)
             timings["physics"] += t1 - t0
             timings["queries"] += time.thread_time() - t1
-        steps.add(i, contacts, wrench, verts)
+        if balance is None:
+            steps.add(i, contacts, wrench, verts)
+            continue
+        held.append((i, contacts, seen))
+        if len(held) == BATCH or i == n_rec - 1:
+            t0 = time.thread_time()
+            lo, hi = held[0][0] * sub, (held[-1][0] + 1) * sub
+            readings = balance.steps(
+                scene.gravity,
+                np.stack([v for h in held for v in h[2]]),
+                [c for h in held for c in h[1]],
+                path_phys[lo:hi],
+            )
+            wrenches = np.zeros((len(held), 6))
+            for k in range(sub):  # added up substep after substep, as one step adds them
+                wrenches += readings[k::sub]
+            timings["queries"] += time.thread_time() - t0
+            for (j, contacts, seen), wrench in zip(held, wrenches, strict=True):
+                steps.add(j, contacts, wrench, seen[-1])
+            held = []
     steps.flush()
 
 
