@@ -74,7 +74,7 @@ def touching(raw: Iterable[tuple]) -> np.ndarray:
     carries force: pybullet also lists garment nodes merely within the collision margin,
     with zero force; those are not contacts."""
     rows = [(*c[5], *c[6], *c[7], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0]
-    return np.array(rows).reshape(-1, 18)
+    return np.fromiter(chain.from_iterable(rows), np.float64, 18 * len(rows)).reshape(-1, 18)
 
 
 @dataclass
