@@ -42,7 +42,8 @@ def nearest(d2: np.ndarray, k: int) -> np.ndarray:
         vals[:, j] = d2[at, i]
         d2[at, i] = np.inf
     d2[at[:, None], idx] = vals  # d2 as it was, bit for bit
-    sure = vals[:, k - 1] < vals[:, k]  # False for NaN and for a tie at the k-th
+    # a tie at the k-th; a NaN (argmin finds it first, argpartition puts it last)
+    sure = (vals[:, k - 1] < vals[:, k]) & ~np.isnan(vals[:, 0])
     if n > _SORTED_WHOLE:
         size = (n - 1) // 8
         pivot = np.sort(d2[:, size * np.arange(1, 9)], axis=1)[:, 4]
