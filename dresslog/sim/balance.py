@@ -74,7 +74,7 @@ class MomentumBalance:
         wrench[:, 3:] = cross_rows(arm, pull.reshape(-1, 3)).reshape(s, -1, 3).sum(axis=1)
         counts = np.array([len(c) for c in contacts])
         if counts.any():  # those that carry force, as the force map counts them
-            c = np.concatenate(contacts)  # CONTACT_COLUMNS: limb point, normal, force, frictions
+            c = np.concatenate(contacts)  # CONTACT_COLUMNS: limb point, normal, forces
             f = c[:, 6:9] * c[:, 9:10] + c[:, 10:11] * c[:, 11:14] + c[:, 14:15] * c[:, 15:18]
             moment = cross_rows(c[:, 3:6] - np.repeat(ee, counts, axis=0), f)
             # each step's rows summed in order from its first, as sum(axis=0) adds them

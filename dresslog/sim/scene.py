@@ -61,20 +61,20 @@ def load_cloth(
     )
 
 
-#: The columns of `Scene.contacts`, each contact read once for all that use it:
-#: positionOnA (the garment's node), positionOnB (the limb), normal on B towards the
-#: garment, normal force, two frictions with their directions.
-CONTACT_COLUMNS = {"on_garment": slice(0, 3), "on_limb": slice(3, 6), "normal": slice(6, 9),
-                   "force": 9, "friction1": 10, "dir1": slice(11, 14), "friction2": 14,
-                   "dir2": slice(15, 18)}  # fmt: skip
+#: The columns of `Scene.contacts`, each contact read once for all that use it: 0-2
+#: positionOnA (the garment's node), 3-5 positionOnB (the limb), 6-8 the normal on B
+#: towards the garment, 9 the normal force, 10 and 14 the two frictions, 11-13 and
+#: 15-17 their directions.
+CONTACT_COLUMNS = 18
 
 
 def touching(raw: Iterable[tuple]) -> np.ndarray:
-    """getContactPoints' tuples (garment = body A) as `CONTACT_COLUMNS` rows, each that
+    """getContactPoints' tuples (garment = body A) as rows of `CONTACT_COLUMNS`, each that
     carries force: pybullet also lists garment nodes merely within the collision margin,
     with zero force; those are not contacts."""
     rows = [(*c[5], *c[6], *c[7], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0]
-    return np.fromiter(chain.from_iterable(rows), np.float64, 18 * len(rows)).reshape(-1, 18)
+    flat = np.fromiter(chain.from_iterable(rows), np.float64, CONTACT_COLUMNS * len(rows))
+    return flat.reshape(-1, CONTACT_COLUMNS)
 
 
 @dataclass
@@ -166,7 +166,7 @@ class Scene:
         return np.fromiter(chain.from_iterable(v), np.float64, 3 * len(v)).reshape(-1, 3)
 
     def contacts(self) -> np.ndarray:
-        """The garment-limb contacts that carry force, (C, 18) by `CONTACT_COLUMNS`."""
+        """The garment-limb contacts that carry force, (C, `CONTACT_COLUMNS`)."""
         return touching(pb.getContactPoints(bodyA=self.cloth, physicsClientId=self.client))
 
     def close(self) -> None:

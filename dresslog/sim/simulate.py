@@ -27,7 +27,7 @@ from dresslog.limb import (
 from dresslog.sim.balance import MomentumBalance, WrenchReading, constraint_reading
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.outcome import CatchWatch, decide_outcome_v8, judge
-from dresslog.sim.scene import EE_MASS, Scene
+from dresslog.sim.scene import CONTACT_COLUMNS, EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
 from dresslog.spec import Outcome, SimParams, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
@@ -96,7 +96,7 @@ def _contacts_of_steps(
 ) -> tuple[np.ndarray, np.ndarray]:
     """CONTACT_DTYPE array of the contacts that carry force at B steps, and their counts (B,).
 
-    `steps[j]` holds the contacts (`CONTACT_COLUMNS` rows, as `Scene.contacts` reads
+    `steps[j]` holds the contacts (rows of `CONTACT_COLUMNS`, as `Scene.contacts` reads
     them) of step j's `substeps` physics steps, `verts[j]` the garment then (B, V, 3).
     Each garment vertex becomes one contact whose forces are the mean over those steps
     and whose place is its latest. The garment-side point is projected onto the limb
@@ -167,7 +167,7 @@ BATCH = 10
 #: The garment handed to a wrench reading that does not look at it.
 _NONE = np.empty((0, 3))
 #: The contacts handed to a wrench reading that does not look at them.
-_NO_CONTACTS = np.empty((0, 18))
+_NO_CONTACTS = np.empty((0, CONTACT_COLUMNS))
 
 
 @dataclass(frozen=True)
