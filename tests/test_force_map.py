@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dresslog.force_map import ClothSpreader, ForceDistributor
+from dresslog.force_map import ClothSpreader, ForceDistributor, nearest
 from dresslog.limb import Limb, build_limb, limb_points, limb_sdf, surface_points
 from dresslog.model.postprocess import contact_targets
 from dresslog.sim.garments import garment_for
@@ -138,3 +138,24 @@ def test_a_distributor_refuses_what_it_cannot_share() -> None:
         ForceDistributor(points, 0)
     with pytest.raises(ValueError, match="2 positions, 1 magnitudes"):
         ForceDistributor(points)(points[:2], np.array([1.0]))
+
+
+@pytest.mark.parametrize("task", list(Task))
+def test_nearest_points_come_as_argpartition_gives_them(task: Task) -> None:
+    """The 5 distances are summed in the order of their points, so `nearest` must give
+    argpartition's points in argpartition's order: on contacts near the limb (300 and
+    400 points), with ties at the 5th and a NaN, and with `d2` left as it was."""
+    points = limb_points(build_limb(task)).points
+    rng = np.random.default_rng(11)
+    pos, _ = surface_points(build_limb(task), rng.normal(size=(3000, 3)) * 0.15 + [0.4, 0, 0.3])
+    pos[:200] = points[rng.integers(0, len(points), 200)]  # on a point: one distance is 0
+    d2 = ((pos[:, None] - points[None]) ** 2).sum(axis=2)
+    d2[200:220] = np.round(d2[200:220], 2)  # ties throughout
+    d2[220, 7] = np.nan
+    before = d2.copy()
+    ours = nearest(d2, 5)
+    theirs = np.argpartition(before, 4, axis=1)[:, :5]
+    rows = np.arange(len(d2))[:, None]
+    assert d2.tobytes() == before.tobytes()
+    assert before[rows, ours].tobytes() == before[rows, theirs].tobytes()
+    assert (np.sort(ours, axis=1) == np.sort(theirs, axis=1)).all()

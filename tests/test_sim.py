@@ -14,7 +14,9 @@ from pydantic import ValidationError
 from dresslog.errors import SimulationError
 from dresslog.limb import build_limb, limb_sdf
 from dresslog.sim import SimStart, SimStep, random_spec, record_trial, simulate
+from dresslog.sim.balance import MomentumBalance
 from dresslog.sim.garments import garment_for
+from dresslog.sim.scene import touching
 from dresslog.sim.simulate import _contacts_of_steps
 from dresslog.spec import Outcome, SimParams, Task, TrialSpec
 from dresslog.trial import contact_magnitudes
@@ -147,7 +149,7 @@ def test_a_recorded_contact_is_the_mean_over_the_substeps() -> None:
 
     substeps = [[raw(0, 2.0, -0.01)], [raw(0, 4.0, 0.0), raw(1, 0.0, 0.0)], [raw(0, 0.0, 0.0)]]
     raw = [c for s in substeps for c in s]
-    contacts, counts = _contacts_of_steps([raw], limb, verts[None], len(substeps))
+    contacts, counts = _contacts_of_steps([touching(raw)], limb, verts[None], len(substeps))
     assert list(counts) == [1]
     assert len(contacts) == 1 and contacts["vertex"][0] == 0
     assert contacts["normal_force"][0] == pytest.approx(2.0)
@@ -218,6 +220,30 @@ def test_the_momentum_balance_puts_the_limbs_forces_at_the_gripper() -> None:
     read, balanced = ([np.linalg.norm(s.wrench[:3]) for s in steps] for steps in (a, b))
     assert np.corrcoef(balanced, total)[0, 1] > np.corrcoef(read, total)[0, 1] + 0.05
     assert np.abs(balanced - total).mean() < 0.5 * np.abs(read - total).mean()
+
+
+def test_the_balance_of_many_steps_is_each_steps_as_np_cross_and_sum_give_it() -> None:
+    """The recording hands the momentum balance 30 physics steps at once; each reading
+    must be the one-step formula's to the bit (np.cross, sums over axis 0), contacts or
+    none, a -0.0 among them too."""
+    rng = np.random.default_rng(5)
+    rest = rng.normal(size=(50, 3))
+    verts = rest + np.cumsum(rng.normal(size=(7, 50, 3)) * 1e-3, axis=0)
+    ee = rng.normal(size=(7, 3))
+    contacts = [rng.normal(size=(n, 18)) for n in (0, 3, 1, 0, 5, 2, 0)]
+    contacts[1][0, 6:9] = -0.0
+    gravity = np.array([0.3, 0.0, -9.81])
+    got = MomentumBalance(rest, 0.25, 300).steps(gravity, verts, contacts, ee)
+    seen = [rest, rest, *verts]
+    for j, c in enumerate(contacts):
+        accel = (seen[j + 2] - 2.0 * seen[j + 1] + seen[j]) * (300 * 300)
+        pull = 0.25 / 50 * (gravity - accel)
+        want = np.concatenate([pull.sum(axis=0), np.cross(seen[j + 1] - ee[j], pull).sum(axis=0)])
+        if len(c):
+            f = c[:, 6:9] * c[:, 9:10] + c[:, 10:11] * c[:, 11:14] + c[:, 14:15] * c[:, 15:18]
+            want[:3] += f.sum(axis=0)
+            want[3:] += np.cross(c[:, 3:6] - ee[j], f).sum(axis=0)
+        assert got[j].tobytes() == want.tobytes()
 
 
 def test_a_spec_recorded_before_v9_reads_as_the_version_it_was() -> None:

@@ -10,6 +10,7 @@ so the constraint's force is what a force/torque sensor at the gripper reads
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from itertools import chain
 from pathlib import Path
@@ -58,6 +59,22 @@ def load_cloth(
         collisionMargin=params.collision_margin,
         physicsClientId=client,
     )
+
+
+#: The columns of `Scene.contacts`, each contact read once for all that use it: 0-2
+#: positionOnA (the garment's node), 3-5 positionOnB (the limb), 6-8 the normal on B
+#: towards the garment, 9 the normal force, 10 and 14 the two frictions, 11-13 and
+#: 15-17 their directions.
+CONTACT_COLUMNS = 18
+
+
+def touching(raw: Iterable[tuple]) -> np.ndarray:
+    """getContactPoints' tuples (garment = body A) as rows of `CONTACT_COLUMNS`, each that
+    carries force: pybullet also lists garment nodes merely within the collision margin,
+    with zero force; those are not contacts."""
+    rows = [(*c[5], *c[6], *c[7], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0]
+    flat = np.fromiter(chain.from_iterable(rows), np.float64, CONTACT_COLUMNS * len(rows))
+    return flat.reshape(-1, CONTACT_COLUMNS)
 
 
 @dataclass
@@ -148,9 +165,9 @@ class Scene:
         )
         return np.fromiter(chain.from_iterable(v), np.float64, 3 * len(v)).reshape(-1, 3)
 
-    def contacts(self) -> list[tuple]:
-        """Raw garment-limb contact tuples (getContactPoints with the garment as body A)."""
-        return pb.getContactPoints(bodyA=self.cloth, physicsClientId=self.client)
+    def contacts(self) -> np.ndarray:
+        """The garment-limb contacts that carry force, (C, `CONTACT_COLUMNS`)."""
+        return touching(pb.getContactPoints(bodyA=self.cloth, physicsClientId=self.client))
 
     def close(self) -> None:
         if pb.isConnected(self.client):

@@ -27,7 +27,7 @@ from dresslog.limb import (
 from dresslog.sim.balance import MomentumBalance, WrenchReading, constraint_reading
 from dresslog.sim.garments import Garment, garment_for
 from dresslog.sim.outcome import CatchWatch, decide_outcome_v8, judge
-from dresslog.sim.scene import EE_MASS, Scene
+from dresslog.sim.scene import CONTACT_COLUMNS, EE_MASS, Scene
 from dresslog.sim.trajectory import constant_speed, keep_clear, random_control_points
 from dresslog.spec import Outcome, SimParams, TrialSpec
 from dresslog.trial import CONTACT_DTYPE, LimbPoints, contact_magnitudes
@@ -92,30 +92,28 @@ class SimResult:
 
 
 def _contacts_of_steps(
-    raws: list[list[tuple]], limb: Limb, verts: np.ndarray, substeps: int
+    steps: list[np.ndarray], limb: Limb, verts: np.ndarray, substeps: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """CONTACT_DTYPE array of the contacts that carry force at B steps, and their counts (B,).
 
-    `raws[j]` holds the contact tuples (garment = body A, limb = B) of step j's
-    `substeps` physics steps, `verts[j]` the garment then (B, V, 3). Each garment
-    vertex becomes one contact whose forces are the mean over those steps and whose
-    place is its latest. pybullet also lists garment nodes merely within the collision
-    margin, with zero force; those are not contacts. The garment-side point is
-    projected onto the limb surface, the normal there points from the limb to the
-    garment. The contacts come out step after step, each step's as alone.
+    `steps[j]` holds the contacts (rows of `CONTACT_COLUMNS`, as `Scene.contacts` reads
+    them) of step j's `substeps` physics steps, `verts[j]` the garment then (B, V, 3).
+    Each garment vertex becomes one contact whose forces are the mean over those steps
+    and whose place is its latest. The garment-side point is projected onto the limb
+    surface, the normal there points from the limb to the garment. The contacts come
+    out step after step, each step's as alone.
     """
     n_steps, n = verts.shape[:2]
-    # positionOnA, normalForce, friction1, dir1, friction2, dir2
-    rows = [[(*c[5], c[9], c[10], *c[11], c[12], *c[13]) for c in raw if c[9] > 0] for raw in raws]
+    rows = [len(s) for s in steps]
     if not any(rows):
         return np.zeros(0, dtype=CONTACT_DTYPE), np.zeros(n_steps, np.int64)
-    flat = np.array([r for step in rows for r in step])
+    flat = np.concatenate(steps)
     sq = sum_xyz(verts * verts)
     vertex = np.empty(len(flat), np.int64)
     end = 0
-    for j, step in enumerate(rows):
-        if step:
-            lo, end = end, end + len(step)
+    for j, count in enumerate(rows):
+        if count:
+            lo, end = end, end + count
             # nearest vertex by |v|^2 - 2 p.v (|p|^2 is the same for every vertex): one
             # small matmul per step (BLAS rounds a row by where it falls in the matrix)
             # instead of a (rows, vertices, 3) difference; garment nodes are centimetres
@@ -126,8 +124,8 @@ def _contacts_of_steps(
     np.maximum.at(latest, vertex, np.arange(len(vertex)))  # each vertex's last row
     ids = np.flatnonzero(latest >= 0)  # by step, then vertex
     forces = np.empty((len(flat), 4))
-    forces[:, 0] = flat[:, 3]
-    forces[:, 1:] = flat[:, 4:5] * flat[:, 5:8] + flat[:, 8:9] * flat[:, 9:12]
+    forces[:, 0] = flat[:, 9]
+    forces[:, 1:] = flat[:, 10:11] * flat[:, 11:14] + flat[:, 14:15] * flat[:, 15:18]
     # per-vertex sums over the rows in order, as the substeps' impulses add up
     sums = np.bincount(
         (vertex[:, None] * 4 + np.arange(4)).ravel(), forces.ravel(), 4 * len(latest)
@@ -168,6 +166,8 @@ def _guard(verts: np.ndarray, ee: np.ndarray, t: float) -> None:
 BATCH = 10
 #: The garment handed to a wrench reading that does not look at it.
 _NONE = np.empty((0, 3))
+#: The contacts handed to a wrench reading that does not look at them.
+_NO_CONTACTS = np.empty((0, CONTACT_COLUMNS))
 
 
 @dataclass(frozen=True)
@@ -204,13 +204,15 @@ class _StepBatch:
         self.force_map, self.spread, self.sink, self.timings = force_map, spread, sink, timings
         self.substeps = spec.sim.physics_hz // spec.sim.record_hz
         self.garment_every = max(1, spec.sim.record_hz // GARMENT_HZ)
-        self._held: list[tuple[int, list[tuple], np.ndarray, np.ndarray]] = []
+        self._held: list[tuple[int, list[np.ndarray], np.ndarray, np.ndarray]] = []
         self.peak_limb = 0.0
         self.ee_forces: list[float] = []  # |force| at the gripper of each step handed on
 
-    def add(self, index: int, raw: list[tuple], wrench: np.ndarray, verts: np.ndarray) -> None:
-        """Hold step `index`: its substeps' raw contacts, summed constraint wrench, garment."""
-        self._held.append((index, raw, wrench, verts))
+    def add(
+        self, index: int, contacts: list[np.ndarray], wrench: np.ndarray, verts: np.ndarray
+    ) -> None:
+        """Hold step `index`: its substeps' contacts, summed wrench reading, garment."""
+        self._held.append((index, contacts, wrench, verts))
         if len(self._held) >= BATCH:
             self.flush()
 
@@ -224,7 +226,9 @@ class _StepBatch:
         exploded = self._exploded(index, verts)
         if exploded is not None:  # the steps before it go first, as they happened first
             held, index, verts = held[: exploded[0]], index[: exploded[0]], verts[: exploded[0]]
-        every, counts = _contacts_of_steps([h[1] for h in held], self.limb, verts, self.substeps)
+        every, counts = _contacts_of_steps(
+            [np.concatenate(h[1]) for h in held], self.limb, verts, self.substeps
+        )
         mags = contact_magnitudes(every)
         maps = self._force_maps(verts, every, counts, mags)
         m = self.motion
@@ -349,16 +353,27 @@ def _settle(
     wind *= p.wind_accel / np.linalg.norm(wind)
     n_settle, n_wind, n_tare = p.settle_steps()  # the spec leaves the tare after the wind
     tare = np.zeros(6)
-    momentum = isinstance(read, MomentumBalance)  # which must see every step
+    if isinstance(read, MomentumBalance):  # which must see every step: read them at the end
+        seen, contacts = [], []
+        for k in range(n_settle):
+            scene.set_gravity(g + wind if k < n_wind else g)
+            scene.step()
+            seen.append(scene.vertices())
+            contacts.append(scene.contacts())
+        windy = min(n_wind, n_settle)
+        for lo, hi, gravity in ((0, windy, g + wind), (windy, n_settle, g)):
+            if hi > lo:
+                readings = read.steps(
+                    gravity, np.stack(seen[lo:hi]), contacts[lo:hi], np.tile(ee, (hi - lo, 1))
+                )
+                for k in range(max(lo, n_settle - n_tare), hi):
+                    tare += readings[k - lo]
+        return tare / n_tare
     for k in range(n_settle):
         scene.set_gravity(g + wind if k < n_wind else g)
         scene.step()
-        if momentum:
-            wrench = read(scene, scene.vertices(), scene.contacts(), ee)
-        elif k >= n_settle - n_tare:
-            wrench = read(scene, _NONE, [], ee)
         if k >= n_settle - n_tare:
-            tare += wrench
+            tare += read(scene, _NONE, _NO_CONTACTS, ee)
     return tare / n_tare
 
 
@@ -373,11 +388,15 @@ def _record(
     """Move the gripper along the path; each recorded step averages its physics substeps.
 
     Contacts and wrench are averaged over the substeps: a recorded step carries the
-    impulse of its whole interval, not the chatter of its last substep.
+    impulse of its whole interval, not the chatter of its last substep. The garment's
+    momentum balance, which must see every physics step, reads BATCH steps' at once.
     """
-    momentum = isinstance(read, MomentumBalance)  # which must see every step's garment
-    for i in range(len(path_phys) // sub):
-        raw: list[tuple] = []
+    balance = read if isinstance(read, MomentumBalance) else None
+    n_rec = len(path_phys) // sub
+    held: list[tuple[int, list[np.ndarray], list[np.ndarray]]] = []
+    for i in range(n_rec):
+        contacts: list[np.ndarray] = []
+        seen: list[np.ndarray] = []
         wrench = np.zeros(6)
         for k in range(sub):
             t0 = time.thread_time()
@@ -385,13 +404,34 @@ def _record(
             scene.move_ee(ee)
             scene.step()
             t1 = time.thread_time()
-            contacts = scene.contacts()
-            raw += contacts
-            verts = scene.vertices() if momentum or k == sub - 1 else _NONE
-            wrench += read(scene, verts, contacts, ee)
+            contacts.append(scene.contacts())
+            if balance is not None:
+                seen.append(scene.vertices())
+            else:
+                verts = scene.vertices() if k == sub - 1 else _NONE
+                wrench += read(scene, verts, contacts[-1], ee)
             timings["physics"] += t1 - t0
             timings["queries"] += time.thread_time() - t1
-        steps.add(i, raw, wrench, verts)
+        if balance is None:
+            steps.add(i, contacts, wrench, verts)
+            continue
+        held.append((i, contacts, seen))
+        if len(held) == BATCH or i == n_rec - 1:
+            t0 = time.thread_time()
+            lo, hi = held[0][0] * sub, (held[-1][0] + 1) * sub
+            readings = balance.steps(
+                scene.gravity,
+                np.stack([v for h in held for v in h[2]]),
+                [c for h in held for c in h[1]],
+                path_phys[lo:hi],
+            )
+            wrenches = np.zeros((len(held), 6))
+            for k in range(sub):  # added up substep after substep, as one step adds them
+                wrenches += readings[k::sub]
+            timings["queries"] += time.thread_time() - t0
+            for (j, contacts, seen), wrench in zip(held, wrenches, strict=True):
+                steps.add(j, contacts, wrench, seen[-1])
+            held = []
     steps.flush()
 
 
