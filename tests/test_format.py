@@ -59,7 +59,7 @@ def test_file_uses_the_ros2_profile_and_registers_the_msg_files(make_trial) -> N
     for channel in summary.channels.values():
         schema = summary.schemas[channel.schema_id]
         assert schema.encoding == "ros2msg"
-        assert schema.name == wk.SCHEMAS[channel.topic]
+        assert schema.name == (wk.SCHEMAS | wk.DRAWN)[channel.topic]
         assert schema.data.decode() == schema_text(schema.name)
     assert all(ci.compression == "zstd" for ci in summary.chunk_indexes)
 
@@ -211,14 +211,15 @@ def test_rosbags_anyreader_decodes_identical_values(make_trial) -> None:
     path, sent = make_trial(Task.SHORTS)
     with AnyReader([path]) as reader:
         assert {c.topic: c.msgtype for c in reader.connections} == {
-            t: wk.SCHEMAS[t] for t in reader.topics
+            t: (wk.SCHEMAS | wk.DRAWN)[t] for t in reader.topics
         }
         # rosbag2's QoS, which the ros2 profile requires: reliable; the limb points latched.
         qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
         assert all(
             len(q) == 1 and q[0].reliability == QosReliability.RELIABLE for q in qos.values()
         )
-        assert qos[wk.LIMB_POINTS][0].durability == QosDurability.TRANSIENT_LOCAL
+        for latched in (wk.LIMB_POINTS, wk.LIMB_MARKER, wk.PATH_MARKER, wk.TF_STATIC):
+            assert qos[latched][0].durability == QosDurability.TRANSIENT_LOCAL
         assert qos[wk.TWIST][0].durability == QosDurability.VOLATILE
         twist, points = [], None
         for conn, t_ns, raw in reader.messages():
@@ -565,7 +566,8 @@ def test_the_writer_refuses_metadata_that_is_not_a_trial_metadata_before_writing
 
 
 @pytest.mark.parametrize(
-    "name", sorted({n for n in map(str, wk.SCHEMAS.values()) if not n.startswith("dresslog_msgs")})
+    "name",
+    sorted({n for n in map(str, (wk.SCHEMAS | wk.DRAWN).values()) if not n.startswith("dresslog")}),
 )
 def test_standard_schemas_are_ros2s_own_with_their_defaults(name: str) -> None:
     """ROS 2 tools read our standard messages as theirs: same fields, same default values."""

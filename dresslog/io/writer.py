@@ -1,5 +1,9 @@
 """`TrialWriter`: a dresslog trial as an MCAP file (profile ros2, CDR, zstd chunks).
 
+Beside dresslog's own channels it writes, from the same data, the standard ones a 3D
+viewer draws (`dresslog.io.drawn`): force-map clouds, limb, garment and path markers,
+and the frames on `/tf` and `/tf_static`.
+
 The file appears under its final name only when the writer closes cleanly;
 until then it is a hidden temporary beside it, removed if anything fails.
 """
@@ -20,7 +24,7 @@ from mcap.writer import CompressionType, Writer
 
 from dresslog import __version__
 from dresslog.errors import TrialWriteError
-from dresslog.io import cdr
+from dresslog.io import cdr, drawn
 from dresslog.io import well_known as wk
 from dresslog.io.files import (
     check_output,
@@ -102,6 +106,10 @@ class TrialWriter:
         self._widths: dict[str, int] = {}  # per force-map topic: one width throughout
         self._points: int | None = None  # limb points written: every map's width
         self._garment_size: int | None = None  # vertices of the first garment message
+        self._limb: np.ndarray | None = None  # limb point positions, where clouds are drawn
+        self._triangles: np.ndarray | None = None  # the garment's, for its mesh marker
+        self._path: list[tuple[np.ndarray, np.ndarray]] = []  # pose stamps and positions
+        self._cloud_bin: dict[str, int] = {}  # per cloud topic: the last period drawn
         self._steps: dict[str, list[np.ndarray]] = {wk.WRENCH: [], wk.TWIST: []}
 
     # -- lifecycle -------------------------------------------------------------
@@ -140,6 +148,7 @@ class TrialWriter:
                 f"a trial needs {wk.WRENCH} and {wk.TWIST} at one or more common times",
                 path=self.path,
             )
+        self._write_path()
         metadata = self.metadata.model_copy(
             update={"software": self.metadata.software or software_versions()}
         )
@@ -204,7 +213,7 @@ class TrialWriter:
         if self._writer is None:
             raise TrialWriteError("writer is not open", path=self.path)
         if topic not in self._channels:
-            name = wk.SCHEMAS[topic]
+            name = wk.SCHEMAS.get(topic) or wk.DRAWN[topic]
             if name not in self._schemas:
                 self._schemas[name] = self._writer.register_schema(
                     name, wk.SCHEMA_ENCODING, schema_text(name).encode()
@@ -293,6 +302,9 @@ class TrialWriter:
         self._write(topic, times, msgs)
         if topic in self._steps:
             self._steps[topic].append(times)
+        if topic == wk.POSE:
+            self._write(wk.TF, times, drawn.moving_frames(times, rows))
+            self._path.append((times, rows[:, :3]))
 
     def write_force_map(
         self,
@@ -325,6 +337,14 @@ class TrialWriter:
         if contact is not None:
             msgs["contact"] = contact.reshape(forces.shape)
         self._write(topic, times, msgs)
+        if self._limb is not None:  # else no points to draw it on
+            cloud = wk.ESTIMATE_CLOUD if estimate else wk.FORCE_CLOUD
+            bins = times // drawn.CLOUD_PERIOD_NS  # the first map of each period is drawn
+            keep = np.diff(bins, prepend=self._cloud_bin.get(cloud, -1)) != 0
+            if keep.any():
+                self._cloud_bin[cloud] = int(bins[-1])
+                clouds = drawn.point_clouds(times[keep], self._limb, forces[keep])
+                self._write(cloud, times[keep], clouds)
 
     def write_contacts(self, t_ns: int, contacts: np.ndarray) -> None:
         """Every garment-limb contact at one step, a CONTACT_DTYPE array (possibly empty).
@@ -369,6 +389,10 @@ class TrialWriter:
         for i, name in enumerate(names):
             msgs[f"segment_names.{i}"] = name
         self._write(wk.LIMB_POINTS, times, msgs)
+        self._limb = np.asarray(limb_points.points, np.float32)
+        self._write(wk.TF_STATIC, times, drawn.static_frames(t_ns))
+        marker = drawn.marker_array(t_ns, drawn.LIMB, "limb", drawn.LIMB_LOOK, self._limb)
+        self._write(wk.LIMB_MARKER, times, marker)
 
     def write_garment(
         self, t_ns: int, vertices: np.ndarray, triangles: np.ndarray | Sequence | None = None
@@ -392,3 +416,19 @@ class TrialWriter:
         msgs["vertices"][0] = vertices
         msgs["triangles"][0] = tris
         self._write(wk.GARMENT, times, msgs)
+        if len(tris):
+            self._triangles = tris
+        if self._triangles is not None:  # the mesh, drawn at the garment's own rate
+            corners = vertices[self._triangles]
+            mesh = drawn.marker_array(t_ns, drawn.WORLD, "garment", drawn.GARMENT_LOOK, corners)
+            self._write(wk.GARMENT_MARKER, times, mesh)
+
+    def _write_path(self) -> None:
+        """The gripper's whole path, once (latched) at its first pose: a viewer shows where
+        the gripper goes while `/tf` moves it along."""
+        if not self._path:
+            return
+        times = np.concatenate([t for t, _ in self._path])
+        points = np.concatenate([p for _, p in self._path])
+        marker = drawn.marker_array(int(times[0]), drawn.WORLD, "path", drawn.PATH_LOOK, points)
+        self._write(wk.PATH_MARKER, times[:1], marker)
