@@ -12,7 +12,7 @@ from .common import reports_errors
 @click.option("--format", "fmt", type=click.Choice(["lerobot"]), required=True,
               help="The dataset format to write: LeRobot v3.0 (Parquet and JSON).")  # fmt: skip
 @click.option("-o", "--output", "out", type=click.Path(file_okay=False), required=True,
-              help="Folder to write the dataset to (made whole, then renamed into place).")  # fmt: skip
+              help="Folder to write the dataset to (made whole, then renamed).")  # fmt: skip
 @click.option("--overwrite", is_flag=True, help="Replace an earlier export at OUT.")
 @reports_errors
 def export(data: str, fmt: str, out: str, overwrite: bool) -> None:

@@ -358,9 +358,7 @@ def _check_out(out: Path, root: Path, overwrite: bool) -> None:
         raise DatasetError("is inside the dataset being exported; write it elsewhere", path=out)
     if out.exists() or out.is_symlink():
         if not (out / "meta" / "info.json").is_file():
-            raise DatasetError(
-                "exists and is not a LeRobot dataset; give a new folder", path=out
-            )
+            raise DatasetError("exists and is not a LeRobot dataset; give a new folder", path=out)
         if not overwrite:
             raise DatasetError("exists; pass --overwrite to replace it", path=out)
 
