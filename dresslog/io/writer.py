@@ -83,11 +83,16 @@ def _contacts_header() -> tuple[bytes, int, int]:
 
 
 class TrialWriter:
-    """Write one trial; use as a context manager. Times are integer nanoseconds."""
+    """Write one trial; use as a context manager. Times are integer nanoseconds.
+
+    `draw=False` leaves out the standard channels viewers draw (`dresslog.io.drawn`): what
+    the benchmarks measure their cost against; every command writes them.
+    """
 
     def __init__(
-        self, path: str | Path, metadata: TrialMetadata, *, overwrite: bool = False
-    ) -> None:
+        self, path: str | Path, metadata: TrialMetadata, *, overwrite: bool = False,
+        draw: bool = True,
+    ) -> None:  # fmt: skip
         self.path = Path(path)
         if not isinstance(metadata, TrialMetadata):  # else it would fail only at close
             raise TrialWriteError(
@@ -95,6 +100,7 @@ class TrialWriter:
             )
         self.metadata = metadata
         self.overwrite = overwrite
+        self.draw = draw
         self._tmp: Path | None = None  # named when opened, once the output is checked
         self._made: list[Path] = []  # folders made for it, removed again if it fails
         self._stream: IO[bytes] | None = None
@@ -302,7 +308,7 @@ class TrialWriter:
         self._write(topic, times, msgs)
         if topic in self._steps:
             self._steps[topic].append(times)
-        if topic == wk.POSE:
+        if topic == wk.POSE and self.draw:
             self._write(wk.TF, times, drawn.moving_frames(times, rows))
             self._path.append((times, rows[:, :3]))
 
@@ -337,7 +343,7 @@ class TrialWriter:
         if contact is not None:
             msgs["contact"] = contact.reshape(forces.shape)
         self._write(topic, times, msgs)
-        if self._limb is not None:  # else no points to draw it on
+        if self._limb is not None and self.draw:  # else no points to draw it on
             cloud = wk.ESTIMATE_CLOUD if estimate else wk.FORCE_CLOUD
             bins = times // drawn.CLOUD_PERIOD_NS  # the first map of each period is drawn
             keep = np.diff(bins, prepend=self._cloud_bin.get(cloud, -1)) != 0
@@ -389,6 +395,8 @@ class TrialWriter:
         for i, name in enumerate(names):
             msgs[f"segment_names.{i}"] = name
         self._write(wk.LIMB_POINTS, times, msgs)
+        if not self.draw:
+            return
         self._limb = np.asarray(limb_points.points, np.float32)
         self._write(wk.TF_STATIC, times, drawn.static_frames(t_ns))
         marker = drawn.marker_array(t_ns, drawn.LIMB, "limb", drawn.LIMB_LOOK, self._limb)
@@ -418,7 +426,7 @@ class TrialWriter:
         self._write(wk.GARMENT, times, msgs)
         if len(tris):
             self._triangles = tris
-        if self._triangles is not None:  # the mesh, drawn at the garment's own rate
+        if self._triangles is not None and self.draw:  # the mesh, drawn at the garment's own rate
             corners = vertices[self._triangles]
             mesh = drawn.marker_array(t_ns, drawn.WORLD, "garment", drawn.GARMENT_LOOK, corners)
             self._write(wk.GARMENT_MARKER, times, mesh)
