@@ -16,7 +16,7 @@ from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
-from tests.conftest import mcap_records, write_mcap
+from tests.conftest import mcap_records, write_mcap, write_synthetic_trial
 
 SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 
@@ -702,3 +702,81 @@ def test_the_reader_and_writer_are_dresslog_ios_own_names_loaded_on_first_use() 
     code = "import sys, dresslog.io.files, dresslog.model; print('mcap' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
+    """The channels viewers draw decode with ROS 2 Humble's own definitions (rosbags'
+    typestore, not the schema text in the file), with the trial's values in them."""
+    from mcap.reader import make_reader
+    from rosbags.typesys import Stores, get_typestore
+
+    from dresslog.io.drawn import CLOUD_PERIOD_NS
+
+    path, sent = make_trial(steps=30)
+    humble = get_typestore(Stores.ROS2_HUMBLE)
+    got: dict[str, list] = {}
+    with path.open("rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            if channel.topic in wk.DRAWN:
+                assert schema.name == wk.DRAWN[channel.topic]
+                msg = humble.deserialize_cdr(message.data, schema.name)
+                got.setdefault(channel.topic, []).append((message.log_time, msg))
+    t_ns, limb = sent["t_ns"], sent["limb"].points
+    drawn = np.flatnonzero(np.diff(t_ns // CLOUD_PERIOD_NS, prepend=-1) != 0)
+    clouds = got[wk.FORCE_CLOUD]
+    assert [t for t, _ in clouds] == t_ns[drawn].tolist()
+    for (_, cloud), step in zip(clouds, drawn, strict=True):
+        assert [f.name for f in cloud.fields] == ["x", "y", "z", "force"]
+        assert (
+            cloud.width == len(limb) and cloud.point_step == 16 and cloud.header.frame_id == "limb"
+        )
+        points = cloud.data.view(np.float32).reshape(-1, 4)
+        np.testing.assert_array_equal(points[:, :3], limb.astype(np.float32))
+        np.testing.assert_array_equal(points[:, 3], sent["forces"][step])
+    assert wk.ESTIMATE_CLOUD not in got  # no estimate written
+    ((_, tf_static),) = got[wk.TF_STATIC]
+    assert [(t.header.frame_id, t.child_frame_id) for t in tf_static.transforms] == [
+        ("world", "limb")
+    ]
+    assert len(got[wk.TF]) == len(t_ns)
+    for (t, tf), pose in zip(got[wk.TF], sent["pose"], strict=True):
+        gripper, sensor = tf.transforms
+        assert (gripper.child_frame_id, sensor.child_frame_id) == ("gripper", "ee")
+        assert gripper.header.stamp.sec * 10**9 + gripper.header.stamp.nanosec == t
+        r = gripper.transform.rotation
+        assert [r.x, r.y, r.z, r.w] == pose[3:].tolist()
+        assert [sensor.transform.translation.x, sensor.transform.rotation.w] == [pose[0], 1.0]
+    mesh = got[wk.GARMENT_MARKER]
+    assert len(mesh) == 3  # with each garment state
+    marker = mesh[-1][1].markers[0]
+    assert marker.type == marker.TRIANGLE_LIST and marker.pose.orientation.w == 1.0
+    corners = (sent["vertices"] + 20)[sent["triangles"].ravel()]
+    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in marker.points], corners)
+    ((_, path_marker),) = got[wk.PATH_MARKER]
+    line = path_marker.markers[0]
+    assert line.type == line.LINE_STRIP
+    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in line.points], sent["pose"][:, :3])
+    ((_, limb_marker),) = got[wk.LIMB_MARKER]
+    assert len(limb_marker.markers[0].points) == len(limb)
+
+
+def test_a_writer_told_not_to_draw_writes_dresslogs_channels_alone(tmp_path: Path) -> None:
+    """`draw=False`, the benchmarks' peer: the same trial without the standard channels."""
+    from dresslog.io.reader import summary_counts
+
+    path, sent = tmp_path / "plain.mcap", write_synthetic_trial(tmp_path / "drawn.mcap")
+    with TrialWriter(path, read_trial(tmp_path / "drawn.mcap").metadata, draw=False) as writer:
+        writer.write_limb_points(int(sent["t_ns"][0]), sent["limb"])
+        writer.write_wrench(sent["t_ns"], sent["wrench"])
+        writer.write_twist(sent["t_ns"], sent["twist"])
+        writer.write_pose(sent["t_ns"], sent["pose"])
+        writer.write_force_map(sent["t_ns"], sent["forces"])
+    counts = summary_counts(path)
+    assert counts is not None and set(counts) == {
+        wk.LIMB_POINTS,
+        wk.WRENCH,
+        wk.TWIST,
+        wk.POSE,
+        wk.FORCE_MAP,
+    }
+    assert set(wk.DRAWN) <= set(summary_counts(tmp_path / "drawn.mcap") or {}) | {wk.ESTIMATE_CLOUD}
