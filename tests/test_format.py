@@ -710,7 +710,7 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
     from mcap.reader import make_reader
     from rosbags.typesys import Stores, get_typestore
 
-    from dresslog.io.drawn import CLOUD_PERIOD_NS
+    from dresslog.io.drawn import PERIOD_NS
 
     path, sent = make_trial(steps=30)
     humble = get_typestore(Stores.ROS2_HUMBLE)
@@ -722,7 +722,7 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
                 msg = humble.deserialize_cdr(message.data, schema.name)
                 got.setdefault(channel.topic, []).append((message.log_time, msg))
     t_ns, limb = sent["t_ns"], sent["limb"].points
-    drawn = np.flatnonzero(np.diff(t_ns // CLOUD_PERIOD_NS, prepend=-1) != 0)
+    drawn = np.flatnonzero(np.diff(t_ns // PERIOD_NS, prepend=-1) != 0)
     clouds = got[wk.FORCE_CLOUD]
     assert [t for t, _ in clouds] == t_ns[drawn].tolist()
     for (_, cloud), step in zip(clouds, drawn, strict=True):
@@ -738,8 +738,8 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
     assert [(t.header.frame_id, t.child_frame_id) for t in tf_static.transforms] == [
         ("world", "limb")
     ]
-    assert len(got[wk.TF]) == len(t_ns)
-    for (t, tf), pose in zip(got[wk.TF], sent["pose"], strict=True):
+    assert [t for t, _ in got[wk.TF]] == t_ns[drawn].tolist()  # at the clouds' rate
+    for (t, tf), pose in zip(got[wk.TF], sent["pose"][drawn], strict=True):
         gripper, sensor = tf.transforms
         assert (gripper.child_frame_id, sensor.child_frame_id) == ("gripper", "ee")
         assert gripper.header.stamp.sec * 10**9 + gripper.header.stamp.nanosec == t
@@ -755,7 +755,8 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
     ((_, path_marker),) = got[wk.PATH_MARKER]
     line = path_marker.markers[0]
     assert line.type == line.LINE_STRIP
-    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in line.points], sent["pose"][:, :3])
+    points = [[p.x, p.y, p.z] for p in line.points]
+    np.testing.assert_array_equal(points, sent["pose"][drawn, :3])
     ((_, limb_marker),) = got[wk.LIMB_MARKER]
     assert len(limb_marker.markers[0].points) == len(limb)
 

@@ -18,7 +18,7 @@ from click.testing import CliRunner
 from dresslog.cli.main import main
 from dresslog.io import TrialReader
 from dresslog.io import well_known as wk
-from dresslog.io.drawn import CLOUD_PERIOD_NS
+from dresslog.io.drawn import PERIOD_NS
 from tests.conftest import SAMPLES
 
 FOXGLOVE = Path(__file__).parent / "foxglove"
@@ -36,7 +36,7 @@ def trial(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _drawn_steps(t_ns: np.ndarray) -> np.ndarray:
     """The steps whose maps are drawn as clouds: the first of each 50 ms."""
-    bins = t_ns // CLOUD_PERIOD_NS
+    bins = t_ns // PERIOD_NS
     return np.flatnonzero(np.diff(bins, prepend=-1) != 0)
 
 
@@ -76,7 +76,8 @@ def test_rerun_imports_force_clouds_with_a_force_column_the_mesh_and_the_frames(
     marker = mesh[0][0]["markers"][0]
     assert marker["type"] == 11 and len(marker["points"]) == triangles.size
     tf = columns[wk.TF]
-    assert len(tf["Transform3D:translation"]) == 2 * len(pose)  # gripper and sensor
+    # gripper and sensor, at the clouds' 20 Hz
+    assert len(tf["Transform3D:translation"]) == 2 * len(_drawn_steps(pose.t_ns))
     assert {p[0] for p in tf["Transform3D:parent_frame"]} == {"world"}
     assert {c[0] for c in tf["Transform3D:child_frame"]} == {"gripper", "ee"}
     np.testing.assert_allclose(tf["Transform3D:translation"][0][0], pose.values[0, :3])

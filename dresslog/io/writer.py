@@ -115,7 +115,7 @@ class TrialWriter:
         self._limb: np.ndarray | None = None  # limb point positions, where clouds are drawn
         self._triangles: np.ndarray | None = None  # the garment's, for its mesh marker
         self._path: list[tuple[np.ndarray, np.ndarray]] = []  # pose stamps and positions
-        self._cloud_bin: dict[str, int] = {}  # per cloud topic: the last period drawn
+        self._drawn_bin: dict[str, int] = {}  # per drawn topic: the last period it drew
         self._steps: dict[str, list[np.ndarray]] = {wk.WRENCH: [], wk.TWIST: []}
 
     # -- lifecycle -------------------------------------------------------------
@@ -308,9 +308,9 @@ class TrialWriter:
         self._write(topic, times, msgs)
         if topic in self._steps:
             self._steps[topic].append(times)
-        if topic == wk.POSE and self.draw:
-            self._write(wk.TF, times, drawn.moving_frames(times, rows))
-            self._path.append((times, rows[:, :3]))
+        if topic == wk.POSE and (keep := self._drawn_steps(wk.TF, times)).any():
+            self._write(wk.TF, times[keep], drawn.moving_frames(times[keep], rows[keep]))
+            self._path.append((times[keep], rows[keep, :3]))
 
     def write_force_map(
         self,
@@ -343,14 +343,21 @@ class TrialWriter:
         if contact is not None:
             msgs["contact"] = contact.reshape(forces.shape)
         self._write(topic, times, msgs)
-        if self._limb is not None and self.draw:  # else no points to draw it on
-            cloud = wk.ESTIMATE_CLOUD if estimate else wk.FORCE_CLOUD
-            bins = times // drawn.CLOUD_PERIOD_NS  # the first map of each period is drawn
-            keep = np.diff(bins, prepend=self._cloud_bin.get(cloud, -1)) != 0
-            if keep.any():
-                self._cloud_bin[cloud] = int(bins[-1])
-                clouds = drawn.point_clouds(times[keep], self._limb, forces[keep])
-                self._write(cloud, times[keep], clouds)
+        cloud = wk.ESTIMATE_CLOUD if estimate else wk.FORCE_CLOUD
+        if self._limb is not None and (keep := self._drawn_steps(cloud, times)).any():
+            clouds = drawn.point_clouds(times[keep], self._limb, forces[keep])
+            self._write(cloud, times[keep], clouds)
+
+    def _drawn_steps(self, topic: str, times: np.ndarray) -> np.ndarray:
+        """Which of these steps `topic` draws: the first of each `drawn.PERIOD_NS`, counted
+        on from the steps written before (none if the writer does not draw)."""
+        if not self.draw:
+            return np.zeros(len(times), bool)
+        bins = times // drawn.PERIOD_NS
+        keep = np.diff(bins, prepend=self._drawn_bin.get(topic, -1)) != 0
+        if len(bins):
+            self._drawn_bin[topic] = int(bins[-1])
+        return keep
 
     def write_contacts(self, t_ns: int, contacts: np.ndarray) -> None:
         """Every garment-limb contact at one step, a CONTACT_DTYPE array (possibly empty).
