@@ -23,6 +23,8 @@ the writer names the topics and writes them.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from dresslog.io import cdr
@@ -48,10 +50,18 @@ _POINT_STEP = 16
 LINE_STRIP, SPHERE_LIST, TRIANGLE_LIST = 4, 7, 11
 _ADD = 0
 
-#: What each marker looks like: type, scale (m; a line's width is x), colour r g b a.
-LIMB_LOOK = (SPHERE_LIST, (0.012, 0.012, 0.012), (0.93, 0.78, 0.66, 0.35))
-GARMENT_LOOK = (TRIANGLE_LIST, (1.0, 1.0, 1.0), (0.30, 0.50, 0.85, 0.75))
-PATH_LOOK = (LINE_STRIP, (0.004, 0.0, 0.0), (0.95, 0.60, 0.10, 1.0))
+
+class Look(NamedTuple):
+    """What a marker looks like: its type, scale (m; a line's width is x), colour r g b a."""
+
+    kind: int
+    scale: tuple[float, float, float]
+    color: tuple[float, float, float, float]
+
+
+LIMB_LOOK = Look(SPHERE_LIST, (0.012, 0.012, 0.012), (0.93, 0.78, 0.66, 0.35))
+GARMENT_LOOK = Look(TRIANGLE_LIST, (1.0, 1.0, 1.0), (0.30, 0.50, 0.85, 0.75))
+PATH_LOOK = Look(LINE_STRIP, (0.004, 0.0, 0.0), (0.95, 0.60, 0.10, 1.0))
 
 #: The strings a marker holds besides its frame and namespace: all empty.
 _MARKER_STRINGS = ("texture_resource", "texture.header.frame_id", "texture.format", "text",
@@ -86,7 +96,7 @@ def point_clouds(t_ns: np.ndarray, points: np.ndarray, forces: np.ndarray) -> np
     return msgs
 
 
-def marker_array(t_ns: int, frame: str, ns: str, look: tuple, points: np.ndarray) -> np.ndarray:
+def marker_array(t_ns: int, frame: str, ns: str, look: Look, points: np.ndarray) -> np.ndarray:
     """A MarkerArray of one marker (ADD, lives until replaced) drawing `points` (P, 3)."""
     kind, scale, color = look
     sizes: dict[str, int | tuple[int, ...]] = {
