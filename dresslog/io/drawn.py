@@ -12,10 +12,8 @@ the standard types Foxglove's 3D panel and Rerun's MCAP importer draw:
   (once, latched, written at the end) as `visualization_msgs/msg/MarkerArray`;
 - the frames: `/tf_static` (world -> limb, once) and `/tf` (world -> gripper, the pose,
   and world -> ee, the sensor frame the wrench is given in: the gripper's centre with
-  world-aligned axes) at 20 Hz, as the clouds: a viewer interpolates between them, and
-  at the poses' 100 Hz `/tf` was 70% of the drawn channels' writing time (the mcap
-  writer's cost per message), 8% of `infer --mcap-out`, and 180,000 messages for a
-  30-minute log.
+  world-aligned axes) at every pose, 100 Hz: a program that places the wrench by tf
+  finds its frame at every step (3 ms of writing and 14 KB a 7 s trial).
 
 Every function returns encoded messages (a structured array from `cdr.new_messages`);
 the writer names the topics and writes them.
@@ -38,8 +36,8 @@ LIMB = "limb"
 GRIPPER = "gripper"
 SENSOR = "ee"
 
-#: The 100 Hz streams (force maps, poses) are drawn once per this period (ns): 20 Hz, as
-#: smooth as a viewer plays, and a fifth of the messages to write.
+#: The 100 Hz force maps are drawn once per this period (ns): 20 Hz, as smooth as a
+#: viewer plays, and a fifth of the bytes.
 PERIOD_NS = 50_000_000
 #: The cloud's point fields: name, byte offset; each one float32 (PointField.FLOAT32 = 7).
 CLOUD_FIELDS = (("x", 0), ("y", 4), ("z", 8), ("force", 12))

@@ -308,9 +308,9 @@ class TrialWriter:
         self._write(topic, times, msgs)
         if topic in self._steps:
             self._steps[topic].append(times)
-        if topic == wk.POSE and (keep := self._drawn_steps(wk.TF, times)).any():
-            self._write(wk.TF, times[keep], drawn.moving_frames(times[keep], rows[keep]))
-            self._path.append((times[keep], rows[keep, :3]))
+        if topic == wk.POSE and self.draw:  # the frames at every pose, as tf readers expect
+            self._write(wk.TF, times, drawn.moving_frames(times, rows))
+            self._path.append((times, rows[:, :3]))
 
     def write_force_map(
         self,
@@ -349,8 +349,8 @@ class TrialWriter:
             self._write(cloud, times[keep], clouds)
 
     def _drawn_steps(self, topic: str, times: np.ndarray) -> np.ndarray:
-        """Which of these steps `topic` draws: the first of each `drawn.PERIOD_NS`, counted
-        on from the steps written before (none if the writer does not draw)."""
+        """Which of these maps `topic` draws: the first of each `drawn.PERIOD_NS`, counted
+        on from the maps written before (none if the writer does not draw)."""
         if not self.draw:
             return np.zeros(len(times), bool)
         bins = times // drawn.PERIOD_NS
