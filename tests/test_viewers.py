@@ -158,3 +158,29 @@ def test_the_layout_is_written_out_of_the_package(tmp_path: Path) -> None:
     out = tmp_path / "layout.json"
     subprocess.run([sys.executable, "-m", "dresslog.replay.foxglove", str(out)], check=True)
     assert json.loads(out.read_text())["layout"]["first"]["first"] == "3D!truth"
+
+
+def test_a_converted_log_carries_its_frames_and_its_estimate_copy_the_heat_map(
+    tmp_path: Path,
+) -> None:
+    """`convert` writes the frames and the path from the robot's pose; the limb, and with it
+    the clouds, come with `infer --mcap-out`, on the nominal limb the estimate is drawn on."""
+    from dresslog.io.reader import summary_counts
+
+    robot = SAMPLES / "robot"
+    args = ["convert", str(robot / "ft.csv"), "--motion", str(robot / "pose.csv")]
+    args += ["-o", str(tmp_path / "t.mcap"), "--task", "gown", "--wrench-frame", "pose"]
+    args += ["--tare", "0.5", "--rotate", "0", "0", "-0.7071068", "0.7071068"]
+    result = CliRunner().invoke(main, [*args, "--translate", "0.1", "0.6", "-0.25"])
+    assert result.exit_code == 0, result.output
+    converted = summary_counts(tmp_path / "t.mcap") or {}
+    assert converted[wk.TF] == converted[wk.POSE] and converted[wk.PATH_MARKER] == 1
+    assert wk.FORCE_CLOUD not in converted and wk.LIMB_MARKER not in converted  # no limb
+    args = ["infer", str(tmp_path / "t.mcap"), "-o", str(tmp_path / "t.rrd")]
+    result = CliRunner().invoke(main, [*args, "--mcap-out", str(tmp_path / "e.mcap")])
+    assert result.exit_code == 0, result.output
+    copied = summary_counts(tmp_path / "e.mcap") or {}
+    with TrialReader(tmp_path / "e.mcap") as reader:
+        steps = len(_drawn_steps(reader.estimate.t_ns))
+    assert copied[wk.ESTIMATE_CLOUD] == steps and copied[wk.LIMB_MARKER] == 1
+    assert copied[wk.TF] == converted[wk.TF]
