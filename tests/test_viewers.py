@@ -97,11 +97,17 @@ def _node_modules() -> Path:
             ["npm", "ci", "--ignore-scripts", "--no-audit", "--no-fund"],
             cwd=folder, check=True, capture_output=True, timeout=600,
         )  # fmt: skip
-    shutil.copy(FOXGLOVE / "decode.mjs", folder / "decode.mjs")
+    for script in ("decode.mjs", "script.mjs"):
+        shutil.copy(FOXGLOVE / script, folder / script)
     return folder
 
 
-@pytest.mark.skipif(not (shutil.which("node") and shutil.which("npm")), reason="needs Node")
+NEEDS_NODE = pytest.mark.skipif(
+    not (shutil.which("node") and shutil.which("npm")), reason="needs Node"
+)
+
+
+@NEEDS_NODE
 def test_foxglove_decoders_read_every_channel(trial: Path) -> None:
     """@mcap/core reads the file and @foxglove/rosmsg2-serialization decodes every message
     of every channel from the schema text in the file, with no bytes left over."""
@@ -150,6 +156,43 @@ def test_the_foxglove_layout_draws_our_channels_on_one_force_scale() -> None:
     assert {v.split(".")[0] for v in plotted} == {wk.WRENCH, wk.TWIST, "/studio_script/total_force"}
     script = layout()["userNodes"]["dresslog-total-force"]["sourceCode"]
     assert f'"{wk.FORCE_MAP}"' in script and f'"{wk.ESTIMATE}"' in script
+
+
+@NEEDS_NODE
+def test_the_layouts_total_force_script_sums_each_map_as_foxglove_runs_it(
+    trial: Path, tmp_path: Path
+) -> None:
+    """The layout's user script, transpiled by TypeScript and fed the trial's maps in turn,
+    publishes the total of the truth and of the estimate that the Rerun view plots."""
+    from dresslog.replay.foxglove import LAYOUT_FILE
+
+    with TrialReader(trial) as reader:
+        truth, estimate = reader.force_map, reader.estimate
+    steps = range(100, 140)
+    events = []
+    for i in steps:
+        for topic, maps in ((wk.FORCE_MAP, truth), (wk.ESTIMATE, estimate)):
+            sec, nanosec = divmod(int(maps.t_ns[i]), 10**9)
+            header = {"stamp": {"sec": sec, "nanosec": nanosec}}
+            message = {"header": header, "forces": maps.forces[i].tolist()}
+            events.append({"topic": topic, "message": message})
+    (tmp_path / "events.json").write_text(json.dumps(events))
+    layout = Path(__file__).parents[1] / "dresslog" / "replay" / LAYOUT_FILE
+    run = subprocess.run(
+        ["node", "script.mjs", str(layout), str(tmp_path / "events.json")],
+        cwd=_node_modules(), capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    (script,) = json.loads(run.stdout).values()
+    assert script["inputs"] == [wk.FORCE_MAP, wk.ESTIMATE]
+    assert script["output"] == "/studio_script/total_force"
+    both = script["results"][1::2]  # after each step's second map: both sums are that step's
+    sums = np.array([[r["truth"], r["estimate"]] for r in both])
+    expected = [[truth.forces[i].sum(), estimate.forces[i].sum()] for i in steps]
+    np.testing.assert_allclose(sums, expected, rtol=1e-5)
+    assert sums[:, 0].max() > 1  # the gown presses on the arm by then
+    sec, nsec = divmod(int(truth.t_ns[100]), 10**9)
+    assert both[0]["header"]["stamp"] == {"sec": sec, "nsec": nsec}
 
 
 def test_the_layout_is_written_out_of_the_package(tmp_path: Path) -> None:
