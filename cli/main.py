@@ -21,6 +21,7 @@ COMMANDS = {
     "train": "dresslog.cli.train:train",
     "eval": "dresslog.cli.evaluate:evaluate",
     "sweep": "dresslog.cli.sweep:sweep",
+    "export": "dresslog.cli.export:export",
 }
 
 HELP = {
@@ -34,6 +35,7 @@ HELP = {
     "train": "Train a force-map LSTM on a dataset.",
     "eval": "Evaluate a model on a dataset's test (or training) split.",
     "sweep": "Generalisation sweeps over speed and limb rotation.",
+    "export": "Write a dataset folder as a LeRobot v3.0 dataset.",
 }
 
 

@@ -16,7 +16,7 @@ from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
-from tests.conftest import mcap_records, write_mcap
+from tests.conftest import mcap_records, write_mcap, write_synthetic_trial
 
 SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 
@@ -59,7 +59,7 @@ def test_file_uses_the_ros2_profile_and_registers_the_msg_files(make_trial) -> N
     for channel in summary.channels.values():
         schema = summary.schemas[channel.schema_id]
         assert schema.encoding == "ros2msg"
-        assert schema.name == wk.SCHEMAS[channel.topic]
+        assert schema.name == (wk.SCHEMAS | wk.DRAWN)[channel.topic]
         assert schema.data.decode() == schema_text(schema.name)
     assert all(ci.compression == "zstd" for ci in summary.chunk_indexes)
 
@@ -211,14 +211,15 @@ def test_rosbags_anyreader_decodes_identical_values(make_trial) -> None:
     path, sent = make_trial(Task.SHORTS)
     with AnyReader([path]) as reader:
         assert {c.topic: c.msgtype for c in reader.connections} == {
-            t: wk.SCHEMAS[t] for t in reader.topics
+            t: (wk.SCHEMAS | wk.DRAWN)[t] for t in reader.topics
         }
         # rosbag2's QoS, which the ros2 profile requires: reliable; the limb points latched.
         qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
         assert all(
             len(q) == 1 and q[0].reliability == QosReliability.RELIABLE for q in qos.values()
         )
-        assert qos[wk.LIMB_POINTS][0].durability == QosDurability.TRANSIENT_LOCAL
+        for latched in (wk.LIMB_POINTS, wk.LIMB_MARKER, wk.PATH_MARKER, wk.TF_STATIC):
+            assert qos[latched][0].durability == QosDurability.TRANSIENT_LOCAL
         assert qos[wk.TWIST][0].durability == QosDurability.VOLATILE
         twist, points = [], None
         for conn, t_ns, raw in reader.messages():
@@ -565,7 +566,8 @@ def test_the_writer_refuses_metadata_that_is_not_a_trial_metadata_before_writing
 
 
 @pytest.mark.parametrize(
-    "name", sorted({n for n in map(str, wk.SCHEMAS.values()) if not n.startswith("dresslog_msgs")})
+    "name",
+    sorted({n for n in map(str, (wk.SCHEMAS | wk.DRAWN).values()) if not n.startswith("dresslog")}),
 )
 def test_standard_schemas_are_ros2s_own_with_their_defaults(name: str) -> None:
     """ROS 2 tools read our standard messages as theirs: same fields, same default values."""
@@ -700,3 +702,82 @@ def test_the_reader_and_writer_are_dresslog_ios_own_names_loaded_on_first_use() 
     code = "import sys, dresslog.io.files, dresslog.model; print('mcap' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
+    """The channels viewers draw decode with ROS 2 Humble's own definitions (rosbags'
+    typestore, not the schema text in the file), with the trial's values in them."""
+    from mcap.reader import make_reader
+    from rosbags.typesys import Stores, get_typestore
+
+    from dresslog.io.drawn import PERIOD_NS
+
+    path, sent = make_trial(steps=30)
+    humble = get_typestore(Stores.ROS2_HUMBLE)
+    got: dict[str, list] = {}
+    with path.open("rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            if channel.topic in wk.DRAWN:
+                assert schema.name == wk.DRAWN[channel.topic]
+                msg = humble.deserialize_cdr(message.data, schema.name)
+                got.setdefault(channel.topic, []).append((message.log_time, msg))
+    t_ns, limb = sent["t_ns"], sent["limb"].points
+    drawn = np.flatnonzero(np.diff(t_ns // PERIOD_NS, prepend=-1) != 0)
+    clouds = got[wk.FORCE_CLOUD]
+    assert [t for t, _ in clouds] == t_ns[drawn].tolist()
+    for (_, cloud), step in zip(clouds, drawn, strict=True):
+        assert [f.name for f in cloud.fields] == ["x", "y", "z", "force"]
+        assert (
+            cloud.width == len(limb) and cloud.point_step == 16 and cloud.header.frame_id == "limb"
+        )
+        points = cloud.data.view(np.float32).reshape(-1, 4)
+        np.testing.assert_array_equal(points[:, :3], limb.astype(np.float32))
+        np.testing.assert_array_equal(points[:, 3], sent["forces"][step])
+    assert wk.ESTIMATE_CLOUD not in got  # no estimate written
+    ((_, tf_static),) = got[wk.TF_STATIC]
+    assert [(t.header.frame_id, t.child_frame_id) for t in tf_static.transforms] == [
+        ("world", "limb")
+    ]
+    assert [t for t, _ in got[wk.TF]] == t_ns.tolist()  # at every pose
+    for (t, tf), pose in zip(got[wk.TF], sent["pose"], strict=True):
+        gripper, sensor = tf.transforms
+        assert (gripper.child_frame_id, sensor.child_frame_id) == ("gripper", "ee")
+        assert gripper.header.stamp.sec * 10**9 + gripper.header.stamp.nanosec == t
+        r = gripper.transform.rotation
+        assert [r.x, r.y, r.z, r.w] == pose[3:].tolist()
+        assert [sensor.transform.translation.x, sensor.transform.rotation.w] == [pose[0], 1.0]
+    mesh = got[wk.GARMENT_MARKER]
+    assert len(mesh) == 3  # with each garment state
+    marker = mesh[-1][1].markers[0]
+    assert marker.type == marker.TRIANGLE_LIST and marker.pose.orientation.w == 1.0
+    corners = (sent["vertices"] + 20)[sent["triangles"].ravel()]
+    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in marker.points], corners)
+    ((_, path_marker),) = got[wk.PATH_MARKER]
+    line = path_marker.markers[0]
+    assert line.type == line.LINE_STRIP
+    points = [[p.x, p.y, p.z] for p in line.points]
+    np.testing.assert_array_equal(points, sent["pose"][:, :3])
+    ((_, limb_marker),) = got[wk.LIMB_MARKER]
+    assert len(limb_marker.markers[0].points) == len(limb)
+
+
+def test_a_writer_told_not_to_draw_writes_dresslogs_channels_alone(tmp_path: Path) -> None:
+    """`draw=False`, the benchmarks' peer: the same trial without the standard channels."""
+    from dresslog.io.reader import summary_counts
+
+    path, sent = tmp_path / "plain.mcap", write_synthetic_trial(tmp_path / "drawn.mcap")
+    with TrialWriter(path, read_trial(tmp_path / "drawn.mcap").metadata, draw=False) as writer:
+        writer.write_limb_points(int(sent["t_ns"][0]), sent["limb"])
+        writer.write_wrench(sent["t_ns"], sent["wrench"])
+        writer.write_twist(sent["t_ns"], sent["twist"])
+        writer.write_pose(sent["t_ns"], sent["pose"])
+        writer.write_force_map(sent["t_ns"], sent["forces"])
+    counts = summary_counts(path)
+    assert counts is not None and set(counts) == {
+        wk.LIMB_POINTS,
+        wk.WRENCH,
+        wk.TWIST,
+        wk.POSE,
+        wk.FORCE_MAP,
+    }
+    assert set(wk.DRAWN) <= set(summary_counts(tmp_path / "drawn.mcap") or {}) | {wk.ESTIMATE_CLOUD}

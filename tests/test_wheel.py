@@ -67,3 +67,19 @@ def test_installed_command_reads_a_trial_outside_the_checkout(venv: Path, tmp_pa
     )
     assert result.returncode == 0, result.stderr
     assert "steps     20" in result.stdout
+
+
+def test_wheel_holds_every_schema_and_the_foxglove_layout(venv: Path, tmp_path: Path) -> None:
+    """The standard messages a trial registers (sensor_msgs, visualization_msgs, tf2_msgs)
+    ship as dresslog's own do, and the installed package writes its Foxglove layout."""
+    site = next(venv.glob("lib/python*/site-packages"))
+    msgs = {p.relative_to(REPO).as_posix() for p in (REPO / "schemas").rglob("*.msg")}
+    shipped = {f"schemas/{p.relative_to(site / 'dresslog' / 'schemas').as_posix()}"
+               for p in (site / "dresslog" / "schemas").rglob("*.msg")}  # fmt: skip
+    assert msgs <= shipped, f"missing from the wheel: {sorted(msgs - shipped)}"
+    out = tmp_path / "layout.json"
+    subprocess.run(
+        [venv / "bin" / "python", "-m", "dresslog.replay.foxglove", str(out)],
+        cwd=tmp_path, check=True, capture_output=True,
+    )  # fmt: skip
+    assert out.read_bytes() == (REPO / "dresslog" / "replay" / "foxglove_layout.json").read_bytes()

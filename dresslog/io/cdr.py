@@ -9,8 +9,10 @@ slicing its bytes; decoding is one `frombuffer`. Because the layout comes from
 the `.msg` text, the codec cannot drift from the schema the file registers.
 
 Leaf naming: nested fields join with dots (`header.stamp.sec`); a sequence
-adds a `<name>.len` count; a nested message whose fields are all one
-primitive type (Vector3, Point, Quaternion) collapses into a sub-array.
+adds a `<name>.len` count, and each element of a sequence of messages that have
+no one size is named by its index (`markers.0.points`); a nested message whose
+fields are all one primitive type (Vector3, Point, Quaternion) collapses into a
+sub-array.
 """
 
 from __future__ import annotations
@@ -40,6 +42,21 @@ Sizes = Mapping[str, "int | tuple[int, ...]"]
 def _align(offset: int, size: int) -> int:
     rel = offset - _ORIGIN
     return _ORIGIN + (rel + size - 1) // size * size
+
+
+@cache
+def is_fixed(msg: str) -> bool:
+    """Whether `msg` has one size: no strings or sequences in it, nor in what it holds."""
+    package = msg.split("/")[0]
+    for type_, _ in fields(msg):
+        match = re.fullmatch(r"(.+?)(\[(\d*)\])?", type_)
+        assert match is not None
+        base, is_array, fixed = match.group(1), match.group(2), match.group(3)
+        if base == "string" or (is_array and not fixed):
+            return False
+        if base not in _NUMPY and not is_fixed(full_type_name(base, package)):
+            return False
+    return True
 
 
 def _uniform_primitive(msg: str) -> tuple[str, int] | None:
@@ -118,6 +135,10 @@ class _Builder:
             fmt = np.dtype(_NUMPY[uniform[0]])
             self.add(path, (fmt, (count, uniform[1])), fmt.itemsize)
             return
+        if not is_fixed(full):  # elements of their own sizes (a MarkerArray's markers)
+            for i in range(count):
+                self.message(full, f"{path}.{i}.")
+            return
         elem = element_dtype(full)
         self.add(path, (elem, (count,)), _max_align(elem))
 
@@ -131,6 +152,8 @@ class _Builder:
         full = full_type_name(base, package)
         if uniform := _uniform_primitive(full):
             return np.dtype(_NUMPY[uniform[0]]).itemsize * uniform[1]
+        if not is_fixed(full):  # at least one length field
+            return 4
         return element_dtype(full).itemsize
 
     def _size(
@@ -300,7 +323,8 @@ def new_messages(msg: str, sizes: Sizes, count: int) -> np.ndarray:
             for i, length in enumerate(size):
                 out[f"{path}.{i}.len"] = length + 1
         elif f"{path}.len" in _names(dtype):
-            out[f"{path}.len"] = size + 1 if dtype[path].kind == "S" else size
+            string = path in _names(dtype) and dtype[path].kind == "S"
+            out[f"{path}.len"] = size + 1 if string else size
     return out
 
 

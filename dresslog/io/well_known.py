@@ -46,6 +46,25 @@ RECEIVED_SCHEMAS: dict[str, str] = {
 #: A live session's `source.format` in its metadata (a converted log's is its input's kind).
 LIVE_FORMAT = "ros2 live"
 
+#: The standard channels a 3D viewer draws (`dresslog.io.drawn`), written beside ours from
+#: the same data. Readers of the trial ignore them: they are views, never read back.
+FORCE_CLOUD = "/limb/force_map/cloud"
+ESTIMATE_CLOUD = "/limb/force_map/estimate/cloud"
+LIMB_MARKER = "/limb/marker"
+GARMENT_MARKER = "/garment/marker"
+PATH_MARKER = "/ee/path"
+TF = "/tf"
+TF_STATIC = "/tf_static"
+DRAWN: dict[str, str] = {
+    FORCE_CLOUD: "sensor_msgs/msg/PointCloud2",
+    ESTIMATE_CLOUD: "sensor_msgs/msg/PointCloud2",
+    LIMB_MARKER: "visualization_msgs/msg/MarkerArray",
+    GARMENT_MARKER: "visualization_msgs/msg/MarkerArray",
+    PATH_MARKER: "visualization_msgs/msg/MarkerArray",
+    TF: "tf2_msgs/msg/TFMessage",
+    TF_STATIC: "tf2_msgs/msg/TFMessage",
+}
+
 #: The real-number fields of a contact (the rest are indices), which must be finite.
 CONTACT_REALS = ("position", "normal", "friction", "normal_force")
 
@@ -96,7 +115,9 @@ _QOS = """\
 STREAM_QOS = _QOS.format(depth=10, durability=2)
 #: Written once: latched (transient local, keep the last 1), so a late subscriber still gets it.
 LATCHED_QOS = _QOS.format(depth=1, durability=1)
-QOS: dict[str, str] = dict.fromkeys(SCHEMAS, STREAM_QOS) | {LIMB_POINTS: LATCHED_QOS}
+QOS: dict[str, str] = dict.fromkeys([*SCHEMAS, *DRAWN], STREAM_QOS) | dict.fromkeys(
+    (LIMB_POINTS, LIMB_MARKER, PATH_MARKER, TF_STATIC), LATCHED_QOS
+)
 #: The metadata record Humble's recorder writes (name, contents); see `_QOS`.
 ROSBAG2_METADATA = ("rosbag2", {"ROS_DISTRO": "humble"})
 

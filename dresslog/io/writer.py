@@ -1,5 +1,9 @@
 """`TrialWriter`: a dresslog trial as an MCAP file (profile ros2, CDR, zstd chunks).
 
+Beside dresslog's own channels it writes, from the same data, the standard ones a 3D
+viewer draws (`dresslog.io.drawn`): force-map clouds, limb, garment and path markers,
+and the frames on `/tf` and `/tf_static`.
+
 The file appears under its final name only when the writer closes cleanly;
 until then it is a hidden temporary beside it, removed if anything fails.
 """
@@ -20,7 +24,7 @@ from mcap.writer import CompressionType, Writer
 
 from dresslog import __version__
 from dresslog.errors import TrialWriteError
-from dresslog.io import cdr
+from dresslog.io import cdr, drawn
 from dresslog.io import well_known as wk
 from dresslog.io.files import (
     check_output,
@@ -79,11 +83,16 @@ def _contacts_header() -> tuple[bytes, int, int]:
 
 
 class TrialWriter:
-    """Write one trial; use as a context manager. Times are integer nanoseconds."""
+    """Write one trial; use as a context manager. Times are integer nanoseconds.
+
+    `draw=False` leaves out the standard channels viewers draw (`dresslog.io.drawn`): what
+    the benchmarks measure their cost against; every command writes them.
+    """
 
     def __init__(
-        self, path: str | Path, metadata: TrialMetadata, *, overwrite: bool = False
-    ) -> None:
+        self, path: str | Path, metadata: TrialMetadata, *, overwrite: bool = False,
+        draw: bool = True,
+    ) -> None:  # fmt: skip
         self.path = Path(path)
         if not isinstance(metadata, TrialMetadata):  # else it would fail only at close
             raise TrialWriteError(
@@ -91,6 +100,7 @@ class TrialWriter:
             )
         self.metadata = metadata
         self.overwrite = overwrite
+        self.draw = draw
         self._tmp: Path | None = None  # named when opened, once the output is checked
         self._made: list[Path] = []  # folders made for it, removed again if it fails
         self._stream: IO[bytes] | None = None
@@ -102,6 +112,10 @@ class TrialWriter:
         self._widths: dict[str, int] = {}  # per force-map topic: one width throughout
         self._points: int | None = None  # limb points written: every map's width
         self._garment_size: int | None = None  # vertices of the first garment message
+        self._limb: np.ndarray | None = None  # limb point positions, where clouds are drawn
+        self._triangles: np.ndarray | None = None  # the garment's, for its mesh marker
+        self._path: list[tuple[np.ndarray, np.ndarray]] = []  # pose stamps and positions
+        self._drawn_bin: dict[str, int] = {}  # per drawn topic: the last period it drew
         self._steps: dict[str, list[np.ndarray]] = {wk.WRENCH: [], wk.TWIST: []}
 
     # -- lifecycle -------------------------------------------------------------
@@ -140,6 +154,7 @@ class TrialWriter:
                 f"a trial needs {wk.WRENCH} and {wk.TWIST} at one or more common times",
                 path=self.path,
             )
+        self._write_path()
         metadata = self.metadata.model_copy(
             update={"software": self.metadata.software or software_versions()}
         )
@@ -204,7 +219,7 @@ class TrialWriter:
         if self._writer is None:
             raise TrialWriteError("writer is not open", path=self.path)
         if topic not in self._channels:
-            name = wk.SCHEMAS.get(topic) or wk.RECEIVED_SCHEMAS[topic]
+            name = wk.SCHEMAS.get(topic) or wk.RECEIVED_SCHEMAS.get(topic) or wk.DRAWN[topic]
             if name not in self._schemas:
                 self._schemas[name] = self._writer.register_schema(
                     name, wk.SCHEMA_ENCODING, schema_text(name).encode()
@@ -310,6 +325,9 @@ class TrialWriter:
         self._write(topic, times, msgs)
         if topic in self._steps:
             self._steps[topic].append(times)
+        if topic == wk.POSE and self.draw:  # the frames at every pose, as tf readers expect
+            self._write(wk.TF, times, drawn.moving_frames(times, rows))
+            self._path.append((times, rows[:, :3]))
 
     def write_force_map(
         self,
@@ -342,6 +360,21 @@ class TrialWriter:
         if contact is not None:
             msgs["contact"] = contact.reshape(forces.shape)
         self._write(topic, times, msgs)
+        cloud = wk.ESTIMATE_CLOUD if estimate else wk.FORCE_CLOUD
+        if self._limb is not None and (keep := self._drawn_steps(cloud, times)).any():
+            clouds = drawn.point_clouds(times[keep], self._limb, forces[keep])
+            self._write(cloud, times[keep], clouds)
+
+    def _drawn_steps(self, topic: str, times: np.ndarray) -> np.ndarray:
+        """Which of these maps `topic` draws: the first of each `drawn.PERIOD_NS`, counted
+        on from the maps written before (none if the writer does not draw)."""
+        if not self.draw:
+            return np.zeros(len(times), bool)
+        bins = times // drawn.PERIOD_NS
+        keep = np.diff(bins, prepend=self._drawn_bin.get(topic, -1)) != 0
+        if len(bins):
+            self._drawn_bin[topic] = int(bins[-1])
+        return keep
 
     def write_contacts(self, t_ns: int, contacts: np.ndarray) -> None:
         """Every garment-limb contact at one step, a CONTACT_DTYPE array (possibly empty).
@@ -386,6 +419,12 @@ class TrialWriter:
         for i, name in enumerate(names):
             msgs[f"segment_names.{i}"] = name
         self._write(wk.LIMB_POINTS, times, msgs)
+        if not self.draw:
+            return
+        self._limb = np.asarray(limb_points.points, np.float32)
+        self._write(wk.TF_STATIC, times, drawn.static_frames(t_ns))
+        marker = drawn.marker_array(t_ns, drawn.LIMB, "limb", drawn.LIMB_LOOK, self._limb)
+        self._write(wk.LIMB_MARKER, times, marker)
 
     def write_garment(
         self, t_ns: int, vertices: np.ndarray, triangles: np.ndarray | Sequence | None = None
@@ -409,3 +448,19 @@ class TrialWriter:
         msgs["vertices"][0] = vertices
         msgs["triangles"][0] = tris
         self._write(wk.GARMENT, times, msgs)
+        if len(tris):
+            self._triangles = tris
+        if self._triangles is not None and self.draw:  # the mesh, drawn at the garment's own rate
+            corners = vertices[self._triangles]
+            mesh = drawn.marker_array(t_ns, drawn.WORLD, "garment", drawn.GARMENT_LOOK, corners)
+            self._write(wk.GARMENT_MARKER, times, mesh)
+
+    def _write_path(self) -> None:
+        """The gripper's whole path, once (latched) at its first pose: a viewer shows where
+        the gripper goes while `/tf` moves it along."""
+        if not self._path:
+            return
+        times = np.concatenate([t for t, _ in self._path])
+        points = np.concatenate([p for _, p in self._path])
+        marker = drawn.marker_array(int(times[0]), drawn.WORLD, "path", drawn.PATH_LOOK, points)
+        self._write(wk.PATH_MARKER, times[:1], marker)

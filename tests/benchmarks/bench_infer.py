@@ -9,6 +9,10 @@ they exist, else a 700-step synthetic trial and a random model of the real size
 (the speed does not depend on what the weights are). Streaming is measured on
 one core (affinity pinned, BLAS single-threaded) against the 10 ms budget of a
 100 Hz loop; the target is p99 <= 0.5 ms.
+
+Then `infer --mcap-out`'s copy: the whole run with the copy, and what the standard
+channels viewers draw (force clouds of truth and estimate, markers, tf) add to it: the
+copy and its estimate written without them (`TrialWriter(draw=False)`) and with them.
 """
 
 from __future__ import annotations
@@ -118,6 +122,51 @@ def end_to_end(trial: Path, model: Path, repeats: int, tmp: Path) -> list[dict[s
     return runs
 
 
+def mcap_out(trial: Path, model: Path, repeats: int, tmp: Path) -> None:
+    """`infer --mcap-out` end to end, and the drawn channels' share of it (best of runs)."""
+    from dresslog.io.reader import read_trial
+    from dresslog.io.writer import TrialWriter
+    from dresslog.model import load_model
+    from dresslog.replay.engine import trial_steps
+    from dresslog.replay.mcap_sink import copy_trial
+    from dresslog.replay.pipeline import replay_file
+
+    runs, cpu = [], []
+    for i in range(repeats):
+        start, start_cpu = time.perf_counter(), time.process_time()
+        replay_file(trial, model=model, rrd=tmp / f"m{i}.rrd", mcap=tmp / f"m{i}.mcap")
+        runs.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+    whole, whole_cpu = statistics.median(runs), min(cpu)
+    data = read_trial(trial)
+    estimator = load_model(model).estimator()
+    steps = list(trial_steps(data))
+    results = [estimator.step(s.phi) for s in steps]
+    forces, contact = (np.stack([r[i] for r in results]) for i in (0, 1))
+    t_ns = np.array([s.t_ns for s in steps], np.int64)
+    took: dict[bool, float] = {}
+    for _ in range(repeats):  # in turn, CPU time: other work beside it skews wall time
+        for draw in (False, True):
+            start = time.process_time()
+            with TrialWriter(tmp / "copy.mcap", data.metadata, overwrite=True, draw=draw) as w:
+                copy_trial(w, data)
+                w.write_force_map(t_ns, forces, contact, estimate=True)
+            took[draw] = min(took.get(draw, np.inf), time.process_time() - start)
+    added = took[True] - took[False]
+    print(
+        f"\ninfer --mcap-out end to end (median of {repeats}, imports included): "
+        f"{whole * 1e3:.0f} ms"
+    )
+    print(
+        f"  the copy (CPU time) without the drawn channels {took[False] * 1e3:6.1f} ms, "
+        f"with them {took[True] * 1e3:6.1f} ms ({took[True] / took[False]:.2f}x)"
+    )
+    print(
+        f"  its CPU time (best of {repeats}) {whole_cpu * 1e3:.0f} ms; the drawn channels add "
+        f"{added * 1e3:.0f} ms, {100 * added / whole_cpu:.1f} % of it"
+    )
+
+
 def startup() -> dict[str, float]:
     """Import cost in a fresh interpreter, each measured alone (median of 3)."""
     code = (
@@ -166,6 +215,7 @@ def main() -> None:
         for k, v in stages.items():
             print(f"  {k:12s} {v * 1e3:7.1f} ms  {100 * v / total:5.1f} %")
         print("  ('infer' includes buffering for the sinks; 'write' the .rrd encode and write)")
+        mcap_out(trial, model, args.repeats, tmp)
 
     print("\nStart-up: import in a fresh interpreter (torch never imported)")
     for module, seconds in startup().items():
