@@ -41,7 +41,6 @@ from dresslog.io.reader import TrialReader
 from dresslog.spec import Outcome, Task, TrialSpec
 from tests.conftest import SAMPLES, prints_warnings, write_synthetic_trial
 
-FAKE = "tests.test_dataset:fake_record"
 FAILING_SEED = trial_seed(0, Split.TRAIN, 1, 0)
 
 
@@ -56,6 +55,9 @@ def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Res
         raise SimulationError(f"garment exploded (seed {spec.seed})")
     write_synthetic_trial(Path(path), spec.task, steps=20)
     return _Result()
+
+
+FAKE = fake_record
 
 
 def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
@@ -337,9 +339,10 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
     """A slow fake generation in its own session, once two trials are on disk."""
     script = (
         "from dresslog.dataset import generate\n"
+        "from tests.test_dataset import slow_record\n"
         "if __name__ == '__main__':\n"
         f"    generate('gown', {trials}, {str(out)!r}, workers=2, progress=False,\n"
-        "             recorder='tests.test_dataset:slow_record')\n"
+        "             recorder=slow_record)\n"
     )
     root = Path(__file__).resolve().parents[1]
     run = subprocess.Popen(

@@ -28,6 +28,7 @@ from dresslog.errors import DatasetError, DresslogWarning, ModelError
 from dresslog.experiments import (
     Scores,
     SweepReport,
+    TrainOptions,
     dataset_bounds,
     sweep,
     sweep_settings,
@@ -53,6 +54,7 @@ from dresslog.plots import eval_figure, plot_sweep, sweep_figure, sweep_lines, t
 from dresslog.sim.specs import random_spec
 from dresslog.spec import RotationRange, Task, TrialSpec
 from tests.conftest import SAMPLES, prints_warnings
+from tests.test_dataset import fake_record
 
 
 @pytest.fixture(scope="module")
@@ -170,7 +172,8 @@ def test_overwrite_replaces_an_interrupted_run_of_other_settings(data: Path) -> 
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train_dataset(data, out, epochs=3, hidden=4, layers=1, progress=False, on_epoch=stop)
+        options = TrainOptions(epochs=3, hidden=4, layers=1)
+        train_dataset(data, out, options, progress=False, on_epoch=stop)
     checkpoint = data.parent / ".interrupted.checkpoint.safetensors"
     assert checkpoint.exists() and not out.exists()
     args = ["train", data, "-o", out, "--epochs", "2", "--hidden", "4", "--layers", "1", "-q"]
@@ -187,8 +190,8 @@ def test_overwrite_replaces_an_interrupted_run_of_other_settings(data: Path) -> 
 def test_an_interrupted_overwrite_resumes_when_its_command_is_repeated(data: Path) -> None:
     """Retraining over a model: the repeated command picks up the epochs done."""
     out = data.parent / "retrained"
-    options = {"epochs": 3, "hidden": 4, "layers": 1, "progress": False}
-    train_dataset(data, out, **options)
+    options = TrainOptions(epochs=3, hidden=4, layers=1)
+    train_dataset(data, out, options, progress=False)
     before = (out / "model.safetensors").read_bytes()
     seen: list[int] = []
 
@@ -197,10 +200,13 @@ def test_an_interrupted_overwrite_resumes_when_its_command_is_repeated(data: Pat
         if epoch.epoch == 2:
             raise KeyboardInterrupt
 
+    def seen_epoch(epoch) -> None:
+        seen.append(epoch.epoch)
+
     with pytest.raises(KeyboardInterrupt):
-        train_dataset(data, out, overwrite=True, on_epoch=stop_after_two, **options)
+        train_dataset(data, out, options, overwrite=True, progress=False, on_epoch=stop_after_two)
     assert (out / "model.safetensors").read_bytes() == before  # kept until the run ends
-    train_dataset(data, out, overwrite=True, on_epoch=lambda e: seen.append(e.epoch), **options)
+    train_dataset(data, out, options, overwrite=True, progress=False, on_epoch=seen_epoch)
     assert seen == [1, 2, 3]  # epoch 3 only: resumed, not afresh
     assert (out / "model.safetensors").read_bytes() == before  # what one run computes
 
@@ -480,10 +486,9 @@ def test_eval_says_why_its_ratios_are_nan_when_the_split_has_no_force(
 
 #: The fields a folder of the current simulator saves beside what its request fixed.
 V9 = {"sim": {"simulator": 9}}
+
+
 #: A recorder for `generate` that simulates its second trial with the arm a metre away.
-ONE_AWAY = "tests.test_experiments:record_one_away"
-
-
 def record_one_away(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> object:
     """Real simulations: slot 0 records the README's dressed gown (seed 42), slot 1 its
     own spec with the limb moved out of the garment's reach (missed, with no force)."""
@@ -494,6 +499,9 @@ def record_one_away(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> 
     else:
         spec = random_spec(spec.task, 42)
     return record_trial(spec, path, overwrite=overwrite)
+
+
+ONE_AWAY = record_one_away
 
 
 @pytest.mark.slow
@@ -993,7 +1001,9 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}  # the `data` fixture's
     span = TURNED
     pooled = tmp_path / "pooled"
-    train_dataset([data, turned], pooled, epochs=1, hidden=4, layers=1, progress=False)
+    train_dataset(
+        [data, turned], pooled, TrainOptions(epochs=1, hidden=4, layers=1), progress=False
+    )
     folders = load_model(pooled).card.data.folders
     assert folders == [
         TrainingFolder(folder=str(data), trials=3, overrides={**near, **V9}),
@@ -1005,7 +1015,7 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
         ),
     ]
     tuned = tmp_path / "tuned"
-    train_dataset(data, tuned, init=pooled, epochs=1, progress=False)
+    train_dataset(data, tuned, TrainOptions(epochs=1), init=pooled, progress=False)
     card = load_model(tuned).card
     assert card.init is not None and card.init.folders == folders
     assert card.trained_folders() == [folders[0], *folders]
@@ -1201,7 +1211,7 @@ def test_train_refuses_a_model_folder_named_as_a_recording(tmp_path: Path, name:
     """`-o models/x.mcap` made a model folder named x.mcap, which every tool that opens a
     file by its name then took for a trial or a recording."""
     data = tmp_path / "d"
-    generate("gown", 2, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
+    generate("gown", 2, data, workers=1, test_fraction=0, recorder=fake_record)
     before = sorted(tmp_path.rglob("*"))
     code, output = invoke("train", data, "-o", tmp_path / "models" / name, "-q")
     stem, suffix = Path(name).stem, Path(name).suffix
@@ -1478,13 +1488,15 @@ def test_a_second_train_on_the_same_output_is_refused_while_the_first_runs(
     assert not (tmp_path / ".m.train.lock").exists()
 
 
-def test_train_dataset_names_an_unknown_schedule_before_loading_any_trial(tmp_path: Path) -> None:
-    """From a script (the CLI offers only the two) it was pydantic's traceback, after the
-    trials had been decoded."""
+def test_train_dataset_refuses_a_window_the_data_make_meaningless_before_loading_any_trial(
+    tmp_path: Path,
+) -> None:
+    """Checked against the manifest's step counts, not after the trials had been decoded."""
     data = tmp_path / "two"
-    generate("gown", 2, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
-    with pytest.raises(ModelError, match="lr_schedule 'linear' is not one of constant, cosine"):
-        train_dataset(data, tmp_path / "m", lr_schedule="linear", progress=False)  # type: ignore[arg-type]
+    generate("gown", 2, data, workers=1, test_fraction=0, recorder=fake_record)
+    longest = max(t.steps for t in load_manifest(data).trials)
+    with pytest.raises(ModelError, match=f"the longest has {longest}"):
+        train_dataset(data, tmp_path / "m", TrainOptions(window=longest), progress=False)
     assert not (data / ".cache").exists() and not (tmp_path / "m").exists()
     with pytest.raises(DatasetError, match="task 'hat' is not one of gown, shorts"):
         sweep_settings("hat", [], ["y:10"])
@@ -1494,7 +1506,7 @@ def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
     data = tmp_path / "one"
     with pytest.warns(DresslogWarning, match="1 trial at --test-fraction 0 leaves 1 to train on"):
         generate(  # what `train` then refuses: said while the trials were still to be made
-            "gown", 1, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record"
+            "gown", 1, data, workers=1, test_fraction=0, recorder=fake_record
         )
     code, output = invoke("train", data, "-o", tmp_path / "m", "-q")
     assert code == 1 and "needs at least 2 training trials, has 1" in output

@@ -213,7 +213,7 @@ def test_a_full_disk_on_ray_is_our_one_line_not_rays_traceback(local_ray, tmp_pa
     """Ray raises a task's error wrapped, its str the task's traceback: the CLI printed that."""
     with pytest.raises(TrialWriteError) as caught:
         generate("gown", 2, tmp_path, executor="ray", workers=1, test_fraction=0,
-                 recorder="tests.test_ray:full_disk_record", progress=False)  # fmt: skip
+                 recorder=full_disk_record, progress=False)  # fmt: skip
     file = caught.value.path  # whichever of the two trials Ray finished first
     assert file is not None and file.parent == tmp_path / "train"
     assert str(caught.value) == f"{file}: cannot write it: No space left on device"

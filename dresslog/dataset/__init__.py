@@ -1,10 +1,12 @@
 """Datasets: many trials in a folder with a manifest, generated in parallel, cached as tensors.
 
 `generate` fills a folder (resumably), `load_manifest` reads its index, `load_dataset`
-returns every trial decoded into padded arrays, cached beside the data.
+returns every trial decoded into padded arrays, cached beside the data. `generate` records
+each trial with a `Recorder`, the simulator's `record_trial` unless told otherwise.
 """
 
 from dresslog.dataset.cache import DatasetArrays, cache_path, load_dataset
+from dresslog.dataset.executors import Recorder
 from dresslog.dataset.generate import generate
 from dresslog.dataset.manifest import (
     Entry,
@@ -20,6 +22,7 @@ __all__ = [
     "DatasetArrays",
     "Entry",
     "Manifest",
+    "Recorder",
     "Split",
     "Status",
     "cache_path",

@@ -1,7 +1,10 @@
 """Where a dataset's trials run: a local process pool, or Ray tasks on a cluster.
 
-A `Job` (one attempt at one slot) is plain data; `run_job` records it in a worker and
-returns its manifest `Entry`, a failed one if the simulation went unstable. Ctrl-C and
+A `Job` (one attempt at one slot) is plain data and a `Recorder`, by default the
+simulator's `record_trial`; `run_job` records it in a worker and returns its manifest
+`Entry`, a failed one if the simulation went unstable. A recorder is a module-level
+function, which pickles by reference (its module and name), so a job travels to a
+process-pool worker or a Ray task as it did when it named the function as a string. Ctrl-C and
 a kill reach every worker; `_Worker` stops the trial being written without leaving its
 temporary file and keeps the pool whole.
 """
@@ -9,31 +12,41 @@ temporary file and keeps the pool whole.
 from __future__ import annotations
 
 import ctypes
-import importlib
 import os
 import signal
 import threading
 import time
-from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, Protocol
+from typing import Literal, Protocol
 
 from dresslog.dataset.manifest import Entry, Split, Status, slot_file
 from dresslog.errors import DatasetError, DresslogError, SimulationError
 from dresslog.io.files import discard_temporaries, sha256_file
+from dresslog.sim import record_trial
 from dresslog.spec import Outcome, TrialSpec
 from dresslog.stops import deferred_in_children, hangup, unblock_stops
 
-RECORDER = "dresslog.sim:record_trial"
 ExecutorName = Literal["process", "ray"]
 
 
-def resolve(target: str) -> Callable[..., Any]:
-    """The function a `module:name` string names (what a job pickles instead of code)."""
-    module, name = target.split(":")
-    return getattr(importlib.import_module(module), name)
+class Recorded(Protocol):
+    """What a recorder says of the trial it wrote (the simulator's `SimResult` says more)."""
+
+    @property
+    def outcome(self) -> str: ...
+
+    @property
+    def steps(self) -> int: ...
+
+
+class Recorder(Protocol):
+    """Simulates `spec` and writes the trial to `path`, as `dresslog.sim.record_trial`
+    does; raises a `DresslogError` for a trial that failed. A module-level function, so
+    that a job carrying it pickles to a worker process or a Ray task."""
+
+    def __call__(self, spec: TrialSpec, path: Path, *, overwrite: bool) -> Recorded: ...
 
 
 @dataclass(frozen=True)
@@ -45,7 +58,7 @@ class Job:
     slot: int
     attempt: int
     spec: TrialSpec
-    recorder: str = RECORDER
+    recorder: Recorder = record_trial
 
     @property
     def file(self) -> str:
@@ -142,7 +155,7 @@ def run_job(job: Job) -> Entry:
     base = {"split": job.split, "slot": job.slot, "attempt": job.attempt, "spec": job.spec}
     try:
         _Worker.writing = path
-        result = resolve(job.recorder)(job.spec, path, overwrite=True)
+        result = job.recorder(job.spec, path, overwrite=True)
     except DresslogError as err:
         path.unlink(missing_ok=True)
         if isinstance(err.__cause__, OSError):  # the disk's, not the trial's

@@ -28,12 +28,11 @@ from typing import Any
 from pydantic import ValidationError
 
 from dresslog.dataset.executors import (
-    RECORDER,
     ExecutorName,
     Job,
+    Recorder,
     check_executor,
     make_executor,
-    resolve,
 )
 from dresslog.dataset.manifest import (
     MANIFEST_FILE,
@@ -56,6 +55,7 @@ from dresslog.io.files import (
     remove_folders,
     resolved,
 )
+from dresslog.sim import random_spec, record_trial
 from dresslog.spec import (
     RotationRange,
     SimParams,
@@ -76,7 +76,6 @@ SAVE_EVERY_S = 2.0
 #: Seconds between checks for Ctrl-C while waiting on the workers.
 POLL_S = 0.2
 LOCK_FILE = ".generate.lock"
-SPEC_FACTORY = "dresslog.sim:random_spec"
 
 
 def _check_folder(root: Path) -> None:
@@ -272,7 +271,7 @@ def _open_manifest(
     return manifest.model_copy(update=asked)
 
 
-def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[Job]:
+def _plan(root: Path, manifest: Manifest, recorder: Recorder, workers: int) -> list[Job]:
     """Keep the listed trials whose files check out; the next attempt at every other slot."""
     from concurrent.futures import ThreadPoolExecutor
 
@@ -293,16 +292,16 @@ def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[J
 
 
 def _job(
-    root: Path, manifest: Manifest, split: Split, slot: int, attempt: int, recorder: str
+    root: Path, manifest: Manifest, split: Split, slot: int, attempt: int, recorder: Recorder
 ) -> Job:
-    """The attempt's spec is the simulator's `random_spec` (imported with the first job), or
-    for a test recorder one validated without the simulator."""
+    """The attempt's spec is the simulator's `random_spec` for the simulator's recorder; for
+    another (a test's), the seed and the fixed fields on the spec's defaults."""
     seed = trial_seed(manifest.seed, split, slot, attempt)
     fixed = manifest.overrides
     if manifest.rotation_range is not None:
         fixed = {**fixed, "limb_rotation": manifest.rotation_range.draw(seed).model_dump()}
-    if recorder == RECORDER:
-        spec = resolve(SPEC_FACTORY)(manifest.task, seed, **fixed)
+    if recorder is record_trial:
+        spec = random_spec(manifest.task, seed, **fixed)
     else:
         spec = TrialSpec.model_validate({"task": manifest.task, "seed": seed, **fixed})
     return Job(str(root), split, slot, attempt, spec, recorder)
@@ -339,7 +338,7 @@ def generate(
     ray_address: str | None = None,
     max_attempts: int = MAX_ATTEMPTS,
     progress: bool = True,
-    recorder: str = RECORDER,
+    recorder: Recorder = record_trial,
     label: str | None = None,
 ) -> Manifest:
     """Fill `out` with `trials` simulated trials of `task`; resume whatever is missing.
@@ -349,8 +348,8 @@ def generate(
     ``speed``, ``limb_rotation``); ``rotation_range`` draws each trial's ``limb_rotation``
     (``{"axis": "z", "low": -15, "high": 15}``); ``ray_address`` is the Ray cluster
     ``executor="ray"`` joins (else ``RAY_ADDRESS``'s, else one ``ray start`` runs on this
-    machine, else a new local one); ``recorder`` ("module:function", called as
-    ``f(spec, path, overwrite=True)``) swaps the simulator, for tests; ``label`` names
+    machine, else a new local one); ``recorder`` (a module-level function, called as
+    ``f(spec, path, overwrite=True)``: a `Recorder`) swaps the simulator, for tests; ``label`` names
     the progress bar (the task by default). Raises
     `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
     written up to then lists every failure. A folder this call made is removed again if

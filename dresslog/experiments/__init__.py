@@ -7,15 +7,17 @@ call these from under ``if __name__ == "__main__":`` in a script.
 
 Public API
 ----------
-``train_dataset(data, out, *, epochs=10, batch_size=16, hidden=50, layers=3, lr=1e-3,
-normalise=False, balance_loss=False, keep_best=False, lr_schedule="constant",
-input_differences=False, window=None, seed=0, overwrite=False, workers=None, progress=True,
-on_epoch=None) -> ModelCard``
-    Trains on the training split (holding out a tenth of it,
-    `dresslog.model.options.VAL_FRACTION`, for the per-epoch validation loss), scores
+``train_dataset(data, out, options=TrainOptions(), *, init=None, overwrite=False,
+workers=None, progress=True, on_epoch=None) -> ModelCard``
+    Trains on the training split (holding out ``options.val_fraction`` of it, a tenth,
+    for the per-epoch validation loss), scores
     the test split, and saves a model folder whose card names the data by its manifest
     hash and keeps the per-epoch losses, with their plot (``TRAINING_PLOT``,
     ``training.png``). Resumes from ``.<out>.checkpoint.safetensors`` beside `out`.
+    ``TrainOptions`` (`dresslog.model.options`): every setting of the run, one field
+    each, the paper's by default (3 layers of 50 cells, lr 0.001, 10 epochs); ``hidden``
+    and ``layers`` left None take the paper's sizes or, with ``init``, the initial
+    model's.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, plot=None, per_sequence=None,
 workers=None, progress=True) -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome
@@ -55,6 +57,7 @@ from dresslog.experiments.sweeps import (
 )
 from dresslog.experiments.training import TRAINING_PLOT, train_dataset
 from dresslog.model.evaluate import Scores
+from dresslog.model.options import TrainOptions
 
 __all__ = [
     "ROTATION_SPEED",
@@ -63,6 +66,7 @@ __all__ = [
     "Scores",
     "Setting",
     "SweepReport",
+    "TrainOptions",
     "dataset_bounds",
     "default_sweep_folder",
     "evaluate_dataset",

@@ -48,6 +48,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2, help="processes for decoding")
     args = parser.parse_args()
 
+    from dresslog.model.options import TrainOptions
     from dresslog.model.train import train
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -69,9 +70,7 @@ def main() -> None:
         _, history = train(
             arrays.sequences(rows),
             arrays.force_maps(rows),
-            epochs=1,
-            threads=args.threads,
-            val_fraction=0.0,
+            TrainOptions(epochs=1, threads=args.threads, val_fraction=0.0),
         )
         epoch = history.epochs[0].seconds
 
