@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from dresslog.errors import DresslogError, ModelError, TrialFormatError
+from dresslog.folders import CARD_FILE, MANIFEST_FILE, MODEL_FILES, SWEEP_FILE
 
 
 class Description(NamedTuple):
@@ -27,8 +28,6 @@ class Description(NamedTuple):
 def describe(path: str | Path, *, as_json: bool = False) -> Description:
     """Summarise `path` by what it is: a dataset (manifest), a model (card), a ROS bag (its
     topics and tf tree, for `convert`) or a trial file."""
-    from dresslog.dataset.manifest import MANIFEST_FILE
-    from dresslog.model.files import CARD_FILE, MODEL_FILES
 
     path = Path(path)
     if path.name in {MANIFEST_FILE, *MODEL_FILES} and path.is_file():
@@ -62,8 +61,7 @@ def _inside(path: Path) -> str:
     """What `info` takes in a folder of ours that is neither a model nor a dataset: a
     sweep's (a setting's folder), a dataset's split folder (the dataset), a folder of
     trials (one of them, as `samples/`) or of models (one, as `samples/models/`); else ""."""
-    from dresslog.dataset.manifest import SWEEP_FILE, dataset_holding
-    from dresslog.model.files import CARD_FILE
+    from dresslog.dataset.manifest import dataset_holding
 
     if (path / SWEEP_FILE).is_file():
         return (

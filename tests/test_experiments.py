@@ -35,12 +35,19 @@ from dresslog.experiments import (
     train_dataset,
 )
 from dresslog.experiments.evaluation import data_conditions
+from dresslog.experiments.plots import (
+    eval_figure,
+    plot_sweep,
+    sweep_figure,
+    sweep_lines,
+    training_figure,
+)
+from dresslog.folders import CARD_FILE
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, combined, spec_conditions, trained_conditions
 from dresslog.model.evaluate import ErrorProfile, score_sequences
 from dresslog.model.files import (
-    CARD_FILE,
     EpochRecord,
     Hyperparameters,
     InitialModel,
@@ -50,7 +57,6 @@ from dresslog.model.files import (
     save_model,
 )
 from dresslog.model.numpy_lstm import expected_shapes
-from dresslog.plots import eval_figure, plot_sweep, sweep_figure, sweep_lines, training_figure
 from dresslog.sim.specs import random_spec
 from dresslog.spec import RotationRange, Task, TrialSpec
 from tests.conftest import SAMPLES, prints_warnings

@@ -17,6 +17,7 @@ import torch
 from pydantic import ValidationError
 
 from dresslog.errors import ModelError, first_problem
+from dresslog.experiments.plots import plot_training
 from dresslog.io.reader import TrialReader
 from dresslog.model import (
     ModelCard,
@@ -45,7 +46,6 @@ from dresslog.model.network import ForceMapLSTM
 from dresslog.model.options import TrainOptions
 from dresslog.model.postprocess import sequence_rmse
 from dresslog.model.train import epoch_lr, make_card, train
-from dresslog.plots import plot_training
 from dresslog.spec import Task
 
 N = 24

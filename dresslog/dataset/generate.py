@@ -35,7 +35,6 @@ from dresslog.dataset.executors import (
     make_executor,
 )
 from dresslog.dataset.manifest import (
-    MANIFEST_FILE,
     MIN_TRAIN,
     TEST_FRACTION,
     Entry,
@@ -48,6 +47,7 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogError, DresslogWarning, first_problem
+from dresslog.folders import MANIFEST_FILE
 from dresslog.io.files import (
     exclusive,
     is_temporary,

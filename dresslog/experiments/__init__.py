@@ -24,7 +24,7 @@ workers=None, progress=True) -> EvalReport``
     (each a ``Scores``), with contact-map precision and recall, and the data's speeds and
     rotations beside the model's training ones (`conditions`), naming those outside
     them (``EvalReport.outside``); with ``plot``, a PNG of where along the limb and at
-    what total force the model errs (`dresslog.plots.plot_eval`); with ``per_sequence``, a
+    what total force the model errs (`plots.plot_eval`); with ``per_sequence``, a
     CSV of each sequence's spec, outcome and scores; with ``bounds``, the
     oracle ratios too (none when the split carries no force, which a ``DresslogWarning``
     naming `data` explains: the all-zero RMSE is 0, so the ratios are nan). ``.table()``

@@ -14,6 +14,7 @@ import numpy as np
 from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
 from dresslog.dataset.manifest import as_split
 from dresslog.errors import DatasetError, DresslogWarning
+from dresslog.experiments.plots import plot_eval
 from dresslog.io.files import atomic_path, check_output, printable
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, folder_conditions, trained_conditions
@@ -23,7 +24,6 @@ from dresslog.model.files import (
     check_task,
     load_model,
 )
-from dresslog.plots import plot_eval
 from dresslog.spec import Outcome, Task
 
 #: The outcomes every report lists, with n 0 where a split has none (others where present).

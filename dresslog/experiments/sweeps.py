@@ -17,7 +17,7 @@ from dresslog.dataset import Split, generate, load_dataset, load_manifest
 from dresslog.dataset.executors import check_executor
 from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
-from dresslog.dataset.manifest import MANIFEST_FILE, SWEEP_FILE, Manifest, check_files
+from dresslog.dataset.manifest import Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
 from dresslog.experiments.evaluation import (
     check_data_task,
@@ -25,6 +25,8 @@ from dresslog.experiments.evaluation import (
     score_rows,
     warn_no_force,
 )
+from dresslog.experiments.plots import plot_sweep
+from dresslog.folders import CARD_FILE, MANIFEST_FILE, SWEEP_FILE
 from dresslog.io import jsontext
 from dresslog.io.files import (
     atomic_path,
@@ -41,13 +43,8 @@ from dresslog.model.conditions import (
     trained_conditions,
 )
 from dresslog.model.evaluate import Scores
-from dresslog.model.files import (
-    CARD_FILE,
-    LoadedModel,
-    load_model,
-)
 from dresslog.model.files import FORMAT as MODEL_FORMAT
-from dresslog.plots import plot_sweep
+from dresslog.model.files import LoadedModel, load_model
 from dresslog.spec import SIMULATORS, Task, TrialSpec, simulator_fields, task_of
 
 #: The kinds of setting, in the order the table lists them.

@@ -10,13 +10,14 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.dataset import DatasetArrays, Split, load_dataset, load_manifest
-from dresslog.dataset.manifest import MANIFEST_FILE, MIN_TRAIN
+from dresslog.dataset.manifest import MIN_TRAIN
 from dresslog.errors import DatasetError, ModelError
 from dresslog.experiments.evaluation import check_data_task, warn_no_force
+from dresslog.experiments.plots import plot_training
+from dresslog.folders import MANIFEST_FILE, TRAINING_PLOT
 from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
 from dresslog.model.evaluate import score_sequences
 from dresslog.model.files import (
-    TRAINING_PLOT,
     DataProvenance,
     EpochRecord,
     InitialModel,
@@ -30,7 +31,6 @@ from dresslog.model.files import (
 )
 from dresslog.model.numpy_lstm import NumpyEstimator
 from dresslog.model.options import TrainOptions, check_options, held_out
-from dresslog.plots import plot_training
 from dresslog.spec import Task
 
 

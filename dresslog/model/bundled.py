@@ -19,7 +19,8 @@ import os
 from pathlib import Path
 
 from dresslog.errors import ModelError
-from dresslog.model.files import CARD_FILE, LoadedModel, check_task, load_model
+from dresslog.folders import CARD_FILE
+from dresslog.model.files import LoadedModel, check_task, load_model
 from dresslog.spec import Task, task_of
 
 #: Set to a folder holding `<task>/` model folders to override the bundled models.

@@ -51,6 +51,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
+from dresslog.folders import CARD_FILE, MANIFEST_FILE, MODEL_FILES, WEIGHTS_FILE
 from dresslog.io import jsontext
 from dresslog.io.files import (
     check_writable,
@@ -67,11 +68,6 @@ from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.model.options import LrSchedule
 from dresslog.spec import RotationRange, Task, TrialSpec, task_of
 
-WEIGHTS_FILE = "model.safetensors"
-CARD_FILE = "card.json"
-TRAINING_PLOT = "training.png"
-#: What a model folder holds; --overwrite replaces these and nothing else.
-MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
 FORMAT: Final = "dresslog-model"
 #: 2 added `data.signal`, 3 `init`, 4 `data.folders` and `init.folders`; a card of a
 #: newer version than this is refused as such, before the fields this dresslog does not
@@ -400,8 +396,6 @@ def read_card(path: str | Path) -> ModelCard:
     path = Path(path)
     card_path = path / CARD_FILE
     if not card_path.is_file():
-        from dresslog.dataset.manifest import MANIFEST_FILE  # lazily: only for this hint
-
         what = "not a dresslog model folder"
         if (path / MANIFEST_FILE).is_file():  # `eval DATA MODEL`, the two swapped
             what = "a dataset folder, not a model (`eval` and `sweep` take the model first)"
