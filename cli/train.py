@@ -7,7 +7,13 @@ from typing import Any
 
 import click
 
-from dresslog.model.options import LR_SCHEDULES, PAPER_HIDDEN, PAPER_LAYERS, TrainOptions
+from dresslog.model.options import (
+    LR_SCHEDULES,
+    PAPER,
+    PAPER_HIDDEN,
+    PAPER_LAYERS,
+    TrainOptions,
+)
 
 from .common import reports_errors
 from .options import FiniteRange
@@ -17,23 +23,23 @@ from .options import FiniteRange
 #: not after the trials are loaded and the run diverges or runs out of memory. At 1024
 #: cells in 3 layers one inference step already takes some 5 ms of a 100 Hz step's 10.
 MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
-#: Each option's default is `TrainOptions`' own, so that the two cannot drift apart.
-DEFAULT = TrainOptions()
+
+# Every default below is the paper's `TrainOptions` field's (`PAPER`), never a second copy.
 
 
 @click.command("train")
 @click.argument("data", nargs=-1, required=True, type=click.Path(file_okay=False))
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
               help="Model folder to write.")  # fmt: skip
-@click.option("--epochs", type=click.IntRange(min=1), default=DEFAULT.epochs, show_default=True,
+@click.option("--epochs", type=click.IntRange(min=1), default=PAPER.epochs, show_default=True,
               help="Passes over the training split.")  # fmt: skip
-@click.option("--batch-size", type=click.IntRange(min=1), default=DEFAULT.batch_size,
+@click.option("--batch-size", type=click.IntRange(min=1), default=PAPER.batch_size,
               show_default=True, help="Sequences per batch.")  # fmt: skip
 @click.option("--hidden", type=click.IntRange(1, MAX_HIDDEN), help="LSTM cells per layer.",
               show_default=f"{PAPER_HIDDEN}, or --init's")  # fmt: skip
 @click.option("--layers", type=click.IntRange(1, MAX_LAYERS), help="LSTM layers.",
               show_default=f"{PAPER_LAYERS}, or --init's")  # fmt: skip
-@click.option("--lr", type=FiniteRange(0, MAX_LR, min_open=True), default=DEFAULT.lr,
+@click.option("--lr", type=FiniteRange(0, MAX_LR, min_open=True), default=PAPER.lr,
               show_default=True, help="RMSprop learning rate.")  # fmt: skip
 @click.option("--normalise", is_flag=True, help="Standardise inputs (not in the paper).")
 @click.option(
@@ -45,7 +51,7 @@ DEFAULT = TrainOptions()
 @click.option(
     "--lr-schedule",
     type=click.Choice(LR_SCHEDULES),
-    default=DEFAULT.lr_schedule,
+    default=PAPER.lr_schedule,
     show_default=True,
     help="cosine: anneal the learning rate to 0 over the epochs (the paper: constant).",
 )
@@ -57,7 +63,7 @@ DEFAULT = TrainOptions()
 @click.option("--window", type=click.IntRange(min=2), metavar="W",
               help="Train on random crops of W steps (10 ms each; below the longest training "
               "sequence).", show_default="whole sequences")  # fmt: skip
-@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=DEFAULT.seed, show_default=True,
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=PAPER.seed, show_default=True,
               help="Draws the validation split, the batches and the initial weights.")  # fmt: skip
 @click.option("--init", type=click.Path(), metavar="MODEL",
               help="Start from this model's weights (fine-tuning: its network and input "

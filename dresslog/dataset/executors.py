@@ -35,10 +35,14 @@ class Recorded(Protocol):
     """What a recorder says of the trial it wrote (the simulator's `SimResult` says more)."""
 
     @property
-    def outcome(self) -> str: ...
+    def outcome(self) -> str:
+        """How the trial went: an `Outcome` value (dressed, missed, caught)."""
+        ...
 
     @property
-    def steps(self) -> int: ...
+    def steps(self) -> int:
+        """The 100 Hz steps written."""
+        ...
 
 
 class Recorder(Protocol):
@@ -62,6 +66,7 @@ class Job:
 
     @property
     def file(self) -> str:
+        """The slot's file, relative to the dataset folder: `train/000003.mcap`."""
         return slot_file(self.split, self.slot)
 
 
@@ -189,10 +194,22 @@ class Executor(Protocol):
     interrupt, workers may complete what they had started), so none goes unrecorded.
     """
 
-    def submit(self, job: Job) -> None: ...
-    def done(self, timeout: float) -> list[Entry]: ...
-    def pending(self) -> int: ...
-    def shutdown(self) -> list[Entry]: ...
+    def submit(self, job: Job) -> None:
+        """Queue `job`; it runs as soon as a worker is free."""
+        ...
+
+    def done(self, timeout: float) -> list[Entry]:
+        """The entries of the jobs finished within `timeout` seconds, maybe none; a job that
+        raised a bug raises it here."""
+        ...
+
+    def pending(self) -> int:
+        """How many submitted jobs have not been returned by `done` yet."""
+        ...
+
+    def shutdown(self) -> list[Entry]:
+        """Stop the work; returns the entries of the jobs that finished meanwhile."""
+        ...
 
 
 def _start_resource_tracker() -> None:
@@ -223,6 +240,7 @@ class ProcessExecutor:
         self._futures: set[Future[Entry]] = set()
 
     def submit(self, job: Job) -> None:
+        """Queue `job` in the pool (which may start a worker, deaf to a stop while it starts)."""
         with deferred_in_children():  # a submission may start a worker
             self._futures.add(self._pool.submit(run_job, job))
 
@@ -237,9 +255,12 @@ class ProcessExecutor:
         return [f.result() for f in ok]
 
     def pending(self) -> int:
+        """How many submitted jobs `done` has not returned yet."""
         return len(self._futures)
 
     def shutdown(self) -> list[Entry]:
+        """Stop the pool, telling busy workers to stop their trials; returns the entries of the
+        jobs that finished meanwhile."""
         if any(not f.done() for f in self._futures):  # stopped: the workers stop too
             self._stopping.value = True
         self._pool.shutdown(wait=True, cancel_futures=True)

@@ -199,6 +199,7 @@ class Manifest(BaseModel):
 
     @property
     def complete(self) -> bool:
+        """Whether every split holds the trials asked for (a stopped generation's does not)."""
         return all(len(self.split(s)) >= self.wanted(s) for s in Split)
 
     def counts(self) -> str:

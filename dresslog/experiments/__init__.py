@@ -7,7 +7,7 @@ call these from under ``if __name__ == "__main__":`` in a script.
 
 Public API
 ----------
-``train_dataset(data, out, options=TrainOptions(), *, init=None, overwrite=False,
+``train_dataset(data, out, options=PAPER, *, init=None, overwrite=False,
 workers=None, progress=True, on_epoch=None) -> ModelCard``
     Trains on the training split (holding out ``options.val_fraction`` of it, a tenth,
     for the per-epoch validation loss), scores
@@ -15,11 +15,12 @@ workers=None, progress=True, on_epoch=None) -> ModelCard``
     hash and keeps the per-epoch losses, with their plot (``TRAINING_PLOT``,
     ``training.png``). Resumes from ``.<out>.checkpoint.safetensors`` beside `out`.
     ``TrainOptions`` (`dresslog.model.options`): every setting of the run, one field
-    each, the paper's by default (3 layers of 50 cells, lr 0.001, 10 epochs); ``hidden``
+    each; ``PAPER`` is ``TrainOptions()``, the paper's (3 layers of 50 cells, lr 0.001,
+    10 epochs); ``hidden``
     and ``layers`` left None take the paper's sizes or, with ``init``, the initial
     model's.
 ``evaluate_dataset(model, data, *, split="test", bounds=False, plot=None, per_sequence=None,
-workers=None, progress=True) -> EvalReport``
+overwrite=False, workers=None, progress=True) -> EvalReport``
     RMSE after Eq. 2, the all-zero baseline and their ratio, overall and per outcome
     (each a ``Scores``), with contact-map precision and recall, and the data's speeds and
     rotations beside the model's training ones (`conditions`), naming those outside
@@ -38,8 +39,9 @@ workers=None, progress=True) -> EvalReport``
     the in-range setting; `out/sweep.csv`, `out/sweep.json` and `out/sweep.png`; a
     ``DresslogWarning`` names the settings whose sequences carry no force (ratios nan).
     ``SweepReport.table()`` is what ``sweep`` prints. The pieces it is made of:
-    ``sweep_settings(task, speeds, rotations, duration)`` (the ``Setting``s, the
-    in-range one first; a rotation is swept at the task's mid-range ``ROTATION_SPEED``),
+    ``sweep_settings(task, speeds, rotations, duration=None, simulator="v9")`` (the
+    ``Setting``s, the in-range one first, simulated by the model's simulator version; a
+    rotation is swept at the task's mid-range ``ROTATION_SPEED``),
     ``parse_speed("0.2")``, ``parse_rotation("y:-15")`` and
     ``default_sweep_folder(model)`` (``./NAME-sweep``).
 """
@@ -57,9 +59,10 @@ from dresslog.experiments.sweeps import (
 )
 from dresslog.experiments.training import TRAINING_PLOT, train_dataset
 from dresslog.model.evaluate import Scores
-from dresslog.model.options import TrainOptions
+from dresslog.model.options import PAPER, TrainOptions
 
 __all__ = [
+    "PAPER",
     "ROTATION_SPEED",
     "TRAINING_PLOT",
     "EvalReport",

@@ -62,6 +62,8 @@ class EvalReport:
         )
 
     def table(self) -> str:
+        """What `eval` prints: the headline, then one row per group (all, each outcome) with n,
+        RMSE, the all-zero RMSE, their ratio, contact precision and recall."""
         head = (
             f"{'group':<10}{'n':>6}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}"
             f"{'prec':>7}{'rec':>7}"

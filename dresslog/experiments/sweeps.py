@@ -66,6 +66,8 @@ class Setting:
 
     @property
     def folder(self) -> str:
+        """The setting's folder in the sweep's folder: its name without colons, which some file
+        systems refuse."""
         return self.name.replace(":", "_")
 
     @property
@@ -92,6 +94,8 @@ class SweepReport:
     trained_duration: float = DURATION
 
     def ratio(self, setting: Setting) -> float:
+        """The setting's RMSE over the in-range setting's: Figs. 12 and 13's y axis (nan when
+        the in-range RMSE is 0)."""
         assert setting.scores is not None
         return setting.scores.rmse / self.baseline_rmse if self.baseline_rmse else math.nan
 

@@ -30,14 +30,14 @@ from dresslog.model.files import (
     save_model,
 )
 from dresslog.model.numpy_lstm import NumpyEstimator
-from dresslog.model.options import TrainOptions, check_options, held_out
+from dresslog.model.options import PAPER, TrainOptions, check_options, held_out
 from dresslog.spec import Task
 
 
 def train_dataset(
     data: str | Path | Sequence[str | Path],
     out: str | Path,
-    options: TrainOptions | None = None,
+    options: TrainOptions = PAPER,
     *,
     init: str | Path | None = None,
     overwrite: bool = False,
@@ -57,7 +57,7 @@ def train_dataset(
     Args:
         data: the dataset folder, or several of one task.
         out: the model folder to write.
-        options: every setting of the run; None: the paper's (`TrainOptions()`).
+        options: every setting of the run; by default the paper's.
         init: a model to start from; the card names it under `init`.
         overwrite: replace an existing model folder (an interrupted run of these
             options still resumes; one of other options is discarded).
@@ -75,7 +75,6 @@ def train_dataset(
             or of another task, options that would change its network, settings the
             data make meaningless, a diverged run.
     """
-    options = options or TrainOptions()
     out = Path(out)
     if out.name in ("", ".."):  # `-o .` or `-o ..`: name the folder, for the files beside it
         out = out.resolve()

@@ -99,6 +99,7 @@ class ErrorProfile:
 
     @property
     def mean_estimate(self) -> np.ndarray:
+        """(N,) N: each point's estimated force, averaged over every step."""
         return self._estimate / max(self.steps, 1)
 
     @property

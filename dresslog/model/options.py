@@ -12,6 +12,7 @@ Public API
     meaningless (a crop window no shorter than any sequence; keeping the best epoch with
     nothing to validate on).
 ``held_out(n_sequences, val_fraction) -> int``: how many sequences validate.
+``PAPER``: ``TrainOptions()``, the paper's settings, every run's default.
 ``VAL_FRACTION``, ``LrSchedule``, ``LR_SCHEDULES``, ``PAPER_HIDDEN``, ``PAPER_LAYERS``.
 """
 
@@ -98,6 +99,10 @@ class TrainOptions(BaseModel):
     def network(self) -> tuple[int, int]:
         """(hidden, layers): the sizes asked for, the paper's where left out."""
         return self.hidden or PAPER_HIDDEN, self.layers or PAPER_LAYERS
+
+
+#: The paper's settings: what `train` and `dresslog train` use where not told otherwise.
+PAPER: Final = TrainOptions()
 
 
 def _share_problem(val_fraction: float) -> str:

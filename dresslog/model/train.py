@@ -2,7 +2,7 @@
 
 Public API
 ----------
-``train(sequences, forces, options=TrainOptions(), *, val=None, init=None, progress=True,
+``train(sequences, forces, options=PAPER, *, val=None, init=None, progress=True,
 checkpoint=None, restart_other=False, on_epoch=None) -> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
     maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
@@ -73,7 +73,7 @@ from dresslog.model.files import (
 from dresslog.model.inputs import PHI_DIM, network_inputs, reads_differences
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
-from dresslog.model.options import TrainOptions, check_options, held_out
+from dresslog.model.options import PAPER, TrainOptions, check_options, held_out
 from dresslog.model.postprocess import network_targets
 from dresslog.spec import Task, task_of
 from dresslog.trial import padded
@@ -167,7 +167,7 @@ def _evaluate_loss(
 def train(
     sequences: Sequence[np.ndarray],
     forces: Sequence[np.ndarray],
-    options: TrainOptions | None = None,
+    options: TrainOptions = PAPER,
     *,
     val: tuple[Sequence[np.ndarray], Sequence[np.ndarray]] | None = None,
     init: Mapping[str, np.ndarray] | None = None,
@@ -181,7 +181,7 @@ def train(
     Args:
         sequences: phi arrays, (T_i, 9) each.
         forces: their ground-truth force maps, (T_i, N) each.
-        options: every setting of the run; None: the paper's (`TrainOptions()`).
+        options: every setting of the run; by default the paper's.
         val: (sequences, forces) to validate on instead of a held-out share.
         init: weights to start from (fine-tuning), as `save_model` writes them.
         progress: show a progress bar of the epochs.
@@ -196,7 +196,7 @@ def train(
         ModelError: mismatched or non-finite data, settings the data make meaningless,
             initial weights of other sizes, a checkpoint of another run, a diverged run.
     """
-    opts = options or TrainOptions()
+    opts = options
     hidden, layers = opts.network()
     n_points = _check_data(sequences, forces)
     differences = opts.input_differences

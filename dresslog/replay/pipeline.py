@@ -49,10 +49,13 @@ class InferenceReport:
 
     @property
     def rmse(self) -> float | None:
+        """The trial's RMSE against its ground truth; None without one."""
         return self.metrics.rmse
 
     @property
     def zero_rmse(self) -> float | None:
+        """The all-zero estimate's RMSE, the baseline `rmse` is read against; None without
+        truth."""
         return self.metrics.zero_rmse
 
     def summary(self) -> str:
@@ -106,6 +109,7 @@ class ProgressBar:
         self._bar: Any = None
 
     def open(self, context: TrialContext) -> None:
+        """Show a bar over the trial's steps (their count when the trial is a file)."""
         from tqdm import tqdm
 
         trial, path = context.trial, context.source_path
@@ -115,15 +119,18 @@ class ProgressBar:
         self._bar = tqdm(total=total, unit="step", desc=name, disable=None, leave=False)
 
     def write(self, result: StepResult) -> None:
+        """Advance the bar by one step."""
         self._bar.update()
 
     def close(self) -> None:
+        """Take the bar off the terminal: it writes no output."""
         self.abort()
 
     def commit(self) -> None:
-        pass
+        """Nothing to put in place: the bar writes no output."""
 
     def abort(self) -> None:
+        """Take the bar off the terminal, if it is still there."""
         if self._bar is not None:
             self._bar.close()
             self._bar = None
