@@ -12,6 +12,7 @@ temporary file and keeps the pool whole.
 from __future__ import annotations
 
 import ctypes
+import operator
 import os
 import signal
 import threading
@@ -19,7 +20,9 @@ import time
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, Protocol
+from typing import Final, Literal, Protocol, runtime_checkable
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from dresslog.dataset.manifest import Entry, Split, Status, slot_file
 from dresslog.errors import DatasetError, DresslogError, SimulationError
@@ -29,6 +32,8 @@ from dresslog.spec import Outcome, TrialSpec
 from dresslog.stops import deferred_in_children, hangup, unblock_stops
 
 ExecutorName = Literal["process", "ray"]
+#: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
+MAX_ATTEMPTS = 5
 
 
 class Recorded(Protocol):
@@ -45,12 +50,67 @@ class Recorded(Protocol):
         ...
 
 
+@runtime_checkable
 class Recorder(Protocol):
     """Simulates `spec` and writes the trial to `path`, as `dresslog.sim.record_trial`
     does; raises a `DresslogError` for a trial that failed. A module-level function, so
     that a job carrying it pickles to a worker process or a Ray task."""
 
     def __call__(self, spec: TrialSpec, path: Path, *, overwrite: bool) -> Recorded: ...
+
+
+class Execution(BaseModel):
+    """Where and how a dataset's trials run: the one object `generate` and `sweep` take
+    for it, built once (by the command from its options) and passed whole.
+
+    Fields out of range are refused when it is built; whether the executor can run here
+    (Ray installed, a cluster answering) is `check_executor`'s, when work starts.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid", arbitrary_types_allowed=True)
+
+    #: trials simulated at once (and trials decoded at once, by `sweep`); None or 0: one
+    #: per core
+    workers: int | None = None
+    #: "process": a local process pool; "ray": Ray tasks on a cluster (`dresslog[ray]`)
+    executor: ExecutorName = "process"
+    #: the Ray cluster to join; None: `RAY_ADDRESS`'s, else one `ray start` runs here,
+    #: else a new local one
+    ray_address: str | None = None
+    #: seeds tried per slot before generation gives up on it
+    max_attempts: int = Field(MAX_ATTEMPTS, ge=1)
+    #: what records a trial: the simulator's `record_trial`, or a test's stand-in
+    recorder: Recorder = record_trial
+
+    @field_validator("workers", mode="before")
+    @classmethod
+    def _whole_workers(cls, value: object) -> int | None:
+        """A whole number of workers (numpy's too), 0 or more."""
+        if value is None:
+            return None
+        try:
+            whole = operator.index(value)  # type: ignore[arg-type]
+        except TypeError:
+            whole = -1
+        if whole < 0:
+            raise ValueError(f"--workers must be a whole number (0: all cores), not {value!r}")
+        return whole
+
+    @model_validator(mode="after")
+    def _address_for_ray(self) -> Execution:
+        if self.ray_address is not None and self.executor != "ray":
+            raise ValueError(
+                f"a Ray cluster's address is for the 'ray' executor, not {self.executor!r}"
+            )
+        return self
+
+    def pool_size(self) -> int:
+        """The workers to start: `workers`, or one per core."""
+        return self.workers or os.cpu_count() or 1
+
+
+#: Generation's default: a local process pool of one worker per core, the simulator.
+LOCAL: Final = Execution()
 
 
 @dataclass(frozen=True)

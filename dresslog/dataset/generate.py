@@ -28,7 +28,8 @@ from typing import Any
 from pydantic import ValidationError
 
 from dresslog.dataset.executors import (
-    ExecutorName,
+    LOCAL,
+    Execution,
     Job,
     Recorder,
     check_executor,
@@ -69,8 +70,6 @@ from dresslog.spec import (
 from dresslog.stops import stop_signals
 from dresslog.trial import STEP_HZ
 
-#: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
-MAX_ATTEMPTS = 5
 #: Seconds between manifest rewrites while trials arrive (always rewritten at the end).
 SAVE_EVERY_S = 2.0
 #: Seconds between checks for Ctrl-C while waiting on the workers.
@@ -328,32 +327,43 @@ def generate(
     trials: int,
     out: str | Path,
     *,
-    workers: int | None = None,
     seed: int = 0,
     test_fraction: float = TEST_FRACTION,
     splits: Mapping[Split | str, int] | None = None,
     overrides: Mapping[str, Any] | None = None,
     rotation_range: RotationRange | Mapping[str, Any] | None = None,
-    executor: ExecutorName | str = "process",
-    ray_address: str | None = None,
-    max_attempts: int = MAX_ATTEMPTS,
+    execution: Execution = LOCAL,
     progress: bool = True,
-    recorder: Recorder = record_trial,
     label: str | None = None,
 ) -> Manifest:
     """Fill `out` with `trials` simulated trials of `task`; resume whatever is missing.
 
-    ``splits`` replaces the train/test division by explicit counts (the sweeps use
-    ``{"sweep": 128}``); ``overrides`` fixes spec fields for every trial (``duration``,
-    ``speed``, ``limb_rotation``); ``rotation_range`` draws each trial's ``limb_rotation``
-    (``{"axis": "z", "low": -15, "high": 15}``); ``ray_address`` is the Ray cluster
-    ``executor="ray"`` joins (else ``RAY_ADDRESS``'s, else one ``ray start`` runs on this
-    machine, else a new local one); ``recorder`` (a module-level function, called as
-    ``f(spec, path, overwrite=True)``: a `Recorder`) swaps the simulator, for tests; ``label`` names
-    the progress bar (the task by default). Raises
-    `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
-    written up to then lists every failure. A folder this call made is removed again if
-    it fails before any trial is made or tried (a Ray cluster that does not answer).
+    A folder this call made is removed again if it fails before any trial is made or
+    tried (a Ray cluster that does not answer).
+
+    Args:
+        task: "gown" or "shorts".
+        trials: how many, split into train and test by `test_fraction`.
+        out: the dataset folder, new or one to resume or extend.
+        seed: the dataset's seed, from which every trial's is drawn.
+        test_fraction: the share of `trials` in the test split.
+        splits: explicit counts per split instead (the sweeps use ``{"sweep": 128}``).
+        overrides: spec fields fixed for every trial (``duration``, ``speed``,
+            ``limb_rotation``).
+        rotation_range: each trial's ``limb_rotation`` drawn from it
+            (``{"axis": "z", "low": -15, "high": 15}``).
+        execution: where and how the trials run (workers, process pool or Ray, attempts
+            per slot, the recorder); by default a local pool, one worker per core.
+        progress: show a progress bar.
+        label: the progress bar's name (the task by default).
+
+    Returns:
+        The folder's manifest, every trial and failure listed.
+
+    Raises:
+        DatasetError: bad arguments, a folder that is not a dataset of these settings,
+            or a slot still failing after ``execution.max_attempts`` seeds (the manifest
+            written up to then lists every failure).
     """
     task = task_of(task, DatasetError)
     if (misnamed := named_as_recording(out, "a dataset")) is not None:
@@ -362,15 +372,13 @@ def generate(
     root = resolved(given)  # absolute: a Ray worker's working folder is not ours
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")
-    if workers is not None and ((whole := _whole(workers)) is None or whole < 0):
-        raise DatasetError(f"--workers must be a whole number (0: all cores), not {workers!r}")
     counts = _split_counts(trials, test_fraction) if splits is None else _given_counts(splits)
-    workers = workers or os.cpu_count() or 1
+    workers = execution.pool_size()
     overrides = _checked_overrides(task, overrides)
     drawn = _checked_range(rotation_range, overrides)
     with _named_as_given(root, given):  # the folder's errors, every one of them
         _check_folder(root)
-        check_executor(executor, ray_address)
+        check_executor(execution.executor, execution.ray_address)
         made = [f for f in (root, *root.parents) if not os.path.lexists(f)][::-1]
         root.mkdir(parents=True, exist_ok=True)
         manifest: Manifest | None = None
@@ -381,15 +389,14 @@ def generate(
                 for split in Split:
                     if manifest.wanted(split):
                         (root / split.value).mkdir(exist_ok=True)
-                jobs = _plan(root, manifest, recorder, workers)
+                jobs = _plan(root, manifest, execution.recorder, workers)
                 _tidy(root, manifest)
                 manifest.save(root)
                 if splits is None:  # a sweep asks for its one split by count
                     _warn_if_a_split_is_empty(given, trials, test_fraction, counts)
                 if jobs:
                     label = (label or manifest.task.value) if progress else None
-                    _run(root, manifest, jobs, executor, workers, max_attempts, label,
-                         ray_address)  # fmt: skip
+                    _run(root, manifest, jobs, execution, label)
         except BaseException:
             if made and (manifest is None or not (manifest.trials or manifest.failures)):
                 _remove_new_folder(root, made)
@@ -450,16 +457,15 @@ def _run(
     root: Path,
     manifest: Manifest,
     jobs: list[Job],
-    executor_name: str,
-    workers: int,
-    max_attempts: int,
+    execution: Execution,
     label: str | None,
-    ray_address: str | None = None,
 ) -> None:
     """Run the jobs, retrying failed slots with fresh seeds; a progress bar named `label`."""
     from tqdm import tqdm
 
-    executor = make_executor(executor_name, min(workers, len(jobs)), ray_address)
+    max_attempts = execution.max_attempts
+    workers = min(execution.pool_size(), len(jobs))
+    executor = make_executor(execution.executor, workers, execution.ray_address)
     given_up: list[Entry] = []
     bar = tqdm(total=len(jobs), unit="trial", desc=label, disable=label is None)
     saved = time.monotonic()

@@ -33,11 +33,14 @@ overwrite=False, workers=None, progress=True) -> EvalReport``
 ``dataset_bounds(data, *, split="test", workers=None) -> dict[str, float]``
     Those oracle ratios alone (`dresslog.model.bounds`), each an estimate handed part of
     the truth; empty when the split carries no force.
-``sweep(model, out, *, speeds=(), rotations=(), n=128, seed=0, ...) -> SweepReport``
+``sweep(model, out, *, speeds=(), rotations=(), n=128, seed=0, duration=None,
+execution=LOCAL, progress=True) -> SweepReport``
     Figs. 12 and 13: the same `n` fresh sequences (sweep seeds, disjoint from every
     training and test seed) re-simulated per setting; RMSE per setting and its ratio to
     the in-range setting; `out/sweep.csv`, `out/sweep.json` and `out/sweep.png`; a
     ``DresslogWarning`` names the settings whose sequences carry no force (ratios nan).
+    ``execution`` (`dresslog.dataset.Execution`) is where the trials run and how many
+    at once, as for `dresslog.dataset.generate`.
     ``SweepReport.table()`` is what ``sweep`` prints. The pieces it is made of:
     ``sweep_settings(task, speeds, rotations, duration=None, simulator="v9")`` (the
     ``Setting``s, the in-range one first, simulated by the model's simulator version; a

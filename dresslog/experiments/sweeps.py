@@ -14,7 +14,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from dresslog.dataset import Split, generate, load_dataset, load_manifest
-from dresslog.dataset.executors import check_executor
+from dresslog.dataset.executors import LOCAL, Execution, check_executor
 from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
 from dresslog.dataset.manifest import Manifest, check_files
@@ -242,9 +242,7 @@ def sweep(
     n: int = 128,
     seed: int = 0,
     duration: float | None = None,
-    workers: int | None = None,
-    executor: str = "process",
-    ray_address: str | None = None,
+    execution: Execution = LOCAL,
     progress: bool = True,
 ) -> SweepReport:
     """Re-simulate the same `n` fresh sequences per setting and score the model on each.
@@ -253,6 +251,25 @@ def sweep(
     sweep seeds are the same in every setting, so settings differ only in what they fix.
     The report also scores the settings earlier runs left complete in `out` (`_earlier`),
     so a sweep extended a value at a time keeps one table of them all.
+
+    Args:
+        model: the model folder to score.
+        out: the sweep's folder: one dataset folder per setting, and the report.
+        speeds: end-effector speeds (m/s) to sweep.
+        rotations: limb rotations to sweep, as ``"y:-15"``.
+        n: sequences per setting.
+        seed: the sweep's seed, from which every sequence's is drawn.
+        duration: every sequence's length in s; None: the task's default.
+        execution: where and how the trials run, and how many workers decode them.
+        progress: show progress bars.
+
+    Returns:
+        The report: each setting's scores and ratio to the in-range setting.
+
+    Raises:
+        DatasetError: bad settings or `n`, a folder that is not a sweep's, a setting's
+            generation that fails.
+        ModelError: `model` is no model folder, or one that does not load.
     """
     if not 1 <= n <= MAX_TRIALS:
         raise DatasetError(
@@ -265,7 +282,7 @@ def sweep(
     seen = trained_conditions(loaded.card)
     simulator = seen.simulators[-1]  # the newest the model has seen
     settings = sweep_settings(task, speeds, rotations, duration, simulator)  # bad: no folder
-    check_executor(executor, ray_address)
+    check_executor(execution.executor, execution.ray_address)
     out = Path(out)
     _check_sweep_folder(out)
     longest, length = max(seen.durations), DURATION if duration is None else duration
@@ -288,17 +305,15 @@ def sweep(
                 splits={Split.SWEEP: n},
                 overrides=setting.overrides,
                 seed=seed,
-                workers=workers,
-                executor=executor,
-                ray_address=ray_address,
+                execution=execution,
                 progress=progress,
                 label=f"{task.value} {setting.name}",
             )
         except BaseException:
             remove_folders(made)  # a sweep folder this run made, if it is still empty
             raise
-        done.append(_scored(loaded, out, setting, workers))
-    done += _earlier(loaded, out, settings, n, seed, workers)
+        done.append(_scored(loaded, out, setting, execution.workers))
+    done += _earlier(loaded, out, settings, n, seed, execution.workers)
     done.sort(key=lambda s: s.order)
     baseline = done[0].scores
     assert baseline is not None

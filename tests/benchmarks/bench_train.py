@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from dresslog.dataset import Split, generate, load_dataset
+from dresslog.dataset import Execution, Split, generate, load_dataset
 from dresslog.dataset.manifest import Manifest
 
 
@@ -54,7 +54,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         started = time.perf_counter()
-        generate(args.task, args.distinct, root / "src", workers=args.workers, test_fraction=0)
+        generate(
+            args.task,
+            args.distinct,
+            root / "src",
+            execution=Execution(workers=args.workers),
+            test_fraction=0,
+        )
         simulated = time.perf_counter() - started
         replicate(root / "src", root / "bench", args.sequences)
 
