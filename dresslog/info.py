@@ -27,7 +27,19 @@ class Description(NamedTuple):
 
 def describe(path: str | Path, *, as_json: bool = False) -> Description:
     """Summarise `path` by what it is: a dataset (manifest), a model (card), a ROS bag (its
-    topics and tf tree, for `convert`) or a trial file."""
+    topics and tf tree, for `convert`) or a trial file.
+
+    Args:
+        path: the file or folder.
+        as_json: the description as JSON (``info --json``), not as text.
+
+    Returns:
+        The text (or JSON), and the problem found in what it describes, if any (a
+        damaged dataset or model, which `info` reports and exits 1 on).
+
+    Raises:
+        DresslogError: `path` is none of these, or one that cannot be read.
+    """
 
     path = Path(path)
     if path.name in {MANIFEST_FILE, *MODEL_FILES} and path.is_file():

@@ -223,9 +223,18 @@ def load_dataset(
 ) -> DatasetArrays:
     """All trials of the dataset at `root` as arrays, from the cache when it is current.
 
-    Raises `DatasetError` (one line, naming the folder and the trial) for a folder
-    without a manifest, a manifest with no trials, a trial recorded at another rate than
-    the models' `STEP_HZ`, and a missing, truncated, modified or unreadable trial.
+    Args:
+        root: the dataset folder.
+        workers: processes decoding the trials the cache lacks; None: one per core.
+        progress: show a progress bar while decoding.
+
+    Returns:
+        Every trial's phi and force maps, padded, with lengths, outcomes, splits, files.
+
+    Raises:
+        DatasetError: one line naming the folder and the trial, for a folder without a
+            manifest, a manifest with no trials, a trial recorded at another rate than
+            the models' `STEP_HZ`, and a missing, truncated, modified or unreadable trial.
     """
     root = Path(root)
     manifest = load_manifest(root)

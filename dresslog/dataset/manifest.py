@@ -256,7 +256,20 @@ def dataset_holding(folder: Path) -> Path | None:
 
 
 def load_manifest(root: str | Path) -> Manifest:
-    """Read `root/manifest.json`; a missing or foreign one is one `DatasetError` line."""
+    """Read `root/manifest.json`.
+
+    Args:
+        root: the dataset folder.
+
+    Returns:
+        The manifest, validated as recorded (fields an older dresslog left out take
+        that version's defaults).
+
+    Raises:
+        DatasetError: one line for a missing, unreadable, foreign, newer or invalid
+            manifest, with a hint when `root` is a file, a split folder, a sweep's or a
+            model's.
+    """
     root = Path(root)
     path = root / MANIFEST_FILE
     if root.is_file():

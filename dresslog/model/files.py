@@ -332,12 +332,25 @@ def save_model(
     overwrite: bool = False,
     also: Callable[[Path, ModelCard], None] | None = None,
 ) -> ModelCard:
-    """Write a model folder atomically; returns the card with the weights hash filled in.
+    """Write a model folder atomically.
 
-    `also(folder, card)` writes more into the folder (the learning curve) before it is
-    put in place, so a run stopped at any moment leaves the old folder or the whole new one;
-    where the folder is replaced file by file (`_replaced_in_place`), the card goes last,
-    so a stop between the files leaves weights that its hash check refuses.
+    A run stopped at any moment leaves the old folder or the whole new one; where the
+    folder is replaced file by file (`_replaced_in_place`), the card goes last, so a
+    stop between the files leaves weights that its hash check refuses.
+
+    Args:
+        path: the model folder.
+        weights: the float32 arrays, as `train` returns them.
+        card: what the weights are; its ``weights_sha256`` is filled in here.
+        overwrite: replace an existing model folder.
+        also: ``also(folder, card)`` writes more into the folder (the learning curve)
+            before it is put in place.
+
+    Returns:
+        The card as written, with the weights' hash.
+
+    Raises:
+        ModelError: `path` may not become a model folder (`check_model_folder`).
     """
     from safetensors.numpy import save
 
@@ -413,7 +426,19 @@ def read_card(path: str | Path) -> ModelCard:
 
 
 def load_model(path: str | Path) -> LoadedModel:
-    """Load and verify a model folder; every failure is one `ModelError` line."""
+    """Load and verify a model folder.
+
+    Args:
+        path: the model folder.
+
+    Returns:
+        Its card and weights, checked against each other.
+
+    Raises:
+        ModelError: one line, ``.path`` set, for a missing folder or file, a foreign or
+            unreadable card, weights whose hash differs from the card's, and missing,
+            mis-shaped or non-finite arrays.
+    """
     from safetensors import SafetensorError
     from safetensors.numpy import load_file
 

@@ -150,13 +150,27 @@ def replay_file(
 ) -> InferenceReport:
     """Stream a trial file step by step through a model into .rrd / MCAP / extra sinks.
 
-    `progress` draws the steps on a progress bar when stderr is a terminal.
+    Args:
+        trial_path: the trial (MCAP) to replay.
+        model: the model folder; None: the bundled model of the trial's task.
+        require_model: False: with no model given or bundled, a trial with ground truth
+            is replayed with it alone (what `dresslog view` shows without a model), as
+            is one at another rate than the models' (with a warning).
+        rrd: a Rerun recording to write.
+        mcap: a copy of the trial with the estimate added.
+        sinks: more sinks to feed every step.
+        models: folder -> loaded model, where a batch keeps the models it has loaded,
+            so each is loaded once.
+        overwrite: replace an existing `rrd` or `mcap`.
+        progress: draw the steps on a progress bar when stderr is a terminal.
 
-    With `require_model=False` and no model given or bundled, a trial with ground
-    truth is replayed with it alone (what `dresslog view` shows without a model), as
-    is one at another rate than the models' (with a warning). `models` (folder -> loaded
-    model) is where a batch keeps the models it has loaded, so each is loaded once. An
-    existing `rrd` or `mcap` is replaced only with `overwrite`.
+    Returns:
+        What the replay did: steps, RMSE where the trial has truth, outputs, timings.
+
+    Raises:
+        TrialFormatError: the trial is unreadable or not a dresslog trial.
+        ModelError: the model does not load or does not fit the trial.
+        TrialWriteError: an output may not or cannot be written.
     """
     clock = time.perf_counter
     timings: dict[str, float] = {}
