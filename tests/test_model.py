@@ -392,6 +392,10 @@ def test_training_rejects_mismatched_data_in_one_line():
         fit(phis, forces, progress=False)
     with pytest.raises(ValidationError, match="epochs, batch size"):
         fit(synthetic(3, seed=2)[0], synthetic(3, seed=2)[1], epochs=0, progress=False)
+    for size in ("batch_size", "hidden", "layers", "threads"):  # 0 is no default
+        with pytest.raises(ValidationError, match="must all be 1 or more"):
+            TrainOptions(**{size: 0})
+    assert TrainOptions(hidden=7).network() == (7, 3)
 
 
 def test_a_diverging_run_stops_with_one_line_and_leaves_no_checkpoint(tmp_path: Path):

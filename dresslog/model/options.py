@@ -81,8 +81,8 @@ class TrainOptions(BaseModel):
     @model_validator(mode="after")
     def _trainable(self) -> TrainOptions:
         """Refuse settings that cannot train, in the words of the option they came from."""
-        sizes = (self.epochs, self.batch_size, self.hidden or 1, self.layers or 1)
-        if min(sizes) < 1 or (self.threads is not None and self.threads < 1):
+        given = (self.hidden, self.layers, self.threads)  # None: the default, not 0
+        if min(self.epochs, self.batch_size, *(n for n in given if n is not None)) < 1:
             raise ValueError(
                 "epochs, batch size, hidden size, layers and threads must all be 1 or more"
             )
@@ -98,7 +98,8 @@ class TrainOptions(BaseModel):
 
     def network(self) -> tuple[int, int]:
         """(hidden, layers): the sizes asked for, the paper's where left out."""
-        return self.hidden or PAPER_HIDDEN, self.layers or PAPER_LAYERS
+        hidden = PAPER_HIDDEN if self.hidden is None else self.hidden
+        return hidden, PAPER_LAYERS if self.layers is None else self.layers
 
 
 #: The paper's settings: what `train` and `dresslog train` use where not told otherwise.
