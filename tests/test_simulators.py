@@ -60,6 +60,8 @@ def test_record_and_the_library_default_to_one_simulator() -> None:
     """One default: `random_spec` and `SimParams()` are what `record` records (v9)."""
     assert simulator_name(random_spec(Task.GOWN, 1).sim) == "v9"
     assert SimParams() == random_spec(Task.GOWN, 1, sim={"simulator": 9}).sim
+    # the momentum balance's wrench, which the bundled models read; the constraint's is v7's
+    assert SimParams().wrench_from == "momentum"
     v8 = random_spec(Task.GOWN, 1, sim={"simulator": 8})
     assert (v8.sim.damping_stiffness, v8.sim.bending_stiffness) == (1.0, 2.0)
     # v8 drew its offsets over the paper's numbers on our axes, v9 over its frame mapped
