@@ -292,6 +292,11 @@ def check_model_folder(path: str | Path, overwrite: bool) -> None:
 
     --overwrite replaces a model, never anything else: a dataset or any other folder
     given as the output by mistake is refused, with or without it.
+
+    Raises:
+        ModelError: `path` is named as a recording, is a file or a dangling link, lies
+            under a file, or is a folder that is neither empty nor a model; a model
+            without `overwrite`, or one holding other files too.
     """
     path = Path(path)
     if (misnamed := named_as_recording(path, "a model")) is not None:  # before anything is made
@@ -405,7 +410,12 @@ def _replaced_in_place(path: Path) -> bool:
 
 
 def read_card(path: str | Path) -> ModelCard:
-    """The folder's card, checked to be ours and valid; the weights are not looked at."""
+    """The folder's card, checked to be ours and valid; the weights are not looked at.
+
+    Raises:
+        ModelError: no card (with a hint when `path` is a dataset), or one that is
+            unreadable, foreign, newer than this dresslog or invalid.
+    """
     path = Path(path)
     card_path = path / CARD_FILE
     if not card_path.is_file():
@@ -487,8 +497,16 @@ def check_task(
 ) -> None:
     """Refuse to run a model on a `subject` (trial, data) of another task.
 
-    `hint` says what to do instead, formatted with the subject's task: the command's own
-    way to name a model (``infer``'s --model, ``eval``'s MODEL argument).
+    Args:
+        model: the loaded model.
+        task: the subject's task.
+        n_points: the subject's limb points; None: not checked.
+        subject: what the model was to run on, as the message names it.
+        hint: what to do instead, formatted with the subject's task: the command's own
+            way to name a model (``infer``'s --model, ``eval``'s MODEL argument).
+
+    Raises:
+        ModelError: the model is for another task or number of limb points.
     """
     task = task_of(task, ModelError)
     if model.card.task != task:
