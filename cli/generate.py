@@ -69,6 +69,7 @@ def generate(
     --speed and --rotation make every trial of one condition (a forearm turned aside, say), to
     train or score a model on; --rotation-range makes them across a span of conditions.
     """
+    from dresslog.dataset import Execution
     from dresslog.dataset import generate as generate_dataset
 
     if ray_address is not None and executor != "ray":
@@ -84,15 +85,13 @@ def generate(
         task,
         trials,
         out,
-        workers=workers,
         seed=seed,
         test_fraction=test_fraction,
         overrides={field: value for field, value in fixed.items() if value is not None},
         rotation_range=dict(zip(("axis", "low", "high"), rotation_range, strict=True))
         if rotation_range
         else None,
-        executor=executor,
-        ray_address=ray_address,
+        execution=Execution(workers=workers, executor=executor, ray_address=ray_address),
         progress=not quiet,
     )
     click.echo(f"{out}: {manifest.describe()}")

@@ -28,6 +28,7 @@ class OneLineChoice(click.Choice):
     shorts.`), where click lists the choices one per line after a tab."""
 
     def get_missing_message(self, param: click.Parameter, ctx: click.Context | None) -> str:
+        """The choices on one line, for the 'Missing option' error."""
         return f"Choose from: {', '.join(map(str, self.choices))}."
 
 
@@ -88,6 +89,8 @@ class FiniteRange(click.FloatRange):
     (exit 1, not the usage error's 2). With no bounds: any finite number."""
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The number in `value`, refused (a usage error) when it is nan, infinite or out of
+        range."""
         number = super().convert(value, param, ctx)
         if not math.isfinite(number):
             where = f"in the range {self._describe_range()}" if self._describe_range() else "finite"

@@ -68,10 +68,14 @@ def sweep(
     rotations: list[str],
     out: str | None,
     sequences: int,
+    workers: int | None,
+    executor: str,
+    ray_address: str | None,
     quiet: bool,
     **options: Any,
 ) -> None:
     """RMSE per speed and limb rotation on fresh sequences: sweep.csv, sweep.json, sweep.png."""
+    from dresslog.dataset import Execution
     from dresslog.experiments import default_sweep_folder
     from dresslog.experiments import sweep as run_sweep
 
@@ -80,11 +84,12 @@ def sweep(
         empty = [f"--{name} is empty; " for name in ("speeds", "rotations")
                  if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE]  # fmt: skip
         raise click.UsageError(f"{''.join(empty[:1])}give --speeds, --rotations or both")
-    if options["ray_address"] is not None and options["executor"] != "ray":
+    if ray_address is not None and executor != "ray":
         raise click.UsageError("--address is the Ray cluster to join: give --executor ray too")
     out = out or str(default_sweep_folder(model))
+    execution = Execution(workers=workers, executor=executor, ray_address=ray_address)
     report = run_sweep(
-        model, out, speeds=speeds, rotations=rotations, n=sequences,
+        model, out, speeds=speeds, rotations=rotations, n=sequences, execution=execution,
         progress=not quiet, **options,
     )  # fmt: skip
     click.echo(report.table())

@@ -7,7 +7,13 @@ from typing import Any
 
 import click
 
-from dresslog.model.options import LR_SCHEDULES
+from dresslog.model.options import (
+    LR_SCHEDULES,
+    PAPER,
+    PAPER_HIDDEN,
+    PAPER_LAYERS,
+    TrainOptions,
+)
 
 from .common import reports_errors
 from .options import FiniteRange
@@ -18,21 +24,23 @@ from .options import FiniteRange
 #: cells in 3 layers one inference step already takes some 5 ms of a 100 Hz step's 10.
 MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 
+# Every default below is the paper's `TrainOptions` field's (`PAPER`), never a second copy.
+
 
 @click.command("train")
 @click.argument("data", nargs=-1, required=True, type=click.Path(file_okay=False))
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
               help="Model folder to write.")  # fmt: skip
-@click.option("--epochs", type=click.IntRange(min=1), default=10, show_default=True,
+@click.option("--epochs", type=click.IntRange(min=1), default=PAPER.epochs, show_default=True,
               help="Passes over the training split.")  # fmt: skip
-@click.option("--batch-size", type=click.IntRange(min=1), default=16, show_default=True,
-              help="Sequences per batch.")  # fmt: skip
-@click.option("--hidden", type=click.IntRange(1, MAX_HIDDEN), show_default="50, or --init's",
-              help="LSTM cells per layer.")  # fmt: skip
-@click.option("--layers", type=click.IntRange(1, MAX_LAYERS), show_default="3, or --init's",
-              help="LSTM layers.")  # fmt: skip
-@click.option("--lr", type=FiniteRange(0, MAX_LR, min_open=True), default=1e-3, show_default=True,
-              help="RMSprop learning rate.")  # fmt: skip
+@click.option("--batch-size", type=click.IntRange(min=1), default=PAPER.batch_size,
+              show_default=True, help="Sequences per batch.")  # fmt: skip
+@click.option("--hidden", type=click.IntRange(1, MAX_HIDDEN), help="LSTM cells per layer.",
+              show_default=f"{PAPER_HIDDEN}, or --init's")  # fmt: skip
+@click.option("--layers", type=click.IntRange(1, MAX_LAYERS), help="LSTM layers.",
+              show_default=f"{PAPER_LAYERS}, or --init's")  # fmt: skip
+@click.option("--lr", type=FiniteRange(0, MAX_LR, min_open=True), default=PAPER.lr,
+              show_default=True, help="RMSprop learning rate.")  # fmt: skip
 @click.option("--normalise", is_flag=True, help="Standardise inputs (not in the paper).")
 @click.option(
     "--balance-loss", is_flag=True, help="Scale force targets to the contact map's 0.1 in the loss."
@@ -43,7 +51,7 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 @click.option(
     "--lr-schedule",
     type=click.Choice(LR_SCHEDULES),
-    default="constant",
+    default=PAPER.lr_schedule,
     show_default=True,
     help="cosine: anneal the learning rate to 0 over the epochs (the paper: constant).",
 )
@@ -55,7 +63,7 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 @click.option("--window", type=click.IntRange(min=2), metavar="W",
               help="Train on random crops of W steps (10 ms each; below the longest training "
               "sequence).", show_default="whole sequences")  # fmt: skip
-@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=PAPER.seed, show_default=True,
               help="Draws the validation split, the batches and the initial weights.")  # fmt: skip
 @click.option("--init", type=click.Path(), metavar="MODEL",
               help="Start from this model's weights (fine-tuning: its network and input "
@@ -68,7 +76,14 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 )
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars.")
 @reports_errors
-def train(data: tuple[str, ...], out: str, quiet: bool, **options: Any) -> None:
+def train(
+    data: tuple[str, ...],
+    out: str,
+    init: str | None,
+    overwrite: bool,
+    quiet: bool,
+    **settings: Any,
+) -> None:
     """Train a force-map LSTM on DATA's training split; score it on the test split.
 
     Several DATA folders of one task are pooled (a condition's trials beside in-range ones).
@@ -80,7 +95,15 @@ def train(data: tuple[str, ...], out: str, quiet: bool, **options: Any) -> None:
         val = "n/a" if epoch.val_loss is None else f"{epoch.val_loss:.4g}"
         click.echo(f"epoch {epoch.epoch}: train loss {epoch.train_loss:.4g}, val {val}", err=True)
 
-    card = train_dataset(data, out, progress=not quiet, on_epoch=report, **options)
+    card = train_dataset(
+        data,
+        out,
+        TrainOptions(**settings),
+        init=init,
+        overwrite=overwrite,
+        progress=not quiet,
+        on_epoch=report,
+    )
     shown = ", ".join(f"{k} {v:.4g}" for k, v in card.metrics.items())
     click.echo(f"{out}: {card.task} model, {card.data.n_train} training sequences; {shown}")
     click.echo(f"learning curve: {Path(out) / TRAINING_PLOT}")

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from dresslog.errors import DresslogError, ModelError, TrialFormatError
+from dresslog.folders import CARD_FILE, MANIFEST_FILE, MODEL_FILES, SWEEP_FILE
 
 
 class Description(NamedTuple):
@@ -26,9 +27,19 @@ class Description(NamedTuple):
 
 def describe(path: str | Path, *, as_json: bool = False) -> Description:
     """Summarise `path` by what it is: a dataset (manifest), a model (card), a ROS bag (its
-    topics and tf tree, for `convert`) or a trial file."""
-    from dresslog.dataset.manifest import MANIFEST_FILE
-    from dresslog.model.files import CARD_FILE, MODEL_FILES
+    topics and tf tree, for `convert`) or a trial file.
+
+    Args:
+        path: the file or folder.
+        as_json: the description as JSON (``info --json``), not as text.
+
+    Returns:
+        The text (or JSON), and the problem found in what it describes, if any (a
+        damaged dataset or model, which `info` reports and exits 1 on).
+
+    Raises:
+        DresslogError: `path` is none of these, or one that cannot be read.
+    """
 
     path = Path(path)
     if path.name in {MANIFEST_FILE, *MODEL_FILES} and path.is_file():
@@ -62,8 +73,7 @@ def _inside(path: Path) -> str:
     """What `info` takes in a folder of ours that is neither a model nor a dataset: a
     sweep's (a setting's folder), a dataset's split folder (the dataset), a folder of
     trials (one of them, as `samples/`) or of models (one, as `samples/models/`); else ""."""
-    from dresslog.dataset.manifest import SWEEP_FILE, dataset_holding
-    from dresslog.model.files import CARD_FILE
+    from dresslog.dataset.manifest import dataset_holding
 
     if (path / SWEEP_FILE).is_file():
         return (

@@ -58,11 +58,13 @@ class Limb:
     chain: tuple[str, ...] = ()
 
     def frustum_ends(self, f: Frustum) -> tuple[np.ndarray, float, np.ndarray, float]:
+        """(centre, radius) of the sphere at each end of `f`: the cone frustum between them."""
         sa, sb = self.spheres[f.a], self.spheres[f.b]
         return sa.center, sa.radius, sb.center, sb.radius
 
     @property
     def segment_names(self) -> tuple[str, ...]:
+        """The limb's parts, in the order its limb points are counted out per part."""
         return tuple(self.points_per_part)
 
     @cached_property
@@ -213,6 +215,8 @@ class LimbGeometry:
 
     @classmethod
     def of(cls, limb: Limb) -> LimbGeometry:
+        """`limb`'s spheres, then its frustums, as arrays; `segment_rows` finds each part's
+        row."""
         spheres = list(limb.spheres.values())
         ends = [limb.frustum_ends(f) for f in limb.frustums]
         ab = [b - a for a, _, b, _ in ends]

@@ -41,6 +41,7 @@ def main() -> None:
     from dresslog.dataset.manifest import Split
     from dresslog.model.evaluate import score_sequences
     from dresslog.model.numpy_lstm import NumpyEstimator
+    from dresslog.model.options import TrainOptions
     from dresslog.model.train import train
 
     arrays = load_dataset(args.data)
@@ -61,11 +62,13 @@ def main() -> None:
         weights, history = train(
             [phi[r] for r in train_rows],
             [maps[r] for r in train_rows],
-            epochs=args.epochs,
-            normalise=True,
-            balance_loss=True,
-            keep_best=True,
-            lr_schedule="cosine",
+            TrainOptions(
+                epochs=args.epochs,
+                normalise=True,
+                balance_loss=True,
+                keep_best=True,
+                lr_schedule="cosine",
+            ),
         )
         test_maps = [maps[r] for r in test_rows]
         scores = score_sequences(

@@ -22,10 +22,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from pydantic import ValidationError
 
 from dresslog.cli.main import main
 from dresslog.dataset import (
     DatasetArrays,
+    Execution,
     Split,
     cache_path,
     generate,
@@ -41,7 +43,6 @@ from dresslog.io.reader import TrialReader
 from dresslog.spec import Outcome, Task, TrialSpec
 from tests.conftest import SAMPLES, prints_warnings, write_synthetic_trial
 
-FAKE = "tests.test_dataset:fake_record"
 FAILING_SEED = trial_seed(0, Split.TRAIN, 1, 0)
 
 
@@ -56,6 +57,9 @@ def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Res
         raise SimulationError(f"garment exploded (seed {spec.seed})")
     write_synthetic_trial(Path(path), spec.task, steps=20)
     return _Result()
+
+
+FAKE = fake_record
 
 
 def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
@@ -124,7 +128,9 @@ def test_resume_recreates_a_deleted_trial_identically_and_keeps_the_rest(copy: P
     mtimes = {p: p.stat().st_mtime_ns for p in copy.glob("*/*.mcap")}
     (copy / "test/000003.mcap").write_bytes(b"finished as a run stopped, never reported")
     (copy / "train/mine.mcap").write_bytes(b"the user's own file")
-    after = generate("gown", 4, copy, workers=2, test_fraction=0.25, overrides=MADE)
+    after = generate(
+        "gown", 4, copy, execution=Execution(workers=2), test_fraction=0.25, overrides=MADE
+    )
     assert after.content_hash() == before.content_hash()  # same bytes: deterministic
     assert {p: p.stat().st_mtime_ns for p in mtimes} == mtimes  # the others were skipped
     on_disk = sorted(str(p.relative_to(copy)) for p in copy.glob("*/*mcap*"))
@@ -138,12 +144,21 @@ def test_an_interrupted_generation_is_extended_where_it_stopped(copy: Path) -> N
     manifest.trials = [e for e in manifest.trials if e.slot == 0]  # as if stopped after two
     manifest.save(copy)
     assert not manifest.complete
-    resumed = generate("gown", 5, copy, workers=2, splits={"train": 4, "test": 1}, overrides=MADE)
+    resumed = generate(
+        "gown",
+        5,
+        copy,
+        execution=Execution(workers=2),
+        splits={"train": 4, "test": 1},
+        overrides=MADE,
+    )
     assert resumed.complete and len(resumed.split("train")) == 4
 
 
 def test_failed_trials_are_listed_with_reasons_and_replaced_by_fresh_seeds(tmp_path: Path) -> None:
-    manifest = generate("gown", 3, tmp_path, workers=2, test_fraction=0, recorder=FAKE)
+    manifest = generate(
+        "gown", 3, tmp_path, execution=Execution(workers=2, recorder=FAKE), test_fraction=0
+    )
     assert manifest.complete and len(manifest.trials) == 3
     (failure,) = manifest.failures
     assert (failure.split, failure.slot, failure.attempt) == ("train", 1, 0)
@@ -152,7 +167,9 @@ def test_failed_trials_are_listed_with_reasons_and_replaced_by_fresh_seeds(tmp_p
     assert replacement.attempt == 1 and replacement.spec.seed == trial_seed(0, "train", 1, 1)
     assert not list(tmp_path.glob("train/.*"))  # no half file of the failed attempt
     # Resuming does not retry the failed seed.
-    again = generate("gown", 3, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
+    again = generate(
+        "gown", 3, tmp_path, execution=Execution(workers=1, recorder=FAKE), test_fraction=0
+    )
     assert len(again.failures) == 1
 
 
@@ -163,7 +180,12 @@ def test_a_slot_failing_every_seed_stops_generation_with_one_line(tmp_path: Path
         DatasetError, match=r"1 slot\(s\) failed 2 seeds.*SimulationError: .*exceeds"
     ):
         generate(  # a test set of one: no training split too small to warn of
-            "shorts", 1, tmp_path, workers=1, test_fraction=1, overrides=unstable, max_attempts=2
+            "shorts",
+            1,
+            tmp_path,
+            execution=Execution(workers=1, max_attempts=2),
+            test_fraction=1,
+            overrides=unstable,
         )
     failures = load_manifest(tmp_path).failures
     assert len(failures) == 2 and failures[0].spec.seed != failures[1].spec.seed
@@ -205,28 +227,36 @@ def test_a_full_disk_stops_generation_at_once_naming_the_file(
 
 
 def test_a_folder_holding_another_request_is_refused(tmp_path: Path) -> None:
-    generate("gown", 2, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
+    generate("gown", 2, tmp_path, execution=Execution(workers=1, recorder=FAKE), test_fraction=0)
     with pytest.raises(DatasetError, match="task gown, not shorts"):
-        generate("shorts", 2, tmp_path, workers=1, recorder=FAKE)
+        generate("shorts", 2, tmp_path, execution=Execution(workers=1, recorder=FAKE))
     with pytest.raises(
         DatasetError,
         match=r"fields sim=\{'simulator': 9\}, not duration=0\.5, sim=\{'simulator': 9\}",
     ):
-        generate("gown", 2, tmp_path, workers=1, overrides={"duration": 0.5}, recorder=FAKE)
+        generate(
+            "gown",
+            2,
+            tmp_path,
+            execution=Execution(workers=1, recorder=FAKE),
+            overrides={"duration": 0.5},
+        )
     with pytest.raises(
         DatasetError,
         match=r"fields duration=0\.5, sim=\{'simulator': 9\}, not sim=\{'simulator': 9\}",
     ):
-        short = {"workers": 1, "test_fraction": 0, "recorder": FAKE}
+        short = {"test_fraction": 0, "execution": Execution(workers=1, recorder=FAKE)}
         generate("gown", 2, tmp_path / "short", overrides={"duration": 0.5}, **short)
         generate("gown", 2, tmp_path / "short", **short)
     fixed = tmp_path / "fixed"
-    options = {"workers": 1, "test_fraction": 0, "recorder": FAKE}
+    options = {"test_fraction": 0, "execution": Execution(workers=1, recorder=FAKE)}
     generate("gown", 2, fixed, overrides={"speed": 0.2, "duration": 1}, **options)
     same = {"duration": 1.0, "speed": 0.2}  # other order, 1.0 for 1: the same request
     assert len(generate("gown", 3, fixed, overrides=same, **options).trials) == 3
     with pytest.raises(DatasetError, match="more than the 1 asked for"):
-        generate("gown", 1, tmp_path, workers=1, test_fraction=0, recorder=FAKE)
+        generate(
+            "gown", 1, tmp_path, execution=Execution(workers=1, recorder=FAKE), test_fraction=0
+        )
 
 
 def test_rows_names_the_splits_or_outcomes_for_a_value_not_among_them() -> None:
@@ -336,10 +366,11 @@ def test_a_hand_edited_manifest_that_moves_a_trial_is_refused(
 def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
     """A slow fake generation in its own session, once two trials are on disk."""
     script = (
-        "from dresslog.dataset import generate\n"
+        "from dresslog.dataset import Execution, generate\n"
+        "from tests.test_dataset import slow_record\n"
         "if __name__ == '__main__':\n"
-        f"    generate('gown', {trials}, {str(out)!r}, workers=2, progress=False,\n"
-        "             recorder='tests.test_dataset:slow_record')\n"
+        f"    generate('gown', {trials}, {str(out)!r}, progress=False,\n"
+        "             execution=Execution(workers=2, recorder=slow_record))\n"
     )
     root = Path(__file__).resolve().parents[1]
     run = subprocess.Popen(
@@ -602,16 +633,36 @@ def test_a_split_rounded_to_no_trials_is_warned_about(tmp_path: Path) -> None:
         match="2 trials at --test-fraction 0.5 leave 1 to train on; train needs 2 or more "
         r"\(more --trials or a smaller --test-fraction\)",
     ):  # `train` refuses one, as it does none
-        generate("gown", 2, tmp_path / "t", workers=1, test_fraction=0.5, recorder=FAKE)
+        generate(
+            "gown",
+            2,
+            tmp_path / "t",
+            execution=Execution(workers=1, recorder=FAKE),
+            test_fraction=0.5,
+        )
     with pytest.warns(
         DresslogWarning, match=r"1 trial at .* leaves 1 to train on; .*\(more --trials\)$"
     ):
-        generate("gown", 1, tmp_path / "u", workers=1, recorder=FAKE)  # no fraction helps
+        generate(
+            "gown", 1, tmp_path / "u", execution=Execution(workers=1, recorder=FAKE)
+        )  # no fraction helps
     with warnings.catch_warnings():  # none asked for, or none but the sweep's: no warning
         warnings.simplefilter("error")
-        generate("gown", 3, tmp_path / "a", workers=1, test_fraction=0, recorder=FAKE)
-        generate("gown", 6, tmp_path / "b", workers=1, recorder=FAKE)
-        generate("gown", 0, tmp_path / "s", workers=1, splits={"sweep": 1}, recorder=FAKE)
+        generate(
+            "gown",
+            3,
+            tmp_path / "a",
+            execution=Execution(workers=1, recorder=FAKE),
+            test_fraction=0,
+        )
+        generate("gown", 6, tmp_path / "b", execution=Execution(workers=1, recorder=FAKE))
+        generate(
+            "gown",
+            0,
+            tmp_path / "s",
+            execution=Execution(workers=1, recorder=FAKE),
+            splits={"sweep": 1},
+        )
 
 
 def test_info_on_a_dataset_names_its_conditions_and_the_spec_fields_fixed_for_every_trial(
@@ -621,7 +672,10 @@ def test_info_on_a_dataset_names_its_conditions_and_the_spec_fields_fixed_for_ev
     the speeds and rotations in the words of `info MODEL`'s `trained` line, so a folder
     can be read against a model's training at a glance."""
     fixed = {"duration": 0.3, "limb_rotation": {"axis": "z", "degrees": 10.0}, "speed": 0.2}
-    options = {"workers": 1, "test_fraction": 1 / 3, "recorder": FAKE}  # 2 train, 1 test
+    options = {
+        "test_fraction": 1 / 3,
+        "execution": Execution(workers=1, recorder=FAKE),
+    }  # 2 train, 1 test
     generate("gown", 3, tmp_path / "d", overrides=fixed, **options)
     generate("gown", 3, tmp_path / "e", **options)
     shown = CliRunner().invoke(main, ["info", str(tmp_path / "d")])
@@ -670,7 +724,7 @@ def test_an_executor_that_cannot_start_leaves_no_folder_behind(
     (kept := tmp_path / "kept").mkdir()
     (kept / "notes.txt").write_text("mine")
     with pytest.raises(DatasetError, match="cannot join"):
-        generate("gown", 4, kept / "d", recorder=FAKE, progress=False)
+        generate("gown", 4, kept / "d", execution=Execution(recorder=FAKE), progress=False)
     assert [p.name for p in kept.iterdir()] == ["notes.txt"]
 
 
@@ -701,8 +755,6 @@ def test_an_override_no_trial_could_have_is_refused_before_the_folder_is_made(
         ({"trials": 2.5}, "--trials must be a whole number from 1 to 1,000,000, not 2.5"),
         ({"trials": 10**9}, "--trials must be a whole number from 1 to 1,000,000, not 1000000000"),
         ({"splits": {"train": 10**6, "test": 1}}, "1,000,001 trials: at most 1,000,000 are made"),
-        ({"workers": -1}, r"--workers must be a whole number \(0: all cores\), not -1"),
-        ({"workers": 2.5}, "--workers must be a whole number"),
         ({"task": "hat"}, "task 'hat' is not one of gown, shorts"),
         (
             {
@@ -720,11 +772,36 @@ def test_generate_called_from_a_script_says_what_is_wrong_with_its_arguments(
 ) -> None:
     """Each was a TypeError, a pydantic or a ValueError traceback, some after making the
     folder."""
-    call = {"task": "gown", "trials": 2, "workers": 1, "recorder": FAKE, **arguments}
+    call = {"task": "gown", "trials": 2, "execution": Execution(workers=1, recorder=FAKE)}
+    call |= arguments
     with pytest.raises(DatasetError, match=message):
         generate(out=tmp_path / "d", **call)
     assert not (tmp_path / "d").exists()
-    generate("gown", 1, tmp_path / "numpy", splits={"train": np.int64(1)}, recorder=FAKE)
+    generate(
+        "gown",
+        1,
+        tmp_path / "numpy",
+        splits={"train": np.int64(1)},
+        execution=Execution(recorder=FAKE),
+    )
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"workers": -1}, r"--workers must be a whole number \(0: all cores\), not -1"),
+        ({"workers": 2.5}, "--workers must be a whole number"),
+        ({"ray_address": "head:6379"}, "address is for the 'ray' executor, not 'process'"),
+        ({"executor": "dask"}, "Input should be 'process' or 'ray'"),
+        ({"max_attempts": 0}, "greater than or equal to 1"),
+        ({"recorder": "dresslog.sim:record_trial"}, "recorder"),  # a name is no recorder
+    ],
+)
+def test_an_execution_is_refused_when_it_is_built(fields: dict, message: str) -> None:
+    """Checked once, before any folder is made, as `generate` checked its own arguments."""
+    with pytest.raises(ValidationError, match=message):
+        Execution(**fields)
+    assert Execution(workers=np.int64(2)).pool_size() == 2  # numpy's whole numbers too
 
 
 @pytest.mark.parametrize("holds", ["card.json", "notes.txt", "train/000000.mcap"])
@@ -738,7 +815,10 @@ def test_a_folder_holding_something_else_is_refused_and_left_as_it_was(
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1 and "holds no dataset (manifest.json)" in result.output
     assert sorted(tmp_path.rglob("*")) == before
-    options = {"workers": 1, "test_fraction": 0, "recorder": FAKE}  # 2 to train on, no warning
+    options = {
+        "test_fraction": 0,
+        "execution": Execution(workers=1, recorder=FAKE),
+    }  # 2 to train on, no warning
     generate("gown", 2, tmp_path / "new", **options)  # an empty folder is fine
     killed = tmp_path / "killed"  # a first run killed while saving its manifest
     (killed / "train").mkdir(parents=True)
@@ -751,7 +831,10 @@ def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
 ) -> None:
     tmp_path.joinpath("d").mkdir()
     lock = exclusive(tmp_path / "d" / ".generate.lock", "dresslog generate")
-    options = {"workers": 1, "test_fraction": 0, "recorder": FAKE}  # 2 to train on, no warning
+    options = {
+        "test_fraction": 0,
+        "execution": Execution(workers=1, recorder=FAKE),
+    }  # 2 to train on, no warning
     with lock, pytest.raises(DresslogError, match=r"another `dresslog generate` .* is writing it"):
         generate("gown", 2, tmp_path / "d", **options)
     generate("gown", 2, tmp_path / "d", **options)  # free again
@@ -759,7 +842,13 @@ def test_a_second_generate_into_the_same_folder_is_refused_while_the_first_runs(
     tmp_path.joinpath("s").mkdir()  # a sweep's setting: the message names the sweep
     lock = exclusive(tmp_path / "s" / ".generate.lock", "dresslog sweep")
     with lock, pytest.raises(DresslogError, match=r"another `dresslog sweep` .* is writing it"):
-        generate("gown", 0, tmp_path / "s", workers=1, splits={"sweep": 1}, recorder=FAKE)
+        generate(
+            "gown",
+            0,
+            tmp_path / "s",
+            execution=Execution(workers=1, recorder=FAKE),
+            splits={"sweep": 1},
+        )
 
 
 def test_generate_names_its_folder_as_given_not_as_its_absolute_path(
@@ -767,7 +856,13 @@ def test_generate_names_its_folder_as_given_not_as_its_absolute_path(
 ) -> None:
     """As every other command does: generate had named /the/whole/resolved/path."""
     monkeypatch.chdir(tmp_path)
-    generate("gown", 2, tmp_path / "data" / "gown", workers=1, test_fraction=0, recorder=FAKE)
+    generate(
+        "gown",
+        2,
+        tmp_path / "data" / "gown",
+        execution=Execution(workers=1, recorder=FAKE),
+        test_fraction=0,
+    )
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "notes.txt").write_text("mine")
     lock = tmp_path / "data" / "gown" / ".generate.lock"
@@ -805,7 +900,13 @@ def test_a_dataset_at_another_rate_than_the_models_read_is_refused(
 ) -> None:
     """A 50 Hz dataset would train a model that `infer` then refuses on its own data."""
     with pytest.raises(DatasetError, match=r"sim.record_hz 50: a dataset is recorded at 100 Hz"):
-        generate("gown", 2, tmp_path / "d", workers=1, overrides={"sim": {"record_hz": 50}})
+        generate(
+            "gown",
+            2,
+            tmp_path / "d",
+            execution=Execution(workers=1),
+            overrides={"sim": {"record_hz": 50}},
+        )
     assert not (tmp_path / "d").exists()  # refused before the folder is made
     raw = json.loads((copy / "manifest.json").read_text())
     raw["trials"][1]["spec"]["sim"] = {"record_hz": 50}  # made by another version, say
@@ -908,10 +1009,23 @@ def test_generate_on_a_sweep_setting_folder_names_the_sweep_not_its_fields(tmp_p
     setting = tmp_path / "speed_0.2"
     fixed = {"speed": 0.2, "duration": 0.5}
     generate(
-        "gown", 0, setting, splits={"sweep": 1}, overrides=fixed, recorder=FAKE, progress=False
+        "gown",
+        0,
+        setting,
+        splits={"sweep": 1},
+        overrides=fixed,
+        execution=Execution(recorder=FAKE),
+        progress=False,
     )
     with pytest.raises(DatasetError, match=r"holds 1 sweep trials, made by `dresslog sweep`; use"):
-        generate("gown", 2, setting, overrides={"duration": 0.5}, recorder=FAKE, progress=False)
+        generate(
+            "gown",
+            2,
+            setting,
+            overrides={"duration": 0.5},
+            execution=Execution(recorder=FAKE),
+            progress=False,
+        )
 
 
 @prints_warnings
@@ -919,7 +1033,9 @@ def test_an_unfinished_sweep_setting_is_finished_by_its_sweep(tmp_path: Path) ->
     """An interrupted sweep's setting folder was to be finished by its `generate` command,
     which refuses the folder (and had never made it)."""
     setting = tmp_path / "in-range"
-    generate("gown", 0, setting, splits={"sweep": 1}, recorder=FAKE, progress=False)
+    generate(
+        "gown", 0, setting, splits={"sweep": 1}, execution=Execution(recorder=FAKE), progress=False
+    )
     manifest = load_manifest(setting)
     manifest.n_sweep = 2  # as a sweep stopped after its first sequence leaves it
     manifest.save(setting)
@@ -933,14 +1049,23 @@ def test_info_on_a_sweep_folder_or_a_split_folder_names_the_folder_it_takes(
 ) -> None:
     """Both said only what they were not (neither a model nor a dataset folder)."""
     sweep = tmp_path / "sweep"
-    generate("gown", 0, sweep / "in-range", splits={"sweep": 1}, recorder=FAKE, progress=False)
+    generate(
+        "gown",
+        0,
+        sweep / "in-range",
+        splits={"sweep": 1},
+        execution=Execution(recorder=FAKE),
+        progress=False,
+    )
     (sweep / "sweep.json").write_text("{}")  # beside sweep.csv and sweep.png
     shown = CliRunner().invoke(main, ["info", str(sweep)])
     assert shown.exit_code == 1 and shown.output.count("\n") == 1
     said = "a sweep's folder: its table is sweep.csv, and `dresslog info` takes one setting's"
     assert f"{said} folder, e.g. {sweep / 'in-range'}" in shown.output, shown.output
     data = tmp_path / "data"
-    generate("gown", 3, data, test_fraction=1 / 3, recorder=FAKE, progress=False)
+    generate(
+        "gown", 3, data, test_fraction=1 / 3, execution=Execution(recorder=FAKE), progress=False
+    )
     shown = CliRunner().invoke(main, ["info", str(data / "test")])
     assert shown.exit_code == 1 and shown.output.count("\n") == 1
     assert f"; a dataset's test folder: give the dataset, {data}" in shown.output, shown.output
@@ -949,7 +1074,9 @@ def test_info_on_a_sweep_folder_or_a_split_folder_names_the_folder_it_takes(
 def test_a_split_folder_or_a_trial_given_as_the_dataset_names_the_dataset(tmp_path: Path) -> None:
     """`train data/gown/train` was told to make a dataset with `dresslog generate`."""
     data = tmp_path / "data"
-    generate("gown", 3, data, test_fraction=1 / 3, recorder=FAKE, progress=False)
+    generate(
+        "gown", 3, data, test_fraction=1 / 3, execution=Execution(recorder=FAKE), progress=False
+    )
     result = CliRunner().invoke(main, ["train", str(data / "train"), "-o", str(tmp_path / "m")])
     said = f"no manifest.json; a dataset's train folder: give the dataset, {data}"
     assert result.exit_code == 1 and said in result.output, result.output
@@ -961,7 +1088,14 @@ def test_info_names_the_sweep_as_the_cure_of_a_damaged_sweep_setting(tmp_path: P
     """`info` on a sweep setting's folder with a trial missing named `generate` (which
     refuses the folder) in its damaged line, above the error naming `sweep`."""
     setting = tmp_path / "speed_0.2"
-    generate("gown", 0, setting, workers=1, splits={"sweep": 2}, recorder=FAKE, progress=False)
+    generate(
+        "gown",
+        0,
+        setting,
+        execution=Execution(workers=1, recorder=FAKE),
+        splits={"sweep": 2},
+        progress=False,
+    )
     (setting / "sweep/000001.mcap").unlink()
     shown = CliRunner().invoke(main, ["info", str(setting)])
     assert shown.exit_code == 1

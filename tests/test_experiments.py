@@ -23,23 +23,31 @@ import pytest
 from click.testing import CliRunner, Result
 
 from dresslog.cli.main import main
-from dresslog.dataset import Manifest, generate, load_dataset, load_manifest
+from dresslog.dataset import Execution, Manifest, generate, load_dataset, load_manifest
 from dresslog.errors import DatasetError, DresslogWarning, ModelError
 from dresslog.experiments import (
     Scores,
     SweepReport,
+    TrainOptions,
     dataset_bounds,
     sweep,
     sweep_settings,
     train_dataset,
 )
 from dresslog.experiments.evaluation import data_conditions
+from dresslog.experiments.plots import (
+    eval_figure,
+    plot_sweep,
+    sweep_figure,
+    sweep_lines,
+    training_figure,
+)
+from dresslog.folders import CARD_FILE
 from dresslog.io.files import exclusive
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, combined, spec_conditions, trained_conditions
 from dresslog.model.evaluate import ErrorProfile, score_sequences
 from dresslog.model.files import (
-    CARD_FILE,
     EpochRecord,
     Hyperparameters,
     InitialModel,
@@ -49,10 +57,10 @@ from dresslog.model.files import (
     save_model,
 )
 from dresslog.model.numpy_lstm import expected_shapes
-from dresslog.plots import eval_figure, plot_sweep, sweep_figure, sweep_lines, training_figure
 from dresslog.sim.specs import random_spec
 from dresslog.spec import RotationRange, Task, TrialSpec
 from tests.conftest import SAMPLES, prints_warnings
+from tests.test_dataset import fake_record
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +68,7 @@ def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """4 gown trials (3 train, 1 test) with the arm moved to the gripper, so force is on it."""
     out = tmp_path_factory.mktemp("exp") / "gown"
     near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05)}
-    generate("gown", 4, out, workers=2, test_fraction=0.25, overrides=near)
+    generate("gown", 4, out, execution=Execution(workers=2), test_fraction=0.25, overrides=near)
     return out
 
 
@@ -70,7 +78,7 @@ def turned(data: Path) -> Path:
     z +-15 deg: a second folder to train on, of other conditions."""
     out = data.parent / "turned"
     near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}
-    generate("gown", 3, out, workers=2, seed=1, test_fraction=1 / 3,
+    generate("gown", 3, out, execution=Execution(workers=2), seed=1, test_fraction=1 / 3,
              overrides={**near, "speed": 0.2}, rotation_range=TURNED)  # fmt: skip
     return out
 
@@ -170,7 +178,8 @@ def test_overwrite_replaces_an_interrupted_run_of_other_settings(data: Path) -> 
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train_dataset(data, out, epochs=3, hidden=4, layers=1, progress=False, on_epoch=stop)
+        options = TrainOptions(epochs=3, hidden=4, layers=1)
+        train_dataset(data, out, options, progress=False, on_epoch=stop)
     checkpoint = data.parent / ".interrupted.checkpoint.safetensors"
     assert checkpoint.exists() and not out.exists()
     args = ["train", data, "-o", out, "--epochs", "2", "--hidden", "4", "--layers", "1", "-q"]
@@ -187,8 +196,8 @@ def test_overwrite_replaces_an_interrupted_run_of_other_settings(data: Path) -> 
 def test_an_interrupted_overwrite_resumes_when_its_command_is_repeated(data: Path) -> None:
     """Retraining over a model: the repeated command picks up the epochs done."""
     out = data.parent / "retrained"
-    options = {"epochs": 3, "hidden": 4, "layers": 1, "progress": False}
-    train_dataset(data, out, **options)
+    options = TrainOptions(epochs=3, hidden=4, layers=1)
+    train_dataset(data, out, options, progress=False)
     before = (out / "model.safetensors").read_bytes()
     seen: list[int] = []
 
@@ -197,10 +206,13 @@ def test_an_interrupted_overwrite_resumes_when_its_command_is_repeated(data: Pat
         if epoch.epoch == 2:
             raise KeyboardInterrupt
 
+    def seen_epoch(epoch) -> None:
+        seen.append(epoch.epoch)
+
     with pytest.raises(KeyboardInterrupt):
-        train_dataset(data, out, overwrite=True, on_epoch=stop_after_two, **options)
+        train_dataset(data, out, options, overwrite=True, progress=False, on_epoch=stop_after_two)
     assert (out / "model.safetensors").read_bytes() == before  # kept until the run ends
-    train_dataset(data, out, overwrite=True, on_epoch=lambda e: seen.append(e.epoch), **options)
+    train_dataset(data, out, options, overwrite=True, progress=False, on_epoch=seen_epoch)
     assert seen == [1, 2, 3]  # epoch 3 only: resumed, not afresh
     assert (out / "model.safetensors").read_bytes() == before  # what one run computes
 
@@ -336,7 +348,9 @@ def test_training_on_trials_that_never_touch_the_limb_is_warned_about(
     model learnt to estimate nothing, and only `eval --bounds` said why."""
     away = tmp_path / "away"
     far = {"duration": 0.3, "limb_offset": (0, 5, 0)}
-    generate("gown", 2, away, workers=1, test_fraction=0, overrides=far)  # all to train on
+    generate(
+        "gown", 2, away, execution=Execution(workers=1), test_fraction=0, overrides=far
+    )  # all to train on
     tiny = ["--epochs", "1", "--hidden", "4", "--layers", "1", "-q"]
     for folder, warned in ((away, True), (data, False)):
         args = ["train", str(folder), "-o", str(tmp_path / f"m-{folder.name}"), *tiny]
@@ -442,7 +456,9 @@ def test_a_test_set_of_fresh_seeds_alone_scores_a_model(model: Path, data: Path)
     near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05)}  # the `data` fixture's
     with warnings.catch_warnings():  # no training trials asked for: nothing to warn of
         warnings.simplefilter("error")
-        manifest = generate("gown", 1, fresh, workers=1, test_fraction=1, overrides=near)
+        manifest = generate(
+            "gown", 1, fresh, execution=Execution(workers=1), test_fraction=1, overrides=near
+        )
     assert (manifest.n_train, manifest.n_test) == (0, 1)
     own, other = (json.loads(invoke("eval", model, d, "--json")[1]) for d in (data, fresh))
     assert other["overall"]["n"] == 1 and other["overall"] == own["overall"]
@@ -480,10 +496,9 @@ def test_eval_says_why_its_ratios_are_nan_when_the_split_has_no_force(
 
 #: The fields a folder of the current simulator saves beside what its request fixed.
 V9 = {"sim": {"simulator": 9}}
+
+
 #: A recorder for `generate` that simulates its second trial with the arm a metre away.
-ONE_AWAY = "tests.test_experiments:record_one_away"
-
-
 def record_one_away(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> object:
     """Real simulations: slot 0 records the README's dressed gown (seed 42), slot 1 its
     own spec with the limb moved out of the garment's reach (missed, with no force)."""
@@ -496,6 +511,9 @@ def record_one_away(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> 
     return record_trial(spec, path, overwrite=overwrite)
 
 
+ONE_AWAY = record_one_away
+
+
 @pytest.mark.slow
 def test_eval_says_why_an_outcomes_ratio_is_nan_when_that_outcome_has_no_force(
     tmp_path: Path,
@@ -503,7 +521,7 @@ def test_eval_says_why_an_outcomes_ratio_is_nan_when_that_outcome_has_no_force(
     """The split has force, so nothing is warned of, but its missed trial none: that row's
     ratio printed nan unexplained, beside a dressed row and an overall ratio of numbers."""
     data = tmp_path / "edge"  # one trial the arm takes force in, one whose arm is away
-    generate("gown", 2, data, workers=2, test_fraction=1, recorder=ONE_AWAY,
+    generate("gown", 2, data, execution=Execution(workers=2, recorder=ONE_AWAY), test_fraction=1,
              overrides={"duration": 1.0}, progress=False)  # fmt: skip
     model = SAMPLES / "models" / "gown"
     result = CliRunner().invoke(main, ["eval", str(model), str(data), "-q"])
@@ -947,7 +965,14 @@ def test_train_pools_several_dataset_folders_of_one_task(
         f"Error: {data}: is given twice; give each dataset folder once\n",
     )
     shorts = tmp_path / "shorts"
-    generate("shorts", 2, shorts, workers=1, test_fraction=0, overrides={"duration": 0.1})
+    generate(
+        "shorts",
+        2,
+        shorts,
+        execution=Execution(workers=1),
+        test_fraction=0,
+        overrides={"duration": 0.1},
+    )
     code, output = invoke("train", data, shorts, "-o", tmp_path / "m")
     assert (code, output) == (
         1,
@@ -963,7 +988,7 @@ def test_a_model_of_one_simulator_is_swept_and_scored_on_its_own(tmp_path: Path)
     simulates them so, and `eval` names another version's."""
     near = {"duration": 0.5, "limb_offset": [0.30, 0.0, 0.05]}
     balanced = tmp_path / "balanced"
-    generate("gown", 3, balanced, workers=2, test_fraction=1 / 3,
+    generate("gown", 3, balanced, execution=Execution(workers=2), test_fraction=1 / 3,
              overrides={**near, "sim": {"simulator": 8, "wrench_from": "momentum"}})  # fmt: skip
     model = tmp_path / "model"
     code, output = invoke("train", balanced, "-o", model, "--epochs", "1", "--hidden", "4",
@@ -977,7 +1002,7 @@ def test_a_model_of_one_simulator_is_swept_and_scored_on_its_own(tmp_path: Path)
         manifest = load_manifest(tmp_path / "sweep" / setting.folder)
         assert manifest.overrides["sim"] == {"simulator": 8, "wrench_from": "momentum"}
     current = tmp_path / "v9"
-    generate("gown", 1, current, workers=1, test_fraction=1, overrides=near)
+    generate("gown", 1, current, execution=Execution(workers=1), test_fraction=1, overrides=near)
     code, output = invoke("eval", model, current)
     assert code == 0, output
     assert "simulator v9 (trained on v8)" in output
@@ -993,7 +1018,9 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
     near = {"duration": 1.5, "limb_offset": [0.30, 0.0, 0.05]}  # the `data` fixture's
     span = TURNED
     pooled = tmp_path / "pooled"
-    train_dataset([data, turned], pooled, epochs=1, hidden=4, layers=1, progress=False)
+    train_dataset(
+        [data, turned], pooled, TrainOptions(epochs=1, hidden=4, layers=1), progress=False
+    )
     folders = load_model(pooled).card.data.folders
     assert folders == [
         TrainingFolder(folder=str(data), trials=3, overrides={**near, **V9}),
@@ -1005,7 +1032,7 @@ def test_a_cards_folders_keep_each_training_folders_conditions_through_fine_tuni
         ),
     ]
     tuned = tmp_path / "tuned"
-    train_dataset(data, tuned, init=pooled, epochs=1, progress=False)
+    train_dataset(data, tuned, TrainOptions(epochs=1), init=pooled, progress=False)
     card = load_model(tuned).card
     assert card.init is not None and card.init.folders == folders
     assert card.trained_folders() == [folders[0], *folders]
@@ -1132,7 +1159,15 @@ def test_eval_says_when_the_data_lie_outside_what_the_model_was_trained_on(
     nothing to say that it measured generalisation, not the model's fit."""
     faster = tmp_path / "faster"
     near = {"duration": 1.5, "limb_offset": (0.30, 0.0, 0.05), "speed": 0.2}
-    generate("gown", 1, faster, workers=1, seed=3, splits={"test": 1}, overrides=near)
+    generate(
+        "gown",
+        1,
+        faster,
+        execution=Execution(workers=1),
+        seed=3,
+        splits={"test": 1},
+        overrides=near,
+    )
     code, output = invoke("eval", model, faster, "-q")
     assert code == 0, output
     assert (
@@ -1201,7 +1236,7 @@ def test_train_refuses_a_model_folder_named_as_a_recording(tmp_path: Path, name:
     """`-o models/x.mcap` made a model folder named x.mcap, which every tool that opens a
     file by its name then took for a trial or a recording."""
     data = tmp_path / "d"
-    generate("gown", 2, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
+    generate("gown", 2, data, execution=Execution(workers=1, recorder=fake_record), test_fraction=0)
     before = sorted(tmp_path.rglob("*"))
     code, output = invoke("train", data, "-o", tmp_path / "models" / name, "-q")
     stem, suffix = Path(name).stem, Path(name).suffix
@@ -1478,13 +1513,15 @@ def test_a_second_train_on_the_same_output_is_refused_while_the_first_runs(
     assert not (tmp_path / ".m.train.lock").exists()
 
 
-def test_train_dataset_names_an_unknown_schedule_before_loading_any_trial(tmp_path: Path) -> None:
-    """From a script (the CLI offers only the two) it was pydantic's traceback, after the
-    trials had been decoded."""
+def test_train_dataset_refuses_a_window_the_data_make_meaningless_before_loading_any_trial(
+    tmp_path: Path,
+) -> None:
+    """Checked against the manifest's step counts, not after the trials had been decoded."""
     data = tmp_path / "two"
-    generate("gown", 2, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record")
-    with pytest.raises(ModelError, match="lr_schedule 'linear' is not one of constant, cosine"):
-        train_dataset(data, tmp_path / "m", lr_schedule="linear", progress=False)  # type: ignore[arg-type]
+    generate("gown", 2, data, execution=Execution(workers=1, recorder=fake_record), test_fraction=0)
+    longest = max(t.steps for t in load_manifest(data).trials)
+    with pytest.raises(ModelError, match=f"the longest has {longest}"):
+        train_dataset(data, tmp_path / "m", TrainOptions(window=longest), progress=False)
     assert not (data / ".cache").exists() and not (tmp_path / "m").exists()
     with pytest.raises(DatasetError, match="task 'hat' is not one of gown, shorts"):
         sweep_settings("hat", [], ["y:10"])
@@ -1494,7 +1531,7 @@ def test_train_and_eval_name_a_split_too_small_to_use(tmp_path: Path) -> None:
     data = tmp_path / "one"
     with pytest.warns(DresslogWarning, match="1 trial at --test-fraction 0 leaves 1 to train on"):
         generate(  # what `train` then refuses: said while the trials were still to be made
-            "gown", 1, data, workers=1, test_fraction=0, recorder="tests.test_dataset:fake_record"
+            "gown", 1, data, execution=Execution(workers=1, recorder=fake_record), test_fraction=0
         )
     code, output = invoke("train", data, "-o", tmp_path / "m", "-q")
     assert code == 1 and "needs at least 2 training trials, has 1" in output

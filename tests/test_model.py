@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import warnings
@@ -13,8 +14,10 @@ import matplotlib.image
 import numpy as np
 import pytest
 import torch
+from pydantic import ValidationError
 
-from dresslog.errors import ModelError
+from dresslog.errors import ModelError, first_problem
+from dresslog.experiments.plots import plot_training
 from dresslog.io.reader import TrialReader
 from dresslog.model import (
     ModelCard,
@@ -40,9 +43,9 @@ from dresslog.model.files import (
 )
 from dresslog.model.inputs import network_inputs
 from dresslog.model.network import ForceMapLSTM
+from dresslog.model.options import TrainOptions
 from dresslog.model.postprocess import sequence_rmse
 from dresslog.model.train import epoch_lr, make_card, train
-from dresslog.plots import plot_training
 from dresslog.spec import Task
 
 N = 24
@@ -78,11 +81,18 @@ def synthetic(n: int, seed: int, n_points: int = 8) -> tuple[list, list]:
     return phis, forces
 
 
+def fit(phis, forces, *, progress=False, val=None, init=None, checkpoint=None,
+        restart_other=False, on_epoch=None, **settings):  # fmt: skip
+    """`train` with its settings as keywords, each test varying the few it is about."""
+    return train(phis, forces, TrainOptions(**settings), val=val, init=init, progress=progress,
+                 checkpoint=checkpoint, restart_other=restart_other, on_epoch=on_epoch)  # fmt: skip
+
+
 @pytest.fixture(scope="module")
 def trained() -> tuple[dict[str, np.ndarray], object]:
     phis, forces = synthetic(32, seed=1)
-    return train(phis, forces, epochs=6, batch_size=8, lr=3e-3, hidden=12, layers=2, seed=3,
-                 progress=False)  # fmt: skip
+    options = TrainOptions(epochs=6, batch_size=8, lr=3e-3, hidden=12, layers=2, seed=3)
+    return train(phis, forces, options, progress=False)
 
 
 # -- numpy inference equals torch ---------------------------------------------------------
@@ -198,14 +208,14 @@ def interrupted_then_resumed(ckpt: Path, stop_after: int, phis, forces, **kwargs
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
-    return train(phis, forces, checkpoint=ckpt, **kwargs)
+        fit(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
+    return fit(phis, forces, checkpoint=ckpt, **kwargs)
 
 
 def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: Path):
     phis, forces = synthetic(8, seed=2, n_points=4)
     kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
-    reference, _ = train(phis, forces, **kwargs)
+    reference, _ = fit(phis, forces, **kwargs)
     ckpt = tmp_path / "run.ckpt"
     resumed, history = interrupted_then_resumed(ckpt, 1, phis, forces, **kwargs)
     assert [e.epoch for e in history.epochs] == [1, 2, 3]
@@ -215,9 +225,9 @@ def test_training_is_deterministic_and_resumes_after_an_interruption(tmp_path: P
     with pytest.raises(
         ModelError, match=r"other settings \(it had --epochs 3, this run --epochs 4\)"
     ):
-        train(phis, forces, checkpoint=ckpt, **{**kwargs, "epochs": 4})
+        fit(phis, forces, checkpoint=ckpt, **{**kwargs, "epochs": 4})
     with pytest.raises(ModelError, match=r"\(it had --hidden 6, this run --hidden 7\)"):
-        train(phis, forces, checkpoint=ckpt, **{**kwargs, "hidden": 7})
+        fit(phis, forces, checkpoint=ckpt, **{**kwargs, "hidden": 7})
 
 
 def _interrupted_run(tmp_path: Path) -> tuple[list, list, dict, Path]:
@@ -230,7 +240,7 @@ def _interrupted_run(tmp_path: Path) -> tuple[list, list, dict, Path]:
 
     ckpt = tmp_path / "run.ckpt"
     with pytest.raises(KeyboardInterrupt):
-        train(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
+        fit(phis, forces, checkpoint=ckpt, on_epoch=stop, **kwargs)
     return phis, forces, kwargs, ckpt
 
 
@@ -238,7 +248,7 @@ def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Pa
     phis, forces, kwargs, ckpt = _interrupted_run(tmp_path)
     # the checkpoint's weights carry its input statistics: resuming would silently keep them
     with pytest.raises(ModelError, match=r"\(it had no --normalise, this run --normalise\)"):
-        train(phis, forces, checkpoint=ckpt, normalise=True, **kwargs)
+        fit(phis, forces, checkpoint=ckpt, normalise=True, **kwargs)
     # options that change what the network reads (the seed: which sequences validate)
     # on the same data, which were said to be "other data"
     for option, value, had, has in (
@@ -247,10 +257,10 @@ def test_a_resume_with_other_normalisation_or_other_data_is_refused(tmp_path: Pa
         ("seed", 1, "--seed 0", "--seed 1"),
     ):
         with pytest.raises(ModelError, match=rf"other settings \(it had {had}, this run {has}\)"):
-            train(phis, forces, checkpoint=ckpt, **{option: value}, **kwargs)
+            fit(phis, forces, checkpoint=ckpt, **{option: value}, **kwargs)
     more, more_forces = synthetic(9, seed=2, n_points=4)  # the dataset grew since
     with pytest.raises(ModelError, match="other data"):
-        train(more, more_forces, checkpoint=ckpt, **kwargs)
+        fit(more, more_forces, checkpoint=ckpt, **kwargs)
 
 
 def test_a_checkpoint_holding_nan_weights_is_refused_not_resumed(tmp_path: Path):
@@ -265,7 +275,7 @@ def test_a_checkpoint_holding_nan_weights_is_refused_not_resumed(tmp_path: Path)
     tensors["model.head.bias"][1] = float("nan")
     save_file(tensors, str(ckpt), metadata)
     with pytest.raises(ModelError, match=r"checkpoint's model\.head\.bias holds NaN or infinite"):
-        train(phis, forces, checkpoint=ckpt, **kwargs)
+        fit(phis, forces, checkpoint=ckpt, **kwargs)
 
 
 def test_fine_tuning_starts_from_the_initial_weights_whatever_the_force_scale(trained):
@@ -274,11 +284,11 @@ def test_fine_tuning_starts_from_the_initial_weights_whatever_the_force_scale(tr
     weights, history = trained
     phis, forces = synthetic(32, seed=1)
     kwargs = {"batch_size": 8, "hidden": 12, "layers": 2, "seed": 3, "progress": False}
-    still, _ = train(phis, forces, epochs=1, lr=1e-9, balance_loss=True, init=weights, **kwargs)
+    still, _ = fit(phis, forces, epochs=1, lr=1e-9, balance_loss=True, init=weights, **kwargs)
     for name, value in weights.items():  # a step of 1e-8 at most: the initial weights
         np.testing.assert_allclose(still[name], value, atol=1e-6, err_msg=name)
     # at a fine-tuning rate: RMSprop starts afresh, and its first steps are ten times lr
-    _, tuned = train(phis, forces, epochs=1, lr=1e-4, init=weights, **kwargs)
+    _, tuned = fit(phis, forces, epochs=1, lr=1e-4, init=weights, **kwargs)
     fresh = history.epochs[0].train_loss  # the same first epoch from random weights
     assert tuned.epochs[0].train_loss < 0.6 * fresh
     with pytest.raises(
@@ -286,7 +296,7 @@ def test_fine_tuning_starts_from_the_initial_weights_whatever_the_force_scale(tr
         match=r"^the initial weights are for 8 limb points, 12 cells x 2 layers, 9 inputs, "
         r"this run 8 limb points, 6 cells x 2 layers, 9 inputs$",
     ):
-        train(phis, forces, init=weights, **{**kwargs, "hidden": 6})
+        fit(phis, forces, init=weights, **{**kwargs, "hidden": 6})
 
 
 def test_a_resume_from_other_initial_weights_is_refused(tmp_path: Path, trained):
@@ -299,16 +309,16 @@ def test_a_resume_from_other_initial_weights_is_refused(tmp_path: Path, trained)
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train(phis, forces, checkpoint=ckpt, on_epoch=stop, init=weights, **kwargs)
+        fit(phis, forces, checkpoint=ckpt, on_epoch=stop, init=weights, **kwargs)
     with pytest.raises(ModelError, match=r"\(it had --init of weights \w{8}, this run no --init\)"):
-        train(phis, forces, checkpoint=ckpt, **kwargs)
+        fit(phis, forces, checkpoint=ckpt, **kwargs)
     other = {k: v + 0.01 for k, v in weights.items()}
     with pytest.raises(
         ModelError,
         match=r"\(it had --init of weights (\w{8}), this run --init of weights (?!\1)\w{8}\)",
     ):
-        train(phis, forces, checkpoint=ckpt, init=other, **kwargs)
-    _, history = train(phis, forces, checkpoint=ckpt, init=weights, **kwargs)  # resumed
+        fit(phis, forces, checkpoint=ckpt, init=other, **kwargs)
+    _, history = fit(phis, forces, checkpoint=ckpt, init=weights, **kwargs)  # resumed
     assert [e.epoch for e in history.epochs] == [1, 2, 3]
 
 
@@ -316,13 +326,13 @@ def test_keep_best_returns_the_epoch_of_lowest_validation_loss_across_a_resume(t
     phis, forces = synthetic(12, seed=5, n_points=4)
     kwargs = {"batch_size": 2, "hidden": 6, "layers": 1, "lr": 0.02, "seed": 3, "threads": 1}
     kwargs |= {"val_fraction": 0.25, "progress": False}  # a noisy validation loss
-    best, history = train(phis, forces, epochs=6, keep_best=True, **kwargs)
+    best, history = fit(phis, forces, epochs=6, keep_best=True, **kwargs)
     run = {"epochs": 6, "keep_best": True, **kwargs}
     kept = history.kept
     assert kept is not None and kept.epoch < 6  # the validation loss rose after its best
     assert kept.val_loss == min(e.val_loss for e in history.epochs)
     # Each epoch's shuffle depends only on (seed, epoch): stopping there gives those weights.
-    stopped, _ = train(phis, forces, epochs=kept.epoch, **kwargs)
+    stopped, _ = fit(phis, forces, epochs=kept.epoch, **kwargs)
     for name, value in stopped.items():
         np.testing.assert_array_equal(best[name], value, err_msg=name)
     resumed, _ = interrupted_then_resumed(
@@ -347,8 +357,8 @@ def test_cosine_schedule_anneals_the_learning_rate_and_resumes_on_the_same_curve
     assert epoch_lr(Hyperparameters(epochs=4, lr=0.01), 3) == 0.01
     phis, forces = synthetic(8, seed=2, n_points=4)
     kwargs = {"epochs": 3, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
-    cosine, history = train(phis, forces, lr_schedule="cosine", **kwargs)
-    constant, _ = train(phis, forces, **kwargs)
+    cosine, history = fit(phis, forces, lr_schedule="cosine", **kwargs)
+    constant, _ = fit(phis, forces, **kwargs)
     assert not np.array_equal(cosine["head.weight"], constant["head.weight"])
     resumed, _ = interrupted_then_resumed(
         tmp_path / "run.ckpt", 1, phis, forces, lr_schedule="cosine", **kwargs
@@ -362,8 +372,8 @@ def test_balanced_loss_makes_training_invariant_to_the_force_unit():
     """With --balance-loss, forces 100x smaller train the same network, outputs 100x smaller."""
     phis, forces = synthetic(8, seed=4, n_points=4)
     kwargs = {"epochs": 2, "batch_size": 4, "hidden": 6, "layers": 1, "progress": False}
-    big, big_history = train(phis, forces, balance_loss=True, **kwargs)
-    small, small_history = train(phis, [f / 100 for f in forces], balance_loss=True, **kwargs)
+    big, big_history = fit(phis, forces, balance_loss=True, **kwargs)
+    small, small_history = fit(phis, [f / 100 for f in forces], balance_loss=True, **kwargs)
     positive = np.concatenate([f[f > 0] for f in forces])
     assert big_history.settings.force_scale == pytest.approx(0.1 / positive.mean(), rel=1e-5)
     scales = small_history.settings.force_scale, big_history.settings.force_scale
@@ -375,13 +385,17 @@ def test_balanced_loss_makes_training_invariant_to_the_force_unit():
 
 def test_training_rejects_mismatched_data_in_one_line():
     with pytest.raises(ModelError, match="sequence 0"):
-        train([np.zeros((5, 9), np.float32)], [np.zeros((4, 3), np.float32)], progress=False)
+        fit([np.zeros((5, 9), np.float32)], [np.zeros((4, 3), np.float32)], progress=False)
     phis, forces = synthetic(3, seed=2, n_points=4)
     phis[1][3, 2] = np.nan
     with pytest.raises(ModelError, match="sequence 1 has NaN"):
-        train(phis, forces, progress=False)
-    with pytest.raises(ModelError, match="epochs, batch size"):
-        train(synthetic(3, seed=2)[0], synthetic(3, seed=2)[1], epochs=0, progress=False)
+        fit(phis, forces, progress=False)
+    with pytest.raises(ValidationError, match="epochs, batch size"):
+        fit(synthetic(3, seed=2)[0], synthetic(3, seed=2)[1], epochs=0, progress=False)
+    for size in ("batch_size", "hidden", "layers", "threads"):  # 0 is no default
+        with pytest.raises(ValidationError, match="must all be 1 or more"):
+            TrainOptions(**{size: 0})
+    assert TrainOptions(hidden=7).network() == (7, 3)
 
 
 def test_a_diverging_run_stops_with_one_line_and_leaves_no_checkpoint(tmp_path: Path):
@@ -389,11 +403,11 @@ def test_a_diverging_run_stops_with_one_line_and_leaves_no_checkpoint(tmp_path: 
     kwargs = {"epochs": 3, "hidden": 4, "layers": 1, "progress": False}
     ckpt = tmp_path / "run.ckpt"
     with pytest.raises(ModelError, match=r"training diverged in epoch .*lower the learning rate"):
-        train(phis, forces, lr=1e30, checkpoint=ckpt, **kwargs)
+        fit(phis, forces, lr=1e30, checkpoint=ckpt, **kwargs)
     assert not ckpt.exists()
     for lr in (float("inf"), float("nan"), 0.0):
-        with pytest.raises(ModelError, match="learning rate must be a positive number"):
-            train(phis, forces, lr=lr, **kwargs)
+        with pytest.raises(ValidationError, match="learning rate must be a positive number"):
+            fit(phis, forces, lr=lr, **kwargs)
 
 
 @pytest.mark.parametrize("content", ["garbage", "pickle", "other format", "other weights"])
@@ -411,12 +425,12 @@ def test_a_checkpoint_not_our_own_is_one_line(tmp_path: Path, content: str) -> N
     elif content == "other format":
         save_file({"x": torch.zeros(2)}, ckpt, {"format": "something else"})
     else:  # our run's key and metadata, weights of another shape
-        train(phis, forces, **kwargs)
+        fit(phis, forces, **kwargs)
         with safe_open(str(ckpt), framework="pt") as stream:
             metadata = stream.metadata()
         save_file({"model.junk": torch.zeros(2)}, ckpt, metadata)
     with pytest.raises(ModelError, match=r"not a checkpoint dresslog can read.*--overwrite") as err:
-        train(phis, forces, **kwargs)
+        fit(phis, forces, **kwargs)
     assert "\n" not in str(err.value)
 
 
@@ -424,29 +438,31 @@ def test_options_the_data_make_meaningless_are_refused_not_recorded():
     phis, forces = synthetic(4, seed=2, n_points=4)  # 10% of 4 rounds to no validation
     kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "progress": False}
     with pytest.raises(ModelError, match="needs validation sequences"):
-        train(phis, forces, keep_best=True, **kwargs)
-    _, history = train(phis, forces, keep_best=True, val_fraction=0.25, **kwargs)
+        fit(phis, forces, keep_best=True, **kwargs)
+    _, history = fit(phis, forces, keep_best=True, val_fraction=0.25, **kwargs)
     assert history.n_val == 1 and history.kept is not None
     longest = max(len(p) for p in phis)
     with pytest.raises(ModelError, match=f"the longest has {longest}"):
-        train(phis, forces, window=longest, **kwargs)
+        fit(phis, forces, window=longest, **kwargs)
     for window in (1, 0, -5):  # torch's own error, after the data had been decoded
-        with pytest.raises(ModelError, match=f"2 steps or more, not {window}"):
-            train(phis, forces, window=window, **kwargs)
-    _, history = train(phis, forces, window=longest - 1, **kwargs)
+        with pytest.raises(ValidationError, match=f"2 steps or more, not {window}"):
+            fit(phis, forces, window=window, **kwargs)
+    _, history = fit(phis, forces, window=longest - 1, **kwargs)
     assert history.settings.window == longest - 1
 
 
 def test_an_unknown_schedule_or_a_validation_share_outside_0_1_is_refused():
-    """A schedule was pydantic's traceback after the data were prepared; a share of 2 or
-    -0.5 was taken silently."""
+    """A schedule was pydantic's traceback after the data were prepared, a share of 2 or
+    -0.5 was taken silently: both are refused when the options are built."""
     phis, forces = synthetic(4, seed=2, n_points=4)
     kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "progress": False}
-    with pytest.raises(ModelError, match="lr_schedule 'linear' is not one of constant, cosine"):
-        train(phis, forces, lr_schedule="linear", **kwargs)
+    with pytest.raises(ValidationError) as err:
+        fit(phis, forces, lr_schedule="linear", **kwargs)
+    assert first_problem(err.value) == "lr_schedule: Input should be 'constant' or 'cosine'"
     for share in (2.0, -0.5, 1.0, float("nan")):
-        with pytest.raises(ModelError, match=rf"val_fraction .* in \[0, 1\), not {share}$"):
-            train(phis, forces, val_fraction=share, **kwargs)
+        with pytest.raises(ValidationError) as err:
+            fit(phis, forces, val_fraction=share, **kwargs)
+        assert re.fullmatch(rf"val_fraction .* in \[0, 1\), not {share}", first_problem(err.value))
 
 
 def test_evaluate_scores_after_eq2_against_the_zero_baseline(trained):
@@ -632,7 +648,7 @@ def test_a_card_needs_its_task():
 
 def test_input_normalisation_is_learned_saved_and_checked(tmp_path: Path):
     phis, forces = synthetic(6, seed=5, n_points=4)
-    weights, history = train(phis, forces, epochs=1, hidden=4, layers=1, normalise=True,
+    weights, history = fit(phis, forces, epochs=1, hidden=4, layers=1, normalise=True,
                              progress=False)  # fmt: skip
     card = save_model(tmp_path / "m", weights, make_card("shorts", weights, history))
     assert card.normalisation is not None
@@ -670,7 +686,7 @@ def test_a_network_reading_phis_change_gets_it_from_phi_step_by_step_and_whole()
 
 def test_training_on_phis_change_is_recorded_and_round_trips(tmp_path: Path):
     phis, forces = synthetic(6, seed=5, n_points=4)
-    weights, history = train(phis, forces, epochs=1, hidden=4, layers=1, normalise=True,
+    weights, history = fit(phis, forces, epochs=1, hidden=4, layers=1, normalise=True,
                              input_differences=True, progress=False)  # fmt: skip
     card = save_model(tmp_path / "m", weights, make_card("shorts", weights, history))
     assert card.input_dim == 18 and card.hyperparameters.input_differences
@@ -700,7 +716,7 @@ def test_a_checkpoint_that_cannot_be_written_is_one_line(tmp_path: Path, monkeyp
     phis, forces = synthetic(4, seed=2, n_points=4)
     kwargs = {"epochs": 1, "hidden": 4, "layers": 1, "progress": False}
     with pytest.raises(ModelError, match=r"cannot write the checkpoint: .*No space left"):
-        train(phis, forces, checkpoint=tmp_path / "run.ckpt", **kwargs)
+        fit(phis, forces, checkpoint=tmp_path / "run.ckpt", **kwargs)
     assert list(tmp_path.iterdir()) == []
 
 

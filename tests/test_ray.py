@@ -19,7 +19,7 @@ import pytest
 
 ray = pytest.importorskip("ray", reason="Ray is an optional extra: pip install 'dresslog[ray]'")
 
-from dresslog.dataset import generate, load_manifest  # noqa: E402
+from dresslog.dataset import Execution, generate, load_manifest  # noqa: E402
 from dresslog.errors import TrialWriteError  # noqa: E402
 from dresslog.spec import TrialSpec  # noqa: E402
 
@@ -64,9 +64,9 @@ def ray_tmp() -> Iterator[Path]:
 
 def _local(tmp_path: Path) -> str:
     """The content hash of the two trials made by the process pool, to compare with Ray's."""
-    local = generate("gown", 2, tmp_path / "local", workers=2, test_fraction=0.5,
+    local = generate("gown", 2, tmp_path / "local", test_fraction=0.5,
                      overrides={"duration": 0.3, "sim": {"simulator": 9}},
-                     progress=False)  # fmt: skip
+                     execution=Execution(workers=2), progress=False)  # fmt: skip
     return local.content_hash()
 
 
@@ -188,14 +188,16 @@ def local_ray():
 @ONE_PER_SPLIT
 @pytest.mark.slow
 def test_ray_generation_matches_the_process_pool(local_ray, tmp_path: Path) -> None:
-    options = {"workers": 2, "test_fraction": 0.5, "overrides": {"duration": 0.3}}
-    on_ray = generate("gown", 2, tmp_path / "ray", executor="ray", progress=False, **options)
+    options = {"test_fraction": 0.5, "overrides": {"duration": 0.3}, "progress": False}
+    on_ray = generate(
+        "gown", 2, tmp_path / "ray", execution=Execution(workers=2, executor="ray"), **options
+    )
     assert on_ray.complete and not on_ray.failures
     assert [e.file for e in load_manifest(tmp_path / "ray").trials] == [
         "test/000000.mcap",
         "train/000000.mcap",
     ]
-    local = generate("gown", 2, tmp_path / "local", progress=False, **options)
+    local = generate("gown", 2, tmp_path / "local", execution=Execution(workers=2), **options)
     assert on_ray.content_hash() == local.content_hash()  # same seeds, same bytes
     assert ray.is_initialized()  # a cluster the caller started is left running
 
@@ -212,8 +214,8 @@ def full_disk_record(spec: TrialSpec, path: Path, overwrite: bool) -> None:
 def test_a_full_disk_on_ray_is_our_one_line_not_rays_traceback(local_ray, tmp_path: Path) -> None:
     """Ray raises a task's error wrapped, its str the task's traceback: the CLI printed that."""
     with pytest.raises(TrialWriteError) as caught:
-        generate("gown", 2, tmp_path, executor="ray", workers=1, test_fraction=0,
-                 recorder="tests.test_ray:full_disk_record", progress=False)  # fmt: skip
+        on_ray = Execution(executor="ray", workers=1, recorder=full_disk_record)
+        generate("gown", 2, tmp_path, test_fraction=0, execution=on_ray, progress=False)
     file = caught.value.path  # whichever of the two trials Ray finished first
     assert file is not None and file.parent == tmp_path / "train"
     assert str(caught.value) == f"{file}: cannot write it: No space left on device"

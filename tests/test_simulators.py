@@ -60,6 +60,8 @@ def test_record_and_the_library_default_to_one_simulator() -> None:
     """One default: `random_spec` and `SimParams()` are what `record` records (v9)."""
     assert simulator_name(random_spec(Task.GOWN, 1).sim) == "v9"
     assert SimParams() == random_spec(Task.GOWN, 1, sim={"simulator": 9}).sim
+    # the momentum balance's wrench, which the bundled models read; the constraint's is v7's
+    assert SimParams().wrench_from == "momentum"
     v8 = random_spec(Task.GOWN, 1, sim={"simulator": 8})
     assert (v8.sim.damping_stiffness, v8.sim.bending_stiffness) == (1.0, 2.0)
     # v8 drew its offsets over the paper's numbers on our axes, v9 over its frame mapped
@@ -93,7 +95,7 @@ def test_a_caught_shorts_trial_names_the_foot_and_info_states_the_folders_fideli
     """A shorts trial whose leg opening holds on the foot while the gripper pulls is
     caught there, in its metadata and in `info`; `info DATA` states the outcome mix,
     where the force falls and the force scale beside the paper's."""
-    from dresslog.dataset import generate
+    from dresslog.dataset import Execution, generate
 
     spec = random_spec(Task.SHORTS, 7, limb_offset=(-0.038, -0.047, -0.039))
     result = record_trial(spec, tmp_path / "caught.mcap")
@@ -101,8 +103,8 @@ def test_a_caught_shorts_trial_names_the_foot_and_info_states_the_folders_fideli
     shown = CliRunner().invoke(main, ["info", str(tmp_path / "caught.mcap")])
     assert "outcome caught on the foot" in shown.output
     data = tmp_path / "d"
-    generate("shorts", 2, data, workers=2, test_fraction=1, overrides={"duration": 1.0},
-             progress=False)  # fmt: skip
+    generate("shorts", 2, data, test_fraction=1, overrides={"duration": 1.0},
+             execution=Execution(workers=2), progress=False)  # fmt: skip
     shown = CliRunner().invoke(main, ["info", str(data)])
     assert shown.exit_code == 0, shown.output
     lines = shown.output.splitlines()

@@ -1,14 +1,15 @@
 """A dataset as training tensors: every trial decoded once, cached beside the data.
 
-``load_dataset(root)`` returns `DatasetArrays` (phi (S, T, 9) and force maps (S, T, N),
-float32, zero-padded to the longest trial, with lengths, outcomes, split and files).
-The first call decodes the MCAP files (in parallel, each checked against its sha256)
-and writes ``root/.cache/arrays-<HASH>.npz`` (the manifest hash's first 16 hex digits);
-later calls only read that file, so no epoch ever waits on MCAP decoding. The cache is
-keyed by the manifest's content hash (a regenerated trial makes a new cache) and holds
-each trial file's modification time, so a trial rewritten in place is decoded and
-checked against its sha256 again (a copied folder, its times new, is decoded once
-more). It is read with ``allow_pickle=False``: a planted cache file cannot run code.
+``load_dataset(root, *, workers=None, progress=True)`` returns `DatasetArrays`
+(phi (S, T, 9) and force maps (S, T, N), float32, zero-padded to the longest trial, with
+lengths, outcomes, split and files). The first call decodes the MCAP files (in parallel, each
+checked against its sha256) and writes ``root/.cache/arrays-<HASH>.npz`` (the manifest
+hash's first 16 hex digits); later calls only read that file, so no epoch ever waits on
+MCAP decoding. The cache is keyed by the manifest's content hash (a regenerated trial
+makes a new cache) and holds each trial file's modification time, so a trial rewritten
+in place is decoded and checked against its sha256 again (a copied folder, its times
+new, is decoded once more). It is read with ``allow_pickle=False``: a planted cache file
+cannot run code.
 """
 
 from __future__ import annotations
@@ -64,6 +65,7 @@ class DatasetArrays:
 
     @property
     def n_points(self) -> int:
+        """N: the limb points of every force map, the model's output size."""
         return int(self.forces.shape[2])
 
     def rows(
@@ -221,9 +223,18 @@ def load_dataset(
 ) -> DatasetArrays:
     """All trials of the dataset at `root` as arrays, from the cache when it is current.
 
-    Raises `DatasetError` (one line, naming the folder and the trial) for a folder
-    without a manifest, a manifest with no trials, a trial recorded at another rate than
-    the models' `STEP_HZ`, and a missing, truncated, modified or unreadable trial.
+    Args:
+        root: the dataset folder.
+        workers: processes decoding the trials the cache lacks; None: one per core.
+        progress: show a progress bar while decoding.
+
+    Returns:
+        Every trial's phi and force maps, padded, with lengths, outcomes, splits, files.
+
+    Raises:
+        DatasetError: one line naming the folder and the trial, for a folder without a
+            manifest, a manifest with no trials, a trial recorded at another rate than
+            the models' `STEP_HZ`, and a missing, truncated, modified or unreadable trial.
     """
     root = Path(root)
     manifest = load_manifest(root)

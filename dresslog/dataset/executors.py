@@ -1,7 +1,10 @@
 """Where a dataset's trials run: a local process pool, or Ray tasks on a cluster.
 
-A `Job` (one attempt at one slot) is plain data; `run_job` records it in a worker and
-returns its manifest `Entry`, a failed one if the simulation went unstable. Ctrl-C and
+A `Job` (one attempt at one slot) is plain data and a `Recorder`, by default the
+simulator's `record_trial`; `run_job` records it in a worker and returns its manifest
+`Entry`, a failed one if the simulation went unstable. A recorder is a module-level
+function, which pickles by reference (its module and name), so a job travels to a
+process-pool worker or a Ray task as it did when it named the function as a string. Ctrl-C and
 a kill reach every worker; `_Worker` stops the trial being written without leaving its
 temporary file and keeps the pool whole.
 """
@@ -9,31 +12,105 @@ temporary file and keeps the pool whole.
 from __future__ import annotations
 
 import ctypes
-import importlib
+import operator
 import os
 import signal
 import threading
 import time
-from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, Protocol
+from typing import Final, Literal, Protocol, runtime_checkable
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from dresslog.dataset.manifest import Entry, Split, Status, slot_file
 from dresslog.errors import DatasetError, DresslogError, SimulationError
 from dresslog.io.files import discard_temporaries, sha256_file
+from dresslog.sim import record_trial
 from dresslog.spec import Outcome, TrialSpec
 from dresslog.stops import deferred_in_children, hangup, unblock_stops
 
-RECORDER = "dresslog.sim:record_trial"
 ExecutorName = Literal["process", "ray"]
+#: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
+MAX_ATTEMPTS = 5
 
 
-def resolve(target: str) -> Callable[..., Any]:
-    """The function a `module:name` string names (what a job pickles instead of code)."""
-    module, name = target.split(":")
-    return getattr(importlib.import_module(module), name)
+class Recorded(Protocol):
+    """What a recorder says of the trial it wrote (the simulator's `SimResult` says more)."""
+
+    @property
+    def outcome(self) -> str:
+        """How the trial went: an `Outcome` value (dressed, missed, caught)."""
+        ...
+
+    @property
+    def steps(self) -> int:
+        """The 100 Hz steps written."""
+        ...
+
+
+@runtime_checkable
+class Recorder(Protocol):
+    """Simulates `spec` and writes the trial to `path`, as `dresslog.sim.record_trial`
+    does; raises a `DresslogError` for a trial that failed. A module-level function, so
+    that a job carrying it pickles to a worker process or a Ray task."""
+
+    def __call__(self, spec: TrialSpec, path: Path, *, overwrite: bool) -> Recorded: ...
+
+
+class Execution(BaseModel):
+    """Where and how a dataset's trials run: the one object `generate` and `sweep` take
+    for it, built once (by the command from its options) and passed whole.
+
+    Fields out of range are refused when it is built; whether the executor can run here
+    (Ray installed, a cluster answering) is `check_executor`'s, when work starts.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid", arbitrary_types_allowed=True)
+
+    #: trials simulated at once (and trials decoded at once, by `sweep`); None or 0: one
+    #: per core
+    workers: int | None = None
+    #: "process": a local process pool; "ray": Ray tasks on a cluster (`dresslog[ray]`)
+    executor: ExecutorName = "process"
+    #: the Ray cluster to join; None: `RAY_ADDRESS`'s, else one `ray start` runs here,
+    #: else a new local one
+    ray_address: str | None = None
+    #: seeds tried per slot before generation gives up on it
+    max_attempts: int = Field(MAX_ATTEMPTS, ge=1)
+    #: what records a trial: the simulator's `record_trial`, or a test's stand-in
+    recorder: Recorder = record_trial
+
+    @field_validator("workers", mode="before")
+    @classmethod
+    def _whole_workers(cls, value: object) -> int | None:
+        """A whole number of workers (numpy's too), 0 or more."""
+        if value is None:
+            return None
+        try:
+            whole = operator.index(value)  # type: ignore[arg-type]
+        except TypeError:
+            whole = -1
+        if whole < 0:
+            raise ValueError(f"--workers must be a whole number (0: all cores), not {value!r}")
+        return whole
+
+    @model_validator(mode="after")
+    def _address_for_ray(self) -> Execution:
+        if self.ray_address is not None and self.executor != "ray":
+            raise ValueError(
+                f"a Ray cluster's address is for the 'ray' executor, not {self.executor!r}"
+            )
+        return self
+
+    def pool_size(self) -> int:
+        """The workers to start: `workers`, or one per core."""
+        return self.workers or os.cpu_count() or 1
+
+
+#: Generation's default: a local process pool of one worker per core, the simulator.
+LOCAL: Final = Execution()
 
 
 @dataclass(frozen=True)
@@ -45,10 +122,11 @@ class Job:
     slot: int
     attempt: int
     spec: TrialSpec
-    recorder: str = RECORDER
+    recorder: Recorder = record_trial
 
     @property
     def file(self) -> str:
+        """The slot's file, relative to the dataset folder: `train/000003.mcap`."""
         return slot_file(self.split, self.slot)
 
 
@@ -142,7 +220,7 @@ def run_job(job: Job) -> Entry:
     base = {"split": job.split, "slot": job.slot, "attempt": job.attempt, "spec": job.spec}
     try:
         _Worker.writing = path
-        result = resolve(job.recorder)(job.spec, path, overwrite=True)
+        result = job.recorder(job.spec, path, overwrite=True)
     except DresslogError as err:
         path.unlink(missing_ok=True)
         if isinstance(err.__cause__, OSError):  # the disk's, not the trial's
@@ -176,10 +254,22 @@ class Executor(Protocol):
     interrupt, workers may complete what they had started), so none goes unrecorded.
     """
 
-    def submit(self, job: Job) -> None: ...
-    def done(self, timeout: float) -> list[Entry]: ...
-    def pending(self) -> int: ...
-    def shutdown(self) -> list[Entry]: ...
+    def submit(self, job: Job) -> None:
+        """Queue `job`; it runs as soon as a worker is free."""
+        ...
+
+    def done(self, timeout: float) -> list[Entry]:
+        """The entries of the jobs finished within `timeout` seconds, maybe none; a job that
+        raised a bug raises it here."""
+        ...
+
+    def pending(self) -> int:
+        """How many submitted jobs have not been returned by `done` yet."""
+        ...
+
+    def shutdown(self) -> list[Entry]:
+        """Stop the work; returns the entries of the jobs that finished meanwhile."""
+        ...
 
 
 def _start_resource_tracker() -> None:
@@ -210,6 +300,7 @@ class ProcessExecutor:
         self._futures: set[Future[Entry]] = set()
 
     def submit(self, job: Job) -> None:
+        """Queue `job` in the pool (which may start a worker, deaf to a stop while it starts)."""
         with deferred_in_children():  # a submission may start a worker
             self._futures.add(self._pool.submit(run_job, job))
 
@@ -224,9 +315,12 @@ class ProcessExecutor:
         return [f.result() for f in ok]
 
     def pending(self) -> int:
+        """How many submitted jobs `done` has not returned yet."""
         return len(self._futures)
 
     def shutdown(self) -> list[Entry]:
+        """Stop the pool, telling busy workers to stop their trials; returns the entries of the
+        jobs that finished meanwhile."""
         if any(not f.done() for f in self._futures):  # stopped: the workers stop too
             self._stopping.value = True
         self._pool.shutdown(wait=True, cancel_futures=True)

@@ -82,6 +82,7 @@ class Fidelity:
     moving: float = 0.0
 
     def add(self, t: TrialFigures) -> None:
+        """Count one trial's figures in."""
         self.trials += 1
         self.outcomes[t.outcome.value] += 1
         if t.caught_on:
@@ -94,10 +95,13 @@ class Fidelity:
 
     @property
     def mean_zero_rmse(self) -> float:
+        """The trials' mean all-zero RMSE (N): how much force a model has to estimate."""
         return float(np.mean(self.zero_rmse)) if self.zero_rmse else 0.0
 
     @property
     def moving_share(self) -> float:
+        """The share of the limb's force-time integral taken while the gripper moves, not while
+        it waits."""
         total = sum(self.regions.values())
         return self.moving / total if total > 0 else 0.0
 

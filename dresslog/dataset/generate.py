@@ -28,15 +28,14 @@ from typing import Any
 from pydantic import ValidationError
 
 from dresslog.dataset.executors import (
-    RECORDER,
-    ExecutorName,
+    LOCAL,
+    Execution,
     Job,
+    Recorder,
     check_executor,
     make_executor,
-    resolve,
 )
 from dresslog.dataset.manifest import (
-    MANIFEST_FILE,
     MIN_TRAIN,
     TEST_FRACTION,
     Entry,
@@ -49,6 +48,7 @@ from dresslog.dataset.manifest import (
     trial_seed,
 )
 from dresslog.errors import DatasetError, DresslogError, DresslogWarning, first_problem
+from dresslog.folders import MANIFEST_FILE
 from dresslog.io.files import (
     exclusive,
     is_temporary,
@@ -56,6 +56,7 @@ from dresslog.io.files import (
     remove_folders,
     resolved,
 )
+from dresslog.sim import random_spec, record_trial
 from dresslog.spec import (
     RotationRange,
     SimParams,
@@ -69,14 +70,11 @@ from dresslog.spec import (
 from dresslog.stops import stop_signals
 from dresslog.trial import STEP_HZ
 
-#: Attempts per slot before generation gives up on it (each attempt is a fresh seed).
-MAX_ATTEMPTS = 5
 #: Seconds between manifest rewrites while trials arrive (always rewritten at the end).
 SAVE_EVERY_S = 2.0
 #: Seconds between checks for Ctrl-C while waiting on the workers.
 POLL_S = 0.2
 LOCK_FILE = ".generate.lock"
-SPEC_FACTORY = "dresslog.sim:random_spec"
 
 
 def _check_folder(root: Path) -> None:
@@ -272,7 +270,7 @@ def _open_manifest(
     return manifest.model_copy(update=asked)
 
 
-def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[Job]:
+def _plan(root: Path, manifest: Manifest, recorder: Recorder, workers: int) -> list[Job]:
     """Keep the listed trials whose files check out; the next attempt at every other slot."""
     from concurrent.futures import ThreadPoolExecutor
 
@@ -293,16 +291,16 @@ def _plan(root: Path, manifest: Manifest, recorder: str, workers: int) -> list[J
 
 
 def _job(
-    root: Path, manifest: Manifest, split: Split, slot: int, attempt: int, recorder: str
+    root: Path, manifest: Manifest, split: Split, slot: int, attempt: int, recorder: Recorder
 ) -> Job:
-    """The attempt's spec is the simulator's `random_spec` (imported with the first job), or
-    for a test recorder one validated without the simulator."""
+    """The attempt's spec is the simulator's `random_spec` for the simulator's recorder; for
+    another (a test's), the seed and the fixed fields on the spec's defaults."""
     seed = trial_seed(manifest.seed, split, slot, attempt)
     fixed = manifest.overrides
     if manifest.rotation_range is not None:
         fixed = {**fixed, "limb_rotation": manifest.rotation_range.draw(seed).model_dump()}
-    if recorder == RECORDER:
-        spec = resolve(SPEC_FACTORY)(manifest.task, seed, **fixed)
+    if recorder is record_trial:
+        spec = random_spec(manifest.task, seed, **fixed)
     else:
         spec = TrialSpec.model_validate({"task": manifest.task, "seed": seed, **fixed})
     return Job(str(root), split, slot, attempt, spec, recorder)
@@ -329,32 +327,43 @@ def generate(
     trials: int,
     out: str | Path,
     *,
-    workers: int | None = None,
     seed: int = 0,
     test_fraction: float = TEST_FRACTION,
     splits: Mapping[Split | str, int] | None = None,
     overrides: Mapping[str, Any] | None = None,
     rotation_range: RotationRange | Mapping[str, Any] | None = None,
-    executor: ExecutorName | str = "process",
-    ray_address: str | None = None,
-    max_attempts: int = MAX_ATTEMPTS,
+    execution: Execution = LOCAL,
     progress: bool = True,
-    recorder: str = RECORDER,
     label: str | None = None,
 ) -> Manifest:
     """Fill `out` with `trials` simulated trials of `task`; resume whatever is missing.
 
-    ``splits`` replaces the train/test division by explicit counts (the sweeps use
-    ``{"sweep": 128}``); ``overrides`` fixes spec fields for every trial (``duration``,
-    ``speed``, ``limb_rotation``); ``rotation_range`` draws each trial's ``limb_rotation``
-    (``{"axis": "z", "low": -15, "high": 15}``); ``ray_address`` is the Ray cluster
-    ``executor="ray"`` joins (else ``RAY_ADDRESS``'s, else one ``ray start`` runs on this
-    machine, else a new local one); ``recorder`` ("module:function", called as
-    ``f(spec, path, overwrite=True)``) swaps the simulator, for tests; ``label`` names
-    the progress bar (the task by default). Raises
-    `DatasetError` when a slot still fails after `max_attempts` seeds; the manifest
-    written up to then lists every failure. A folder this call made is removed again if
-    it fails before any trial is made or tried (a Ray cluster that does not answer).
+    A folder this call made is removed again if it fails before any trial is made or
+    tried (a Ray cluster that does not answer).
+
+    Args:
+        task: "gown" or "shorts".
+        trials: how many, split into train and test by `test_fraction`.
+        out: the dataset folder, new or one to resume or extend.
+        seed: the dataset's seed, from which every trial's is drawn.
+        test_fraction: the share of `trials` in the test split.
+        splits: explicit counts per split instead (the sweeps use ``{"sweep": 128}``).
+        overrides: spec fields fixed for every trial (``duration``, ``speed``,
+            ``limb_rotation``).
+        rotation_range: each trial's ``limb_rotation`` drawn from it
+            (``{"axis": "z", "low": -15, "high": 15}``).
+        execution: where and how the trials run (workers, process pool or Ray, attempts
+            per slot, the recorder); by default a local pool, one worker per core.
+        progress: show a progress bar.
+        label: the progress bar's name (the task by default).
+
+    Returns:
+        The folder's manifest, every trial and failure listed.
+
+    Raises:
+        DatasetError: bad arguments, a folder that is not a dataset of these settings,
+            or a slot still failing after ``execution.max_attempts`` seeds (the manifest
+            written up to then lists every failure).
     """
     task = task_of(task, DatasetError)
     if (misnamed := named_as_recording(out, "a dataset")) is not None:
@@ -363,15 +372,13 @@ def generate(
     root = resolved(given)  # absolute: a Ray worker's working folder is not ours
     if seed < 0:
         raise DatasetError(f"--seed must be non-negative, not {seed}")
-    if workers is not None and ((whole := _whole(workers)) is None or whole < 0):
-        raise DatasetError(f"--workers must be a whole number (0: all cores), not {workers!r}")
     counts = _split_counts(trials, test_fraction) if splits is None else _given_counts(splits)
-    workers = workers or os.cpu_count() or 1
+    workers = execution.pool_size()
     overrides = _checked_overrides(task, overrides)
     drawn = _checked_range(rotation_range, overrides)
     with _named_as_given(root, given):  # the folder's errors, every one of them
         _check_folder(root)
-        check_executor(executor, ray_address)
+        check_executor(execution.executor, execution.ray_address)
         made = [f for f in (root, *root.parents) if not os.path.lexists(f)][::-1]
         root.mkdir(parents=True, exist_ok=True)
         manifest: Manifest | None = None
@@ -382,15 +389,14 @@ def generate(
                 for split in Split:
                     if manifest.wanted(split):
                         (root / split.value).mkdir(exist_ok=True)
-                jobs = _plan(root, manifest, recorder, workers)
+                jobs = _plan(root, manifest, execution.recorder, workers)
                 _tidy(root, manifest)
                 manifest.save(root)
                 if splits is None:  # a sweep asks for its one split by count
                     _warn_if_a_split_is_empty(given, trials, test_fraction, counts)
                 if jobs:
                     label = (label or manifest.task.value) if progress else None
-                    _run(root, manifest, jobs, executor, workers, max_attempts, label,
-                         ray_address)  # fmt: skip
+                    _run(root, manifest, jobs, execution, label)
         except BaseException:
             if made and (manifest is None or not (manifest.trials or manifest.failures)):
                 _remove_new_folder(root, made)
@@ -451,16 +457,15 @@ def _run(
     root: Path,
     manifest: Manifest,
     jobs: list[Job],
-    executor_name: str,
-    workers: int,
-    max_attempts: int,
+    execution: Execution,
     label: str | None,
-    ray_address: str | None = None,
 ) -> None:
     """Run the jobs, retrying failed slots with fresh seeds; a progress bar named `label`."""
     from tqdm import tqdm
 
-    executor = make_executor(executor_name, min(workers, len(jobs)), ray_address)
+    max_attempts = execution.max_attempts
+    workers = min(execution.pool_size(), len(jobs))
+    executor = make_executor(execution.executor, workers, execution.ray_address)
     given_up: list[Entry] = []
     bar = tqdm(total=len(jobs), unit="trial", desc=label, disable=label is None)
     saved = time.monotonic()

@@ -37,6 +37,7 @@ from pydantic import (
 
 from dresslog import __version__
 from dresslog.errors import DatasetError, DresslogWarning, first_problem
+from dresslog.folders import CARD_FILE, MANIFEST_FILE, SWEEP_FILE
 from dresslog.io import jsontext
 from dresslog.io.files import atomic_path, no_such, sha256_file
 from dresslog.spec import (
@@ -49,10 +50,6 @@ from dresslog.spec import (
     simulator_of,
 )
 
-MANIFEST_FILE = "manifest.json"
-#: The file that marks a sweep's folder (`dresslog sweep` writes it beside its table and
-#: plot): named here, below the sweep code, so a dataset's checks can recognise one too.
-SWEEP_FILE = "sweep.json"
 FORMAT: Final = "dresslog-dataset"
 FORMAT_VERSION = 1
 #: The paper's proportion: 1,000 test sequences to 5,000 training ones.
@@ -202,6 +199,7 @@ class Manifest(BaseModel):
 
     @property
     def complete(self) -> bool:
+        """Whether every split holds the trials asked for (a stopped generation's does not)."""
         return all(len(self.split(s)) >= self.wanted(s) for s in Split)
 
     def counts(self) -> str:
@@ -258,7 +256,20 @@ def dataset_holding(folder: Path) -> Path | None:
 
 
 def load_manifest(root: str | Path) -> Manifest:
-    """Read `root/manifest.json`; a missing or foreign one is one `DatasetError` line."""
+    """Read `root/manifest.json`.
+
+    Args:
+        root: the dataset folder.
+
+    Returns:
+        The manifest, validated as recorded (fields an older dresslog left out take
+        that version's defaults).
+
+    Raises:
+        DatasetError: one line for a missing, unreadable, foreign, newer or invalid
+            manifest, with a hint when `root` is a file, a split folder, a sweep's or a
+            model's.
+    """
     root = Path(root)
     path = root / MANIFEST_FILE
     if root.is_file():
@@ -271,8 +282,6 @@ def load_manifest(root: str | Path) -> Manifest:
     if not root.is_dir():
         raise DatasetError(no_such(root, "dataset folder"), path=root)
     if not path.is_file():
-        from dresslog.model.files import CARD_FILE  # lazily: only for these hints
-
         hint = "not a dataset folder (make one with `dresslog generate`)"
         if (root / SWEEP_FILE).is_file():  # a sweep's settings each hold a dataset
             hint = "a sweep's folder: `dresslog sweep` scores its settings (table: sweep.csv)"

@@ -53,9 +53,12 @@ class RayExecutor:
         self._refs: list[Any] = []
 
     def submit(self, job: Job) -> None:
+        """Queue `job` as a Ray task of one CPU."""
         self._refs.append(self._remote.remote(job))
 
     def done(self, timeout: float) -> list[Entry]:
+        """The entries of the tasks finished within `timeout` seconds (one at most); a task's
+        DresslogError (a full disk) is raised as itself, not as Ray's traceback."""
         ready, self._refs = self._ray.wait(self._refs, num_returns=1, timeout=timeout)
         try:
             return list(self._ray.get(ready))
@@ -65,6 +68,7 @@ class RayExecutor:
             raise
 
     def pending(self) -> int:
+        """How many submitted tasks `done` has not returned yet."""
         return len(self._refs)
 
     def shutdown(self) -> list[Entry]:

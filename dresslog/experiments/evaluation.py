@@ -14,6 +14,7 @@ import numpy as np
 from dresslog.dataset import DatasetArrays, Manifest, Split, load_dataset, load_manifest
 from dresslog.dataset.manifest import as_split
 from dresslog.errors import DatasetError, DresslogWarning
+from dresslog.experiments.plots import plot_eval
 from dresslog.io.files import atomic_path, check_output, printable
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, folder_conditions, trained_conditions
@@ -23,7 +24,6 @@ from dresslog.model.files import (
     check_task,
     load_model,
 )
-from dresslog.plots import plot_eval
 from dresslog.spec import Outcome, Task
 
 #: The outcomes every report lists, with n 0 where a split has none (others where present).
@@ -62,6 +62,8 @@ class EvalReport:
         )
 
     def table(self) -> str:
+        """What `eval` prints: the headline, then one row per group (all, each outcome) with n,
+        RMSE, the all-zero RMSE, their ratio, contact precision and recall."""
         head = (
             f"{'group':<10}{'n':>6}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}"
             f"{'prec':>7}{'rec':>7}"
@@ -162,11 +164,26 @@ def evaluate_dataset(
 ) -> EvalReport:
     """Score `model` on one split of `data`, overall and per outcome (dressed/missed/caught).
 
-    With `bounds`, also the oracle ratios of `dresslog.model.bounds` on the same split,
-    so the model's ratio can be read against what the data allow. With `plot`, a PNG of
-    where along the limb and at what total force the model errs (`plot_eval`); with
-    `per_sequence`, a CSV of each sequence's spec, outcome and scores (`PER_SEQUENCE`);
-    either replaces an existing file only with `overwrite`.
+    Args:
+        model: the model folder.
+        data: the dataset folder.
+        split: which split to score on.
+        bounds: also the oracle ratios of `dresslog.model.bounds` on the same split, so
+            the model's ratio can be read against what the data allow.
+        plot: a PNG of where along the limb and at what total force the model errs
+            (`plot_eval`).
+        per_sequence: a CSV of each sequence's spec, outcome and scores (`PER_SEQUENCE`).
+        overwrite: replace an existing `plot` or `per_sequence` file.
+        workers: processes decoding the trials; None: one per core.
+        progress: show progress bars.
+
+    Returns:
+        The report: scores overall and per outcome, the data's conditions beside the
+        model's training ones; ``table()`` is what ``eval`` prints.
+
+    Raises:
+        DatasetError: no dataset at `data`, or a split it holds no trials of.
+        ModelError: no model at `model`, or one of another task or limb-point count.
     """
     split = as_split(split)  # before anything is loaded
     if plot is not None:
@@ -253,7 +270,19 @@ def _write_per_sequence(
 def dataset_bounds(
     data: str | Path, *, split: Split | str = Split.TEST, workers: int | None = None
 ) -> dict[str, float]:
-    """The oracle ratios of `dresslog.model.bounds` on one split of `data`, with no model."""
+    """The oracle ratios of `dresslog.model.bounds` on one split of `data`, with no model.
+
+    Args:
+        data: the dataset folder.
+        split: which split.
+        workers: processes decoding the trials; None: one per core.
+
+    Returns:
+        Each oracle's name and ratio; empty when the split carries no force.
+
+    Raises:
+        DatasetError: no dataset at `data`, or a split it holds no trials of.
+    """
     split = as_split(split)
     _check_held(data, load_manifest(data), split)
     arrays = load_dataset(data, workers=workers, progress=False)

@@ -14,10 +14,10 @@ from typing import Any
 from pydantic import ValidationError
 
 from dresslog.dataset import Split, generate, load_dataset, load_manifest
-from dresslog.dataset.executors import check_executor
+from dresslog.dataset.executors import LOCAL, Execution, check_executor
 from dresslog.dataset.generate import MAX_TRIALS
 from dresslog.dataset.manifest import FORMAT as DATASET_FORMAT
-from dresslog.dataset.manifest import MANIFEST_FILE, SWEEP_FILE, Manifest, check_files
+from dresslog.dataset.manifest import Manifest, check_files
 from dresslog.errors import DatasetError, DresslogWarning, SimulationError, first_problem
 from dresslog.experiments.evaluation import (
     check_data_task,
@@ -25,6 +25,8 @@ from dresslog.experiments.evaluation import (
     score_rows,
     warn_no_force,
 )
+from dresslog.experiments.plots import plot_sweep
+from dresslog.folders import CARD_FILE, MANIFEST_FILE, SWEEP_FILE
 from dresslog.io import jsontext
 from dresslog.io.files import (
     atomic_path,
@@ -41,13 +43,8 @@ from dresslog.model.conditions import (
     trained_conditions,
 )
 from dresslog.model.evaluate import Scores
-from dresslog.model.files import (
-    CARD_FILE,
-    LoadedModel,
-    load_model,
-)
 from dresslog.model.files import FORMAT as MODEL_FORMAT
-from dresslog.plots import plot_sweep
+from dresslog.model.files import LoadedModel, load_model
 from dresslog.spec import SIMULATORS, Task, TrialSpec, simulator_fields, task_of
 
 #: The kinds of setting, in the order the table lists them.
@@ -69,6 +66,8 @@ class Setting:
 
     @property
     def folder(self) -> str:
+        """The setting's folder in the sweep's folder: its name without colons, which some file
+        systems refuse."""
         return self.name.replace(":", "_")
 
     @property
@@ -95,6 +94,8 @@ class SweepReport:
     trained_duration: float = DURATION
 
     def ratio(self, setting: Setting) -> float:
+        """The setting's RMSE over the in-range setting's: Figs. 12 and 13's y axis (nan when
+        the in-range RMSE is 0)."""
         assert setting.scores is not None
         return setting.scores.rmse / self.baseline_rmse if self.baseline_rmse else math.nan
 
@@ -241,9 +242,7 @@ def sweep(
     n: int = 128,
     seed: int = 0,
     duration: float | None = None,
-    workers: int | None = None,
-    executor: str = "process",
-    ray_address: str | None = None,
+    execution: Execution = LOCAL,
     progress: bool = True,
 ) -> SweepReport:
     """Re-simulate the same `n` fresh sequences per setting and score the model on each.
@@ -252,6 +251,25 @@ def sweep(
     sweep seeds are the same in every setting, so settings differ only in what they fix.
     The report also scores the settings earlier runs left complete in `out` (`_earlier`),
     so a sweep extended a value at a time keeps one table of them all.
+
+    Args:
+        model: the model folder to score.
+        out: the sweep's folder: one dataset folder per setting, and the report.
+        speeds: end-effector speeds (m/s) to sweep.
+        rotations: limb rotations to sweep, as ``"y:-15"``.
+        n: sequences per setting.
+        seed: the sweep's seed, from which every sequence's is drawn.
+        duration: every sequence's length in s; None: the task's default.
+        execution: where and how the trials run, and how many workers decode them.
+        progress: show progress bars.
+
+    Returns:
+        The report: each setting's scores and ratio to the in-range setting.
+
+    Raises:
+        DatasetError: bad settings or `n`, a folder that is not a sweep's, a setting's
+            generation that fails.
+        ModelError: `model` is no model folder, or one that does not load.
     """
     if not 1 <= n <= MAX_TRIALS:
         raise DatasetError(
@@ -264,7 +282,7 @@ def sweep(
     seen = trained_conditions(loaded.card)
     simulator = seen.simulators[-1]  # the newest the model has seen
     settings = sweep_settings(task, speeds, rotations, duration, simulator)  # bad: no folder
-    check_executor(executor, ray_address)
+    check_executor(execution.executor, execution.ray_address)
     out = Path(out)
     _check_sweep_folder(out)
     longest, length = max(seen.durations), DURATION if duration is None else duration
@@ -287,17 +305,15 @@ def sweep(
                 splits={Split.SWEEP: n},
                 overrides=setting.overrides,
                 seed=seed,
-                workers=workers,
-                executor=executor,
-                ray_address=ray_address,
+                execution=execution,
                 progress=progress,
                 label=f"{task.value} {setting.name}",
             )
         except BaseException:
             remove_folders(made)  # a sweep folder this run made, if it is still empty
             raise
-        done.append(_scored(loaded, out, setting, workers))
-    done += _earlier(loaded, out, settings, n, seed, workers)
+        done.append(_scored(loaded, out, setting, execution.workers))
+    done += _earlier(loaded, out, settings, n, seed, execution.workers)
     done.sort(key=lambda s: s.order)
     baseline = done[0].scores
     assert baseline is not None

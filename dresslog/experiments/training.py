@@ -10,13 +10,14 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.dataset import DatasetArrays, Split, load_dataset, load_manifest
-from dresslog.dataset.manifest import MANIFEST_FILE, MIN_TRAIN
+from dresslog.dataset.manifest import MIN_TRAIN
 from dresslog.errors import DatasetError, ModelError
 from dresslog.experiments.evaluation import check_data_task, warn_no_force
+from dresslog.experiments.plots import plot_training
+from dresslog.folders import MANIFEST_FILE, TRAINING_PLOT
 from dresslog.io.files import check_name_fits, exclusive, printable, temporary_path
 from dresslog.model.evaluate import score_sequences
 from dresslog.model.files import (
-    TRAINING_PLOT,
     DataProvenance,
     EpochRecord,
     InitialModel,
@@ -29,27 +30,15 @@ from dresslog.model.files import (
     save_model,
 )
 from dresslog.model.numpy_lstm import NumpyEstimator
-from dresslog.model.options import VAL_FRACTION, LrSchedule, check_options, held_out
-from dresslog.plots import plot_training
+from dresslog.model.options import PAPER, TrainOptions, check_options, held_out
 from dresslog.spec import Task
 
 
 def train_dataset(
     data: str | Path | Sequence[str | Path],
     out: str | Path,
+    options: TrainOptions = PAPER,
     *,
-    epochs: int = 10,
-    batch_size: int = 16,
-    hidden: int | None = None,
-    layers: int | None = None,
-    lr: float = 1e-3,
-    normalise: bool = False,
-    balance_loss: bool = False,
-    keep_best: bool = False,
-    lr_schedule: LrSchedule = "constant",
-    input_differences: bool = False,
-    window: int | None = None,
-    seed: int = 0,
     init: str | Path | None = None,
     overwrite: bool = False,
     workers: int | None = None,
@@ -57,15 +46,34 @@ def train_dataset(
     on_epoch: Callable[[EpochRecord], None] | None = None,
 ) -> ModelCard:
     """Train the paper's network (by default: 3 layers of 50 cells) on `data`'s training
-    split; save to `out`.
+    split; save it to `out`, scored on the test split.
 
-    `data` may be several dataset folders of one task: their training splits are pooled
-    (the validation sequences drawn from all), and so are their test splits for the
-    card's scores. `init` names a model to start from (fine-tuning, e.g. on trials of a
-    forearm turned aside, beside in-range ones so that it does not forget them): its network,
-    input standardisation and signal differences are kept, so `hidden`, `layers`,
-    `normalise` and `input_differences` may only repeat its own; the card names it
-    under `init`.
+    Several dataset folders of one task pool their training splits (the validation
+    sequences drawn from all), and their test splits for the card's scores.
+    Fine-tuning (`init`, e.g. on trials of a forearm turned aside, beside in-range ones so
+    that it does not forget them) keeps the initial model's network, input
+    standardisation and signal differences: `options` may only repeat them.
+
+    Args:
+        data: the dataset folder, or several of one task.
+        out: the model folder to write.
+        options: every setting of the run; by default the paper's.
+        init: a model to start from; the card names it under `init`.
+        overwrite: replace an existing model folder (an interrupted run of these
+            options still resumes; one of other options is discarded).
+        workers: processes decoding the trials; None: one per core.
+        progress: show progress bars.
+        on_epoch: called with each epoch's record as it ends.
+
+    Returns:
+        The saved model's card.
+
+    Raises:
+        DatasetError: a folder that is no dataset, is given twice, holds another task or
+            too few training trials.
+        ModelError: an output that may not become a model folder, `init` that is no model
+            or of another task, options that would change its network, settings the
+            data make meaningless, a diverged run.
     """
     out = Path(out)
     if out.name in ("", ".."):  # `-o .` or `-o ..`: name the folder, for the files beside it
@@ -85,21 +93,15 @@ def train_dataset(
             )
         start = load_model(init)
         check_data_task(start, task)
-        hidden, layers, normalise, input_differences = _as_initial(
-            start, hidden, layers, normalise, input_differences
-        )
+        options = _as_initial(start, options)
     steps = [t.steps for m in manifests for t in m.trials if t.split is Split.TRAIN]
     if len(steps) < MIN_TRAIN:
         raise DatasetError(
             f"needs at least {MIN_TRAIN} training trials, has {len(steps)}",
             path=folders[0] if len(folders) == 1 else named,
         )
-    hidden, layers = hidden or 50, layers or 3
-    check_options(  # from the manifest: a bad option fails before minutes of decoding
-        steps, held_out(len(steps), VAL_FRACTION), epochs=epochs, batch_size=batch_size,
-        hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
-        lr_schedule=lr_schedule,
-    )  # fmt: skip
+    # from the manifest: a bad option fails before minutes of decoding
+    check_options(steps, held_out(len(steps), options.val_fraction), options)
     checkpoint = out.with_name(f".{out.name}.checkpoint.safetensors")
     check_name_fits(out, temporary_path(checkpoint).name)  # the longest name beside it
     out.parent.mkdir(parents=True, exist_ok=True)  # the checkpoint and the lock go beside it
@@ -126,18 +128,7 @@ def train_dataset(
         weights, history = train(
             sequences,
             forces,
-            epochs=epochs,
-            batch_size=batch_size,
-            lr=lr,
-            hidden=hidden,
-            layers=layers,
-            seed=seed,
-            window=window,
-            normalise=normalise,
-            balance_loss=balance_loss,
-            keep_best=keep_best,
-            lr_schedule=lr_schedule,
-            input_differences=input_differences,
+            options,
             init=None if start is None else start.weights,
             progress=progress,
             checkpoint=checkpoint,
@@ -227,15 +218,9 @@ def _pooled_hash(hashes: Sequence[str]) -> str:
     return hashlib.sha256(" ".join(hashes).encode()).hexdigest()
 
 
-def _as_initial(
-    start: LoadedModel,
-    hidden: int | None,
-    layers: int | None,
-    normalise: bool,
-    input_differences: bool,
-) -> tuple[int, int, bool, bool]:
-    """The network options of a run that starts from `start`: its own, which an option
-    may repeat but not change (an option left out, None or False, takes the model's)."""
+def _as_initial(start: LoadedModel, options: TrainOptions) -> TrainOptions:
+    """The options of a run that starts from `start`, with its network: its own, which an
+    option may repeat but not change (one left out, None or False, takes the model's)."""
     card = start.card
     standardised, differences = (
         card.normalisation is not None,
@@ -243,7 +228,7 @@ def _as_initial(
     )
     kept = (card.hidden, card.layers, standardised, differences)
     names = ("--hidden", "--layers", "--normalise", "--input-differences")
-    given = (hidden, layers, normalise, input_differences)
+    given = (options.hidden, options.layers, options.normalise, options.input_differences)
     for name, asked, have in zip(names, given, kept, strict=True):
         if asked not in (None, False, have):
             network = f"{card.layers}x{card.hidden} LSTM" + "".join(
@@ -260,7 +245,8 @@ def _as_initial(
                 f"fine-tuning keeps; leave {name} out",
                 path=start.path,
             )
-    return card.hidden, card.layers, standardised, differences
+    fields = ("hidden", "layers", "normalise", "input_differences")
+    return options.model_copy(update=dict(zip(fields, kept, strict=True)))
 
 
 def _seen_signal(sequences: Sequence[np.ndarray], before: DataProvenance | None) -> Normalisation:

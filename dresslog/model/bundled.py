@@ -19,7 +19,8 @@ import os
 from pathlib import Path
 
 from dresslog.errors import ModelError
-from dresslog.model.files import CARD_FILE, LoadedModel, check_task, load_model
+from dresslog.folders import CARD_FILE
+from dresslog.model.files import LoadedModel, check_task, load_model
 from dresslog.spec import Task, task_of
 
 #: Set to a folder holding `<task>/` model folders to override the bundled models.
@@ -54,9 +55,20 @@ def resolve_model(
 ) -> LoadedModel | None:
     """Load `model` (or the bundled one for `task`) and check it fits the trial.
 
-    Without a model given or bundled: an error if `required`, else None. `loaded` holds
-    the models already loaded, by folder, and gets this one: a batch of trials reads and
-    verifies each model once, however many trials it runs on.
+    Args:
+        model: the model folder; None: the bundled one for `task`.
+        task: the trial's task.
+        n_points: the trial's limb points; None: not checked.
+        required: without a model given or bundled, raise; else return None.
+        loaded: the models already loaded, by folder, which gets this one: a batch of
+            trials reads and verifies each model once, however many trials it runs on.
+
+    Returns:
+        The model, or None when none is given or bundled and none is `required`.
+
+    Raises:
+        ModelError: no model where one is required, one that does not load, or one of
+            another task or limb-point count, with what to give instead.
     """
     task = task_of(task, ModelError)
     bundled = bundled_model(task)

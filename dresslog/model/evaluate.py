@@ -74,7 +74,7 @@ class Scores:
 class ErrorProfile:
     """Where and how much a model errs over every step of a group of sequences: per limb
     point the mean true and estimated force and the RMSE; per step the true and
-    estimated total force (what `dresslog.plots.plot_eval` draws)."""
+    estimated total force (what `dresslog.experiments.plots.plot_eval` draws)."""
 
     def __init__(self, n_points: int) -> None:
         self.steps = 0
@@ -99,6 +99,7 @@ class ErrorProfile:
 
     @property
     def mean_estimate(self) -> np.ndarray:
+        """(N,) N: each point's estimated force, averaged over every step."""
         return self._estimate / max(self.steps, 1)
 
     @property

@@ -51,6 +51,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from dresslog import __version__
 from dresslog.errors import ModelError, first_problem
+from dresslog.folders import CARD_FILE, MANIFEST_FILE, MODEL_FILES, WEIGHTS_FILE
 from dresslog.io import jsontext
 from dresslog.io.files import (
     check_writable,
@@ -67,11 +68,6 @@ from dresslog.model.numpy_lstm import NumpyEstimator, expected_shapes
 from dresslog.model.options import LrSchedule
 from dresslog.spec import RotationRange, Task, TrialSpec, task_of
 
-WEIGHTS_FILE = "model.safetensors"
-CARD_FILE = "card.json"
-TRAINING_PLOT = "training.png"
-#: What a model folder holds; --overwrite replaces these and nothing else.
-MODEL_FILES = frozenset({WEIGHTS_FILE, CARD_FILE, TRAINING_PLOT})
 FORMAT: Final = "dresslog-model"
 #: 2 added `data.signal`, 3 `init`, 4 `data.folders` and `init.folders`; a card of a
 #: newer version than this is refused as such, before the fields this dresslog does not
@@ -296,6 +292,11 @@ def check_model_folder(path: str | Path, overwrite: bool) -> None:
 
     --overwrite replaces a model, never anything else: a dataset or any other folder
     given as the output by mistake is refused, with or without it.
+
+    Raises:
+        ModelError: `path` is named as a recording, is a file or a dangling link, lies
+            under a file, or is a folder that is neither empty nor a model; a model
+            without `overwrite`, or one holding other files too.
     """
     path = Path(path)
     if (misnamed := named_as_recording(path, "a model")) is not None:  # before anything is made
@@ -336,12 +337,25 @@ def save_model(
     overwrite: bool = False,
     also: Callable[[Path, ModelCard], None] | None = None,
 ) -> ModelCard:
-    """Write a model folder atomically; returns the card with the weights hash filled in.
+    """Write a model folder atomically.
 
-    `also(folder, card)` writes more into the folder (the learning curve) before it is
-    put in place, so a run stopped at any moment leaves the old folder or the whole new one;
-    where the folder is replaced file by file (`_replaced_in_place`), the card goes last,
-    so a stop between the files leaves weights that its hash check refuses.
+    A run stopped at any moment leaves the old folder or the whole new one; where the
+    folder is replaced file by file (`_replaced_in_place`), the card goes last, so a
+    stop between the files leaves weights that its hash check refuses.
+
+    Args:
+        path: the model folder.
+        weights: the float32 arrays, as `train` returns them.
+        card: what the weights are; its ``weights_sha256`` is filled in here.
+        overwrite: replace an existing model folder.
+        also: ``also(folder, card)`` writes more into the folder (the learning curve)
+            before it is put in place.
+
+    Returns:
+        The card as written, with the weights' hash.
+
+    Raises:
+        ModelError: `path` may not become a model folder (`check_model_folder`).
     """
     from safetensors.numpy import save
 
@@ -396,12 +410,15 @@ def _replaced_in_place(path: Path) -> bool:
 
 
 def read_card(path: str | Path) -> ModelCard:
-    """The folder's card, checked to be ours and valid; the weights are not looked at."""
+    """The folder's card, checked to be ours and valid; the weights are not looked at.
+
+    Raises:
+        ModelError: no card (with a hint when `path` is a dataset), or one that is
+            unreadable, foreign, newer than this dresslog or invalid.
+    """
     path = Path(path)
     card_path = path / CARD_FILE
     if not card_path.is_file():
-        from dresslog.dataset.manifest import MANIFEST_FILE  # lazily: only for this hint
-
         what = "not a dresslog model folder"
         if (path / MANIFEST_FILE).is_file():  # `eval DATA MODEL`, the two swapped
             what = "a dataset folder, not a model (`eval` and `sweep` take the model first)"
@@ -419,7 +436,19 @@ def read_card(path: str | Path) -> ModelCard:
 
 
 def load_model(path: str | Path) -> LoadedModel:
-    """Load and verify a model folder; every failure is one `ModelError` line."""
+    """Load and verify a model folder.
+
+    Args:
+        path: the model folder.
+
+    Returns:
+        Its card and weights, checked against each other.
+
+    Raises:
+        ModelError: one line, ``.path`` set, for a missing folder or file, a foreign or
+            unreadable card, weights whose hash differs from the card's, and missing,
+            mis-shaped or non-finite arrays.
+    """
     from safetensors import SafetensorError
     from safetensors.numpy import load_file
 
@@ -468,8 +497,16 @@ def check_task(
 ) -> None:
     """Refuse to run a model on a `subject` (trial, data) of another task.
 
-    `hint` says what to do instead, formatted with the subject's task: the command's own
-    way to name a model (``infer``'s --model, ``eval``'s MODEL argument).
+    Args:
+        model: the loaded model.
+        task: the subject's task.
+        n_points: the subject's limb points; None: not checked.
+        subject: what the model was to run on, as the message names it.
+        hint: what to do instead, formatted with the subject's task: the command's own
+            way to name a model (``infer``'s --model, ``eval``'s MODEL argument).
+
+    Raises:
+        ModelError: the model is for another task or number of limb points.
     """
     task = task_of(task, ModelError)
     if model.card.task != task:

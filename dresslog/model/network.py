@@ -77,6 +77,8 @@ class ForceMapLSTM(nn.Module):
     def forward(
         self, phi: torch.Tensor, state: LSTMState | None = None
     ) -> tuple[torch.Tensor, LSTMState]:
+        """The network's outputs (..., T, 2N), force map then contact map, and the LSTM state
+        after the last step: pass it back to continue a sequence."""
         x = (phi - self.input_mean) / self.input_std
         h, state = self.lstm(x, state)
         return self.head(h), state

@@ -2,11 +2,8 @@
 
 Public API
 ----------
-``train(sequences, forces, *, epochs=10, batch_size=16, lr=1e-3, hidden=50, layers=3,
-seed=0, window=None, val_fraction=0.1, val=None, normalise=False, balance_loss=False,
-keep_best=False, lr_schedule="constant", input_differences=False, init=None, threads=None,
-progress=True, checkpoint=None, restart_other=False, on_epoch=None)
--> (weights, TrainHistory)``
+``train(sequences, forces, options=PAPER, *, val=None, init=None, progress=True,
+checkpoint=None, restart_other=False, on_epoch=None) -> (weights, TrainHistory)``
     ``sequences``: list of phi arrays (T_i, 9); ``forces``: matching ground-truth force
     maps (T_i, N). Targets are ``[forces, contact map]`` (Eq. 1), the loss their MSE,
     the optimiser RMSprop, as in the paper. ``weights`` is the float32 dict that
@@ -14,11 +11,13 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
 
     Lengths may differ: a batch is zero-padded at the end to its longest sequence and the
     padded steps are masked out of the loss; the LSTM is causal, so padding never changes
-    a valid step's output. ``window=W`` instead trains on one random W-step crop per
-    sequence per epoch (faster on long trials, but the network then learns to start
-    mid-trial from a zero state, unlike inference; full sequences are the default).
+    a valid step's output. ``options`` (``dresslog.model.options.TrainOptions``) holds
+    every setting, the paper's by default; ``options.window=W`` instead trains on one
+    random W-step crop per sequence per epoch (faster on long trials, but the network
+    then learns to start mid-trial from a zero state, unlike inference; full sequences
+    are the default).
 
-    ``val``: (sequences, forces) to validate on; otherwise ``val_fraction`` of the
+    ``val``: (sequences, forces) to validate on; otherwise ``options.val_fraction`` of the
     sequences (chosen by the seed) is held out. ``keep_best``: return the weights of the
     epoch with the lowest validation loss rather than the last (the paper kept the last).
     ``lr_schedule="cosine"`` anneals the learning rate from ``lr`` towards 0 over the
@@ -27,13 +26,13 @@ progress=True, checkpoint=None, restart_other=False, on_epoch=None)
     step as 9 more inputs (``dresslog.model.inputs``; not in the paper).
     ``init``: weights (as ``save_model`` writes them) to start from instead of random ones,
     their input standardisation kept (``normalise`` is then theirs): fine-tuning. Their
-    sizes must be ``hidden``, ``layers`` and the inputs'; the optimiser starts afresh.
+    sizes must be ``options.network()`` and the inputs'; the optimiser starts afresh.
     Same data, seed and threads give the same weights. ``checkpoint``: a file written
     after every epoch (safetensors, its settings as JSON metadata: nothing is unpickled)
     from which an interrupted run resumes;
     one of other settings or data is refused, or with ``restart_other`` replaced by a
     fresh run (resuming one of the same is what a fresh run would compute anyway).
-    ``threads``: torch CPU threads, default min(2, cores), restored afterwards.
+    ``options.threads``: torch CPU threads, default min(2, cores), restored afterwards.
 
 ``make_card(task, weights, history, *, data=None, init=None, metrics=None) -> ModelCard``
     The card for freshly trained weights: sizes and normalisation read from the weights,
@@ -74,7 +73,7 @@ from dresslog.model.files import (
 from dresslog.model.inputs import PHI_DIM, network_inputs, reads_differences
 from dresslog.model.network import ForceMapLSTM
 from dresslog.model.numpy_lstm import infer_sizes
-from dresslog.model.options import VAL_FRACTION, LrSchedule, check_options, held_out
+from dresslog.model.options import PAPER, TrainOptions, check_options, held_out
 from dresslog.model.postprocess import network_targets
 from dresslog.spec import Task, task_of
 from dresslog.trial import padded
@@ -168,49 +167,54 @@ def _evaluate_loss(
 def train(
     sequences: Sequence[np.ndarray],
     forces: Sequence[np.ndarray],
+    options: TrainOptions = PAPER,
     *,
-    epochs: int = 10,
-    batch_size: int = 16,
-    lr: float = 1e-3,
-    hidden: int = 50,
-    layers: int = 3,
-    seed: int = 0,
-    window: int | None = None,
-    val_fraction: float = VAL_FRACTION,
     val: tuple[Sequence[np.ndarray], Sequence[np.ndarray]] | None = None,
-    normalise: bool = False,
-    balance_loss: bool = False,
-    keep_best: bool = False,
-    lr_schedule: LrSchedule = "constant",
-    input_differences: bool = False,
     init: Mapping[str, np.ndarray] | None = None,
-    threads: int | None = None,
     progress: bool = True,
     checkpoint: str | Path | None = None,
     restart_other: bool = False,
     on_epoch: Callable[[EpochRecord], None] | None = None,
 ) -> tuple[dict[str, np.ndarray], TrainHistory]:
-    """Train a ForceMapLSTM; returns (float32 weights, history). See the module docstring."""
+    """Train a ForceMapLSTM (the module docstring says how).
+
+    Args:
+        sequences: phi arrays, (T_i, 9) each.
+        forces: their ground-truth force maps, (T_i, N) each.
+        options: every setting of the run; by default the paper's.
+        val: (sequences, forces) to validate on instead of a held-out share.
+        init: weights to start from (fine-tuning), as `save_model` writes them.
+        progress: show a progress bar of the epochs.
+        checkpoint: a file written after every epoch, from which a run resumes.
+        restart_other: replace a checkpoint of other settings or data, not refuse it.
+        on_epoch: called with each epoch's record as it ends.
+
+    Returns:
+        The float32 weights and the run's `TrainHistory`.
+
+    Raises:
+        ModelError: mismatched or non-finite data, settings the data make meaningless,
+            initial weights of other sizes, a checkpoint of another run, a diverged run.
+    """
+    opts = options
+    hidden, layers = opts.network()
     n_points = _check_data(sequences, forces)
-    phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in sequences]
-    scale = balanced_force_scale(forces) if balance_loss else 1.0
+    differences = opts.input_differences
+    phis = [network_inputs(np.asarray(p, np.float32), differences) for p in sequences]
+    scale = balanced_force_scale(forces) if opts.balance_loss else 1.0
     targets = [network_targets(f, scale) for f in forces]
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(opts.seed)
     if val is not None:
         _check_data(val[0], val[1])
-        val_phis = [network_inputs(np.asarray(p, np.float32), input_differences) for p in val[0]]
+        val_phis = [network_inputs(np.asarray(p, np.float32), differences) for p in val[0]]
         val_targets = [network_targets(f, scale) for f in val[1]]
     else:
-        n_val = held_out(len(phis), val_fraction)
+        n_val = held_out(len(phis), opts.val_fraction)
         perm = rng.permutation(len(phis))
         held, kept = perm[:n_val], perm[n_val:]
         val_phis, val_targets = [phis[k] for k in held], [targets[k] for k in held]
         phis, targets = [phis[k] for k in kept], [targets[k] for k in kept]
-    check_options(
-        [len(p) for p in phis], len(val_phis), epochs=epochs, batch_size=batch_size,
-        hidden=hidden, layers=layers, lr=lr, window=window, keep_best=keep_best,
-        lr_schedule=lr_schedule,
-    )  # fmt: skip
+    check_options([len(p) for p in phis], len(val_phis), opts)
     if init is not None and (sizes := infer_sizes(init)) != (
         wanted := (n_points, hidden, layers, phis[0].shape[1])
     ):
@@ -220,40 +224,40 @@ def train(
         )
 
     settings = Hyperparameters(
-        epochs=epochs,
-        batch_size=batch_size,
-        lr=lr,
-        seed=seed,
-        window=window,
-        val_fraction=0.0 if val is not None else val_fraction,
+        epochs=opts.epochs,
+        batch_size=opts.batch_size,
+        lr=opts.lr,
+        seed=opts.seed,
+        window=opts.window,
+        val_fraction=0.0 if val is not None else opts.val_fraction,
         force_scale=scale,
-        keep_best=keep_best,
-        lr_schedule=lr_schedule,
-        input_differences=input_differences,
+        keep_best=opts.keep_best,
+        lr_schedule=opts.lr_schedule,
+        input_differences=differences,
     )
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
     previous_threads = torch.get_num_threads()
-    torch.set_num_threads(threads or min(2, os.cpu_count() or 1))
+    torch.set_num_threads(opts.threads or min(2, os.cpu_count() or 1))
 
     def build() -> tuple[ForceMapLSTM, torch.optim.Optimizer]:
-        torch.manual_seed(seed)
+        torch.manual_seed(opts.seed)
         net = ForceMapLSTM(n_points, hidden=hidden, layers=layers, input_dim=phis[0].shape[1])
         if init is not None:  # its outputs in newtons, the loss's forces in newtons x scale
             start = {k: np.array(v, np.float32) for k, v in init.items()}
             start["head.weight"][:n_points] *= scale
             start["head.bias"][:n_points] *= scale
             net.load_state_dict({k: torch.from_numpy(v) for k, v in start.items()})
-        elif normalise:
+        elif opts.normalise:
             steps = np.concatenate(phis)
             net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
-        return net, torch.optim.RMSprop(net.parameters(), lr=lr)
+        return net, torch.optim.RMSprop(net.parameters(), lr=opts.lr)
 
     try:
         net, optim = build()
         ckpt = Path(checkpoint) if checkpoint is not None else None
         data = fingerprint(phis, targets, val_phis, val_targets)
         initial = None if init is None else fingerprint([init[name] for name in sorted(init)])
-        key = run_key(net, history, normalise, data, initial)
+        key = run_key(net, history, opts.normalise, data, initial)
         run = RunState(net, optim, history, key)
         if ckpt is not None and ckpt.exists():
             try:

@@ -139,16 +139,29 @@ def replay_files(
 ) -> BatchReport:
     """Replay each trial into its `.rrd`, and with `mcap` into a copy of it with the estimate.
 
-    With one trial `rrd` and `mcap` name the files (the recording TRIAL.rrd beside the
-    trial by default) or existing folders; with several they name folders, made if
-    missing, for each TRIAL.rrd and TRIAL.mcap, and one that cannot hold every output (see
-    `outputs_in`) raises `TrialWriteError` before any trial. A trial's `DresslogError` or
-    `OSError` is its failure and the next trial runs; `on_trial` hears each outcome as it
-    comes. A given `model` that does not load fails the batch before any trial when there
-    are several (it would fail each alike); with one trial, what is wrong with the trial is
-    still said first. An existing output is replaced only with `overwrite`, else that
-    trial fails. `progress` draws each trial's steps on a progress bar when stderr is
-    a terminal.
+    A trial's `DresslogError` or `OSError` is its failure and the next trial runs. A
+    given `model` that does not load fails the batch before any trial when there are
+    several (it would fail each alike); with one trial, what is wrong with the trial is
+    still said first.
+
+    Args:
+        trials: the trial files, each given once.
+        model: the model folder; None: the bundled model of each trial's task.
+        rrd: with one trial, the recording's file (TRIAL.rrd beside the trial by
+            default) or an existing folder; with several, a folder (made if missing)
+            for each TRIAL.rrd.
+        mcap: likewise for a copy of each trial with the estimate added.
+        on_trial: hears each trial's report or failure as it comes.
+        overwrite: replace existing outputs; else a trial whose output exists fails.
+        progress: draw each trial's steps on a progress bar when stderr is a terminal.
+
+    Returns:
+        Every trial's report or failure, in order.
+
+    Raises:
+        TrialWriteError: `rrd` or `mcap` cannot hold every output (`outputs_in`),
+            before any trial; a trial given twice.
+        ModelError: with several trials, a model that does not load.
     """
     paths = [Path(t) for t in trials]
     _check_given_once(paths)

@@ -34,9 +34,13 @@ class Estimator(Protocol):
     attribute (N) is refused at the start for a trial of another limb.
     """
 
-    def reset(self) -> None: ...
+    def reset(self) -> None:
+        """Forget the last trial's state: the next step is a trial's first."""
+        ...
 
-    def step(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+    def step(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The force map (N,) and the contact map (N,) after one 9-D step `phi`."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -85,15 +89,25 @@ class Sink(Protocol):
     earlier file (only a rename failing between two commits could).
     """
 
-    def open(self, context: TrialContext) -> None: ...
+    def open(self, context: TrialContext) -> None:
+        """Prepare for a trial described by `context`, before its first step."""
+        ...
 
-    def write(self, result: StepResult) -> None: ...
+    def write(self, result: StepResult) -> None:
+        """Take one step's result, as it comes (the whole trial is not kept for it)."""
+        ...
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Write everything out under a temporary name: where a failure should happen."""
+        ...
 
-    def commit(self) -> None: ...
+    def commit(self) -> None:
+        """Put the closed output in place under its final name (a rename, nothing more)."""
+        ...
 
-    def abort(self) -> None: ...
+    def abort(self) -> None:
+        """Leave nothing behind: no temporary file, no half output under the final name."""
+        ...
 
 
 class Replay:
@@ -107,6 +121,12 @@ class Replay:
         self._opened: list[Sink] = []
 
     def start(self, context: TrialContext) -> None:
+        """Reset the estimator and open every sink for a trial; a sink that fails to open
+        aborts those opened before it.
+
+        Raises:
+            ModelError: the estimator is for another number of limb points than the trial's.
+        """
         context = replace(context, has_estimate=self.estimator is not None)
         self.context = context
         if self.estimator is not None:
@@ -161,6 +181,7 @@ class Replay:
             self._opened = []
 
     def abort(self) -> None:
+        """Abort every sink opened so far (a replay stopped before `finish`)."""
         for sink in self._opened:
             sink.abort()
         self._opened = []

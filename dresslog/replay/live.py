@@ -52,12 +52,15 @@ class SimulationSource:
         return self._scores.metrics
 
     def start(self, info: SimStart) -> None:
+        """Open the replay with the scene the simulation starts from (limb points, garment
+        triangles)."""
         metadata = TrialMetadata(task=info.spec.task, spec=info.spec)
         self.replay.start(
             TrialContext(metadata, info.limb_points, info.triangles, model=self.model)
         )
 
     def step(self, step: SimStep) -> None:
+        """Push one simulated step (its 9-D measurement and ground truth) through the replay."""
         phi = np.concatenate([step.wrench[:6], step.twist[:3]]).astype(np.float32)
         self.replay.push(
             Step(
@@ -72,10 +75,12 @@ class SimulationSource:
         )
 
     def finish(self) -> TrialMetrics:
+        """Close and commit the replay's sinks; returns the trial's metrics."""
         self.replay.finish()
         return self.metrics
 
     def abort(self) -> None:
+        """Abort the replay's sinks: a simulation that raised leaves no output behind."""
         self.replay.abort()
 
     def __enter__(self) -> Self:

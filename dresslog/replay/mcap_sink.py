@@ -43,6 +43,12 @@ class McapSink:
         self._finished: TrialWriter | None = None  # the finished copy's, until `commit`
 
     def open(self, context: TrialContext) -> None:
+        """Start the copy: the trial's own channels written at once, under a temporary name.
+
+        Raises:
+            TrialWriteError: the source is no recorded trial, or the output may not be
+                written.
+        """
         if context.trial is None:
             raise TrialWriteError("an MCAP copy needs a recorded trial as source", path=self.path)
         check_copy_output(self.path, context.source_path, overwrite=self.overwrite)
@@ -52,6 +58,7 @@ class McapSink:
         self._writing(lambda writer: copy_trial(writer.open(), trial, limb))
 
     def write(self, result: StepResult) -> None:
+        """Keep the step's estimate; every FLUSH_STEPS of them go to the copy as one block."""
         if result.estimate is None or result.contact is None:
             return
         self._t_ns.append(result.step.t_ns)
@@ -61,6 +68,8 @@ class McapSink:
             self._writing(self._flush)
 
     def close(self) -> None:
+        """Write the last block and finish the copy, still under its temporary name."""
+
         def finish(writer: TrialWriter) -> None:
             self._flush(writer)
             writer.finish()  # named by `commit`, beside the other outputs
@@ -93,6 +102,7 @@ class McapSink:
             raise
 
     def commit(self) -> None:
+        """Rename the finished copy into place."""
         if self._finished is not None:
             self._finished.place()
             self._finished = None

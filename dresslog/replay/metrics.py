@@ -69,9 +69,12 @@ class MetricsSink:
         self._first_ns: int | None = None  # the trial's first step, with an estimate or not
 
     def open(self, context: TrialContext) -> None:
+        """Start a trial's sums afresh (one sink may score several trials in turn)."""
         self._reset()
 
     def write(self, result: StepResult) -> None:
+        """Add the step's squared error and estimated total; a step without truth or estimate
+        only counts."""
         self.metrics.steps += 1
         if self._first_ns is None:
             self._first_ns = result.step.t_ns
@@ -89,6 +92,8 @@ class MetricsSink:
         self.metrics.per_step.append(result.rmse)
 
     def close(self) -> None:
+        """Turn the sums into `metrics`: RMSE, all-zero RMSE, the estimate's mean and peak
+        totals."""
         if self._totals:
             totals, m = np.asarray(self._totals), self.metrics
             peak = int(totals.argmax())

@@ -49,10 +49,13 @@ class InferenceReport:
 
     @property
     def rmse(self) -> float | None:
+        """The trial's RMSE against its ground truth; None without one."""
         return self.metrics.rmse
 
     @property
     def zero_rmse(self) -> float | None:
+        """The all-zero estimate's RMSE, the baseline `rmse` is read against; None without
+        truth."""
         return self.metrics.zero_rmse
 
     def summary(self) -> str:
@@ -106,6 +109,7 @@ class ProgressBar:
         self._bar: Any = None
 
     def open(self, context: TrialContext) -> None:
+        """Show a bar over the trial's steps (their count when the trial is a file)."""
         from tqdm import tqdm
 
         trial, path = context.trial, context.source_path
@@ -115,15 +119,18 @@ class ProgressBar:
         self._bar = tqdm(total=total, unit="step", desc=name, disable=None, leave=False)
 
     def write(self, result: StepResult) -> None:
+        """Advance the bar by one step."""
         self._bar.update()
 
     def close(self) -> None:
+        """Take the bar off the terminal: it writes no output."""
         self.abort()
 
     def commit(self) -> None:
-        pass
+        """Nothing to put in place: the bar writes no output."""
 
     def abort(self) -> None:
+        """Take the bar off the terminal, if it is still there."""
         if self._bar is not None:
             self._bar.close()
             self._bar = None
@@ -143,13 +150,27 @@ def replay_file(
 ) -> InferenceReport:
     """Stream a trial file step by step through a model into .rrd / MCAP / extra sinks.
 
-    `progress` draws the steps on a progress bar when stderr is a terminal.
+    Args:
+        trial_path: the trial (MCAP) to replay.
+        model: the model folder; None: the bundled model of the trial's task.
+        require_model: False: with no model given or bundled, a trial with ground truth
+            is replayed with it alone (what `dresslog view` shows without a model), as
+            is one at another rate than the models' (with a warning).
+        rrd: a Rerun recording to write.
+        mcap: a copy of the trial with the estimate added.
+        sinks: more sinks to feed every step.
+        models: folder -> loaded model, where a batch keeps the models it has loaded,
+            so each is loaded once.
+        overwrite: replace an existing `rrd` or `mcap`.
+        progress: draw the steps on a progress bar when stderr is a terminal.
 
-    With `require_model=False` and no model given or bundled, a trial with ground
-    truth is replayed with it alone (what `dresslog view` shows without a model), as
-    is one at another rate than the models' (with a warning). `models` (folder -> loaded
-    model) is where a batch keeps the models it has loaded, so each is loaded once. An
-    existing `rrd` or `mcap` is replaced only with `overwrite`.
+    Returns:
+        What the replay did: steps, RMSE where the trial has truth, outputs, timings.
+
+    Raises:
+        TrialFormatError: the trial is unreadable or not a dresslog trial.
+        ModelError: the model does not load or does not fit the trial.
+        TrialWriteError: an output may not or cannot be written.
     """
     clock = time.perf_counter
     timings: dict[str, float] = {}

@@ -131,6 +131,12 @@ class RerunSink:
 
     # -- sink protocol -----------------------------------------------------------
     def open(self, context: TrialContext) -> None:
+        """Start a trial: a live view gets its blueprint and the static scene now; a file
+        starts now when the colour scale is known from the trial, else as it closes.
+
+        Raises:
+            TrialWriteError: the output may not be written.
+        """
         self.context = context
         self.vmax = self._initial_vmax()  # a second trial through the sink gets its own scale
         self._edges = _edges(context.garment_triangles)
@@ -149,6 +155,8 @@ class RerunSink:
             self._send_static()
 
     def write(self, result: StepResult) -> None:
+        """Buffer the step; a live view (or a file already started) is sent a block of steps
+        once enough have come."""
         b, s = self._buf, result.step
         if self._first_ns is None:
             self._first_ns = s.t_ns
@@ -173,6 +181,12 @@ class RerunSink:
         return FILE_FLUSH_STEPS if self.recording is not None else None
 
     def close(self) -> None:
+        """Send what is buffered, the path and the spec with the trial's RMSE; a file is
+        written under its temporary name.
+
+        Raises:
+            TrialWriteError: Rerun cannot write the file.
+        """
         self._metrics.close()
         if self.path is None:
             self.flush()
@@ -220,12 +234,14 @@ class RerunSink:
             raise TrialWriteError(f"could not write the recording: {err}", path=self.path) from None
 
     def commit(self) -> None:
+        """Rename the finished file into place (a live view has nothing to move)."""
         if self.path is not None and self._tmp is not None:
             tmp, self._tmp = self._tmp, None
             put_in_place(tmp, self.path, overwrite=self.overwrite)
             self._made = []
 
     def abort(self) -> None:
+        """Stop writing, remove the temporary file and the folders made for it."""
         if self.path is not None and self.recording is not None:
             self.recording.disconnect()
             self.recording = None

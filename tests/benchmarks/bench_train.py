@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from dresslog.dataset import Split, generate, load_dataset
+from dresslog.dataset import Execution, Split, generate, load_dataset
 from dresslog.dataset.manifest import Manifest
 
 
@@ -48,12 +48,19 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2, help="processes for decoding")
     args = parser.parse_args()
 
+    from dresslog.model.options import TrainOptions
     from dresslog.model.train import train
 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         started = time.perf_counter()
-        generate(args.task, args.distinct, root / "src", workers=args.workers, test_fraction=0)
+        generate(
+            args.task,
+            args.distinct,
+            root / "src",
+            execution=Execution(workers=args.workers),
+            test_fraction=0,
+        )
         simulated = time.perf_counter() - started
         replicate(root / "src", root / "bench", args.sequences)
 
@@ -69,9 +76,7 @@ def main() -> None:
         _, history = train(
             arrays.sequences(rows),
             arrays.force_maps(rows),
-            epochs=1,
-            threads=args.threads,
-            val_fraction=0.0,
+            TrainOptions(epochs=1, threads=args.threads, val_fraction=0.0),
         )
         epoch = history.epochs[0].seconds
 

@@ -10,9 +10,9 @@ Public API
 ``plot_training(path, card)``: training and validation loss per epoch from a model card's
     ``history``, log scale, the kept epoch marked when ``keep_best`` chose it (``dresslog
     train`` writes it beside the model as ``training.png``).
-``plot_eval(path, profile, task, title)``: where along the limb a model errs (each
-    point's mean true and estimated force and its RMSE, by distance from the hand or
-    foot) and at what total force (estimated against true per step), from an
+``plot_eval(path, profile, task, title, *, overwrite=True)``: where along the limb a
+    model errs (each point's mean true and estimated force and its RMSE, by distance from
+    the hand or foot) and at what total force (estimated against true per step), from an
     ``ErrorProfile`` (``dresslog eval --plot``).
 ``sweep_figure(report)``, ``training_figure(card)``, ``eval_figure(...)``: the same as
     matplotlib Figures, to show in a notebook or read back.
