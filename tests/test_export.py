@@ -11,15 +11,13 @@ import pytest
 from click.testing import CliRunner
 
 from dresslog.cli.main import main
+from dresslog.dataset.executors import Execution, Recorder
 from dresslog.dataset.generate import generate
 from dresslog.io import TrialReader, TrialWriter
 from dresslog.model.postprocess import CONTACT_LEVEL
 from dresslog.spec import TrialSpec
 from tests.conftest import write_synthetic_trial
 
-SYNTHETIC = "tests.test_export:synthetic_record"
-WITH_ESTIMATE = "tests.test_export:record_with_estimate"
-NO_POSE = "tests.test_export:record_without_pose"
 #: What LeRobot v3.0's files hold, by its documentation and its reader.
 LAYOUT = [
     "data/chunk-000/file-000.parquet",
@@ -79,9 +77,9 @@ def record_without_pose(spec: TrialSpec, path: Path, *, overwrite: bool = False)
     return _Result(_steps(spec))
 
 
-def _dataset(folder: Path, recorder: str, trials: int = 3) -> Path:
-    generate("gown", trials, folder, workers=1, test_fraction=0.34, recorder=recorder,
-             progress=False)  # fmt: skip
+def _dataset(folder: Path, recorder: Recorder, trials: int = 3) -> Path:
+    generate("gown", trials, folder, execution=Execution(workers=1, recorder=recorder),
+             test_fraction=0.34, progress=False)  # fmt: skip
     return folder
 
 
@@ -94,7 +92,7 @@ def _export(data: Path, out: Path, *more: str) -> tuple[int, str]:
 def test_export_writes_lerobot_v3_as_documented(tmp_path: Path) -> None:
     import pyarrow.parquet as pq
 
-    data, out = _dataset(tmp_path / "data", SYNTHETIC), tmp_path / "lerobot"
+    data, out = _dataset(tmp_path / "data", synthetic_record), tmp_path / "lerobot"
     code, output = _export(data, out)
     assert code == 0, output
     assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == LAYOUT
@@ -152,7 +150,7 @@ def test_rerun_reads_the_export_with_its_own_lerobot_loader(tmp_path: Path) -> N
     import pyarrow.parquet as pq
     from rerun.experimental import LeRobotReader
 
-    data, out = _dataset(tmp_path / "data", WITH_ESTIMATE), tmp_path / "lerobot"
+    data, out = _dataset(tmp_path / "data", record_with_estimate), tmp_path / "lerobot"
     code, output = _export(data, out)
     assert code == 0, output
     info = json.loads((out / "meta/info.json").read_text())
@@ -176,12 +174,12 @@ def test_rerun_reads_the_export_with_its_own_lerobot_loader(tmp_path: Path) -> N
 
 
 def test_export_is_atomic_and_refuses_what_it_would_destroy(tmp_path: Path) -> None:
-    bad, out = _dataset(tmp_path / "bad", NO_POSE), tmp_path / "lerobot"
+    bad, out = _dataset(tmp_path / "bad", record_without_pose), tmp_path / "lerobot"
     code, output = _export(bad, out)
     assert code == 1 and output.startswith("Error: ") and output.count("\n") == 1, output
     assert "has no /ee/pose" in output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad"]  # no half dataset, no temporary
-    good = _dataset(tmp_path / "good", SYNTHETIC)
+    good = _dataset(tmp_path / "good", synthetic_record)
     assert _export(good, out)[0] == 0
     code, output = _export(good, out)
     assert code == 1 and "exists; pass --overwrite" in output
@@ -200,6 +198,6 @@ def test_export_is_atomic_and_refuses_what_it_would_destroy(tmp_path: Path) -> N
 
 @pytest.mark.parametrize("name", ["x.mcap", "x.rrd"])
 def test_export_refuses_a_recording_name(tmp_path: Path, name: str) -> None:
-    good = _dataset(tmp_path / "good", SYNTHETIC)
+    good = _dataset(tmp_path / "good", synthetic_record)
     code, output = _export(good, tmp_path / name)
     assert code == 1 and "is a folder, not a" in output

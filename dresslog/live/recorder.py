@@ -106,4 +106,5 @@ class SessionRecorder:
         return self.path
 
     def abort(self) -> None:
+        """Drop the session file: its temporary is removed, nothing takes the final name."""
         self._writer.abort()

@@ -105,9 +105,10 @@ class Publisher:
         ]
 
     def open(self, context: TrialContext) -> None:
-        pass
+        """Nothing to open: the publishers exist before the first step."""
 
     def write(self, result: StepResult) -> None:
+        """Publish one step's estimate, contact map and summary, stamped on the robot's clock."""
         if result.estimate is None or result.contact is None:
             return
         assert self.session.origin_ns is not None
@@ -134,13 +135,13 @@ class Publisher:
         self._summary.publish(self._summary_msg)
 
     def close(self) -> None:
-        pass
+        """Nothing to close: the node, and its publishers, belong to the session."""
 
     def commit(self) -> None:
-        pass
+        """Nothing to keep: what was published is already out."""
 
     def abort(self) -> None:
-        pass
+        """Nothing to undo: a published message cannot be taken back."""
 
 
 class LiveNode:

@@ -266,6 +266,7 @@ class LiveSession:
         return self.recorder.finish(self.source_info())
 
     def abort(self) -> None:
+        """Stop without finalising: the replay's sinks and the session file are dropped."""
         self.replay.abort()
         if self.recorder is not None:
             self.recorder.abort()
