@@ -8,10 +8,12 @@ from typing import Any
 import click
 
 from dresslog.model.options import (
+    DEVICES,
     LR_SCHEDULES,
     PAPER,
     PAPER_HIDDEN,
     PAPER_LAYERS,
+    RECIPES,
     TrainOptions,
 )
 
@@ -24,13 +26,18 @@ from .options import FiniteRange
 #: cells in 3 layers one inference step already takes some 5 ms of a 100 Hz step's 10.
 MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 
-# Every default below is the paper's `TrainOptions` field's (`PAPER`), never a second copy.
+# Every default below is the paper's `TrainOptions` field's (`PAPER`), never a second copy;
+# `--recipe` swaps in another recipe's, and an option given on the line overrides either.
 
 
 @click.command("train")
 @click.argument("data", nargs=-1, required=True, type=click.Path(file_okay=False))
 @click.option("-o", "--output", "--out", "out", type=click.Path(file_okay=False), required=True,
               help="Model folder to write.")  # fmt: skip
+@click.option("--recipe", type=click.Choice(list(RECIPES)), default="paper", show_default=True,
+              help="The settings every other option starts from: the paper's, or the bundled "
+              "models' (3x100 cells, phi and its change, normalised, balanced loss, 60 epochs "
+              "annealed, best kept).")  # fmt: skip
 @click.option("--epochs", type=click.IntRange(min=1), default=PAPER.epochs, show_default=True,
               help="Passes over the training split.")  # fmt: skip
 @click.option("--batch-size", type=click.IntRange(min=1), default=PAPER.batch_size,
@@ -41,13 +48,12 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
               show_default=f"{PAPER_LAYERS}, or --init's")  # fmt: skip
 @click.option("--lr", type=FiniteRange(0, MAX_LR, min_open=True), default=PAPER.lr,
               show_default=True, help="RMSprop learning rate.")  # fmt: skip
-@click.option("--normalise", is_flag=True, help="Standardise inputs (not in the paper).")
-@click.option(
-    "--balance-loss", is_flag=True, help="Scale force targets to the contact map's 0.1 in the loss."
-)
-@click.option(
-    "--keep-best", is_flag=True, help="Keep the epoch of lowest validation loss, not the last."
-)
+@click.option("--normalise/--no-normalise", default=PAPER.normalise,
+              help="Standardise inputs (not in the paper).")  # fmt: skip
+@click.option("--balance-loss/--no-balance-loss", default=PAPER.balance_loss,
+              help="Scale force targets to the contact map's 0.1 in the loss.")  # fmt: skip
+@click.option("--keep-best/--no-keep-best", default=PAPER.keep_best,
+              help="Keep the epoch of lowest validation loss, not the last.")  # fmt: skip
 @click.option(
     "--lr-schedule",
     type=click.Choice(LR_SCHEDULES),
@@ -55,16 +61,17 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
     show_default=True,
     help="cosine: anneal the learning rate to 0 over the epochs (the paper: constant).",
 )
-@click.option(
-    "--input-differences",
-    is_flag=True,
-    help="The network also reads the signal's change per step (9 more inputs; not in the paper).",
-)
+@click.option("--input-differences/--no-input-differences", default=PAPER.input_differences,
+              help="The network also reads the signal's change per step (9 more inputs; not "
+              "in the paper).")  # fmt: skip
 @click.option("--window", type=click.IntRange(min=2), metavar="W",
               help="Train on random crops of W steps (10 ms each; below the longest training "
               "sequence).", show_default="whole sequences")  # fmt: skip
 @click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=PAPER.seed, show_default=True,
               help="Draws the validation split, the batches and the initial weights.")  # fmt: skip
+@click.option("--device", type=click.Choice(DEVICES), default=PAPER.device, show_default=True,
+              help="Where to train: auto takes CUDA when torch sees a GPU, else the CPU "
+              "(the same model within float tolerance).")  # fmt: skip
 @click.option("--init", type=click.Path(), metavar="MODEL",
               help="Start from this model's weights (fine-tuning: its network and input "
               "standardisation are kept).", show_default="random weights")  # fmt: skip
@@ -79,6 +86,7 @@ MAX_HIDDEN, MAX_LAYERS, MAX_LR = 1024, 8, 1
 def train(
     data: tuple[str, ...],
     out: str,
+    recipe: str,
     init: str | None,
     overwrite: bool,
     quiet: bool,
@@ -98,7 +106,7 @@ def train(
     card = train_dataset(
         data,
         out,
-        TrainOptions(**settings),
+        _options(recipe, settings),
         init=init,
         overwrite=overwrite,
         progress=not quiet,
@@ -107,3 +115,14 @@ def train(
     shown = ", ".join(f"{k} {v:.4g}" for k, v in card.metrics.items())
     click.echo(f"{out}: {card.task} model, {card.data.n_train} training sequences; {shown}")
     click.echo(f"learning curve: {Path(out) / TRAINING_PLOT}")
+
+
+def _options(recipe: str, settings: dict[str, Any]) -> TrainOptions:
+    """The recipe's settings, with each option given on the command line in its place."""
+    ctx = click.get_current_context()
+    given = {
+        name: value
+        for name, value in settings.items()
+        if ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT
+    }
+    return TrainOptions.model_validate({**RECIPES[recipe].model_dump(), **given})

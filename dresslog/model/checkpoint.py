@@ -86,7 +86,7 @@ def save_checkpoint(path: Path, run: RunState) -> None:
 
     with atomic_path(path) as tmp:
         try:
-            save_file({k: v.detach().contiguous() for k, v in tensors.items()}, tmp, metadata)
+            save_file({k: v.detach().cpu().contiguous() for k, v in tensors.items()}, tmp, metadata)
         except SafetensorError as err:  # its I/O errors (a full disk) are not OSErrors
             raise ModelError(f"cannot write the checkpoint: {err}", path=path) from None
 

@@ -13,6 +13,8 @@ Public API
     nothing to validate on).
 ``held_out(n_sequences, val_fraction) -> int``: how many sequences validate.
 ``PAPER``: ``TrainOptions()``, the paper's settings, every run's default.
+``BUNDLED``: the bundled models' recipe; ``RECIPES`` names both for `train --recipe`.
+``Device``, ``DEVICES``: where a run trains (`train --device`).
 ``VAL_FRACTION``, ``LrSchedule``, ``LR_SCHEDULES``, ``PAPER_HIDDEN``, ``PAPER_LAYERS``.
 """
 
@@ -33,6 +35,9 @@ LrSchedule = Literal["constant", "cosine"]
 LR_SCHEDULES: Final[tuple[str, ...]] = get_args(LrSchedule)
 #: The paper's network: 3 layers of 50 LSTM cells.
 PAPER_HIDDEN, PAPER_LAYERS = 50, 3
+#: Where the network trains: "auto" takes CUDA when torch sees a device, else the CPU.
+Device = Literal["auto", "cpu", "cuda"]
+DEVICES: Final[tuple[str, ...]] = get_args(Device)
 
 
 class TrainOptions(BaseModel):
@@ -77,6 +82,9 @@ class TrainOptions(BaseModel):
     #: torch CPU threads; None: min(2, cores). The same data, seed and threads give the
     #: same weights.
     threads: int | None = None
+    #: where to train; not a hyperparameter: a CUDA run matches a CPU one within float
+    #: tolerance, and a run resumes on either
+    device: Device = "auto"
 
     @model_validator(mode="after")
     def _trainable(self) -> TrainOptions:
@@ -104,6 +112,19 @@ class TrainOptions(BaseModel):
 
 #: The paper's settings: what `train` and `dresslog train` use where not told otherwise.
 PAPER: Final = TrainOptions()
+#: The bundled models' recipe (docs/results.md): 3x100 cells reading phi and its change
+#: per step, standardised inputs, a balanced loss, 60 epochs annealed, the best one kept.
+BUNDLED: Final = TrainOptions(
+    epochs=60,
+    hidden=100,
+    lr_schedule="cosine",
+    normalise=True,
+    balance_loss=True,
+    keep_best=True,
+    input_differences=True,
+)
+#: The recipes `dresslog train --recipe` names; its other options change one setting each.
+RECIPES: Final[dict[str, TrainOptions]] = {"paper": PAPER, "bundled": BUNDLED}
 
 
 def _share_problem(val_fraction: float) -> str:

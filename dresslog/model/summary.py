@@ -6,7 +6,8 @@ Public API
     Task and sizes, input normalisation, how it was trained (hyperparameters, data, the
     model it was fine-tuned from, the speeds and rotations of all its training trials as
     `eval` and `sweep` read them, the epochs run and the one kept), its recorded test
-    metrics and the weights hash, and whether the model loads, as `dresslog info` prints
+    metrics, the `dresslog train` line that trains it again, and the weights hash, and
+    whether the model loads, as `dresslog info` prints
     it (``--json`` prints the card itself).
 """
 
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from dresslog.model.conditions import trained_conditions
 from dresslog.model.files import ModelCard, TrainingFolder
+from dresslog.model.recipe import train_command
 from dresslog.spec import LimbRotation
 
 #: How `info` names the spec fields `generate` can fix for every trial.
@@ -98,6 +100,7 @@ def format_card(path: Path, card: ModelCard, verified: bool) -> str:
         if metrics:
             shown = ", ".join(f"{k} {v:.4g}" for k, v in metrics.items())
             lines.append(f"  {label:<8}  {shown}")
+    lines.append(f"  again     {train_command(card, str(path))}")
     checked = "verified" if verified else "but the model does not load (the error says why)"
     lines.append(f"  weights   sha256 {card.weights_sha256[:16]}, {checked}")
     lines.append(f"  software  dresslog {card.dresslog_version}, created {card.created}")

@@ -118,12 +118,34 @@ def _check_data(sequences: Sequence[np.ndarray], forces: Sequence[np.ndarray]) -
     return n_points
 
 
-def _batch(phis: Sequence[np.ndarray], targets: Sequence[np.ndarray]) -> Batch:
-    """Zero-pad a batch to its longest sequence; mask marks the real steps."""
+def _batch(
+    phis: Sequence[np.ndarray], targets: Sequence[np.ndarray], device: torch.device
+) -> Batch:
+    """Zero-pad a batch to its longest sequence, on `device`; mask marks the real steps."""
     x, y = padded(phis), padded(targets)
     real = np.array([len(p) for p in phis])[:, None] > np.arange(x.shape[1])
     mask = real[..., None].astype(np.float32)
-    return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
+    return (
+        torch.from_numpy(x).to(device),
+        torch.from_numpy(y).to(device),
+        torch.from_numpy(mask).to(device),
+    )
+
+
+def training_device(name: str) -> torch.device:
+    """The torch device `train --device` names: "auto" takes CUDA when torch sees one.
+
+    Raises:
+        ModelError: "cuda" asked for where torch sees no CUDA device.
+    """
+    if name == "auto":
+        name = "cuda" if torch.cuda.is_available() else "cpu"
+    if name == "cuda" and not torch.cuda.is_available():
+        raise ModelError(
+            f"--device cuda: torch {torch.__version__} sees no CUDA device "
+            "(a CPU build, or no GPU here); use --device cpu or auto"
+        )
+    return torch.device(name)
 
 
 def _crop(
@@ -154,10 +176,11 @@ def _evaluate_loss(
 ) -> float:
     total, count = 0.0, 0.0
     order = np.argsort([len(p) for p in phis])  # similar lengths together: less padding
+    device = next(net.parameters()).device
     with torch.no_grad():
         for start in range(0, len(order), batch_size):
             idx = order[start : start + batch_size]
-            x, y, mask = _batch([phis[k] for k in idx], [targets[k] for k in idx])
+            x, y, mask = _batch([phis[k] for k in idx], [targets[k] for k in idx], device)
             out, _ = net(x)
             total += float(((out - y) ** 2 * mask).sum())
             count += float(mask.sum()) * out.shape[-1]
@@ -236,6 +259,7 @@ def train(
         input_differences=differences,
     )
     history = TrainHistory(settings=settings, n_train=len(phis), n_val=len(val_phis))
+    device = training_device(opts.device)
     previous_threads = torch.get_num_threads()
     torch.set_num_threads(opts.threads or min(2, os.cpu_count() or 1))
 
@@ -250,6 +274,7 @@ def train(
         elif opts.normalise:
             steps = np.concatenate(phis)
             net.set_normalisation(steps.mean(axis=0), steps.std(axis=0))
+        net.to(device)  # before the optimiser, whose state lives beside the parameters
         return net, torch.optim.RMSprop(net.parameters(), lr=opts.lr)
 
     try:
@@ -314,6 +339,7 @@ def _fit(
     from tqdm import tqdm
 
     net, optim, history = run.net, run.optim, run.history
+    device = next(net.parameters()).device
     s = history.settings
     bar = tqdm(total=s.epochs, initial=len(history.epochs), unit="epoch", disable=not progress)
     for epoch in range(len(history.epochs), s.epochs):
@@ -330,7 +356,7 @@ def _fit(
             pairs = [(phis[k], targets[k]) for k in idx]
             if s.window is not None:
                 pairs = [_crop(p, t, s.window, rng) for p, t in pairs]
-            x, y, mask = _batch([p for p, _ in pairs], [t for _, t in pairs])
+            x, y, mask = _batch([p for p, _ in pairs], [t for _, t in pairs], device)
             out, _ = net(x)
             loss = _masked_mse(out, y, mask)
             optim.zero_grad(set_to_none=True)

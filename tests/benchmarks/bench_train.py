@@ -48,6 +48,8 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2, help="processes for decoding")
     args = parser.parse_args()
 
+    import torch
+
     from dresslog.model.options import TrainOptions
     from dresslog.model.train import train
 
@@ -73,19 +75,24 @@ def main() -> None:
         cache_mb = sum(p.stat().st_size for p in (root / "bench/.cache").glob("*.npz")) / 1e6
 
         rows = arrays.rows(Split.TRAIN)
-        _, history = train(
-            arrays.sequences(rows),
-            arrays.force_maps(rows),
-            TrainOptions(epochs=1, threads=args.threads, val_fraction=0.0),
-        )
-        epoch = history.epochs[0].seconds
+        epoch = {}  # one epoch on each device there is: the CPU, and CUDA where torch sees it
+        for device in ("cpu", "cuda") if torch.cuda.is_available() else ("cpu",):
+            options = TrainOptions(epochs=1, threads=args.threads, val_fraction=0.0, device=device)
+            _, history = train(arrays.sequences(rows), arrays.force_maps(rows), options)
+            epoch[device] = history.epochs[0].seconds
 
     s, t, n = arrays.forces.shape
     print(f"task {args.task}: {s} sequences x {t} steps x {n} limb points")
     print(f"simulate {args.distinct} distinct trials ({args.workers} workers): {simulated:7.1f} s")
     print(f"load from MCAP, cold ({args.workers} workers):          {cold:7.1f} s")
     print(f"load from cache ({cache_mb:.0f} MB .npz):                {cached:7.1f} s")
-    print(f"one epoch, paper's network, {args.threads} threads:        {epoch:7.1f} s")
+    print(f"one epoch, paper's network, {args.threads} threads:        {epoch['cpu']:7.1f} s")
+    if "cuda" in epoch:
+        ratio = epoch["cpu"] / epoch["cuda"]
+        print(f"one epoch on CUDA ({torch.cuda.get_device_name()}):  {epoch['cuda']:7.1f} s "
+              f"({ratio:.1f}x the CPU's)")  # fmt: skip
+    else:
+        print("one epoch on CUDA: no CUDA device here (torch sees none)")
 
 
 if __name__ == "__main__":
