@@ -26,10 +26,11 @@ def test_readme_python_example_runs(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def _bash_commands(section: str) -> list[list[str]]:
-    """The `dresslog` commands of the README's ```bash block in `section`, as argv lists."""
-    text = (ROOT / "README.md").read_text().split(f"### {section}", 1)[1]
+    """The `dresslog` commands of docs/commands.md's ```bash block in `section`, as argv
+    lists: the robot log's example, to which the README's "Your robot's data" leads."""
+    text = (ROOT / "docs/commands.md").read_text().split(f"### {section}", 1)[1]
     block = re.search(r"```bash\n(.*?)```", text, re.S)
-    assert block, f"the README's {section!r} lost its example"
+    assert block, f"docs/commands.md's {section!r} lost its example"
     joined = block.group(1).replace("\\\n", " ")
     lines = [line.split("#", 1)[0].strip() for line in joined.splitlines()]
     return [shlex.split(line) for line in lines if line]
@@ -50,7 +51,7 @@ def test_readme_robot_log_example_runs_on_the_bundled_log(
 
     (tmp_path / "samples").symlink_to(ROOT / "samples")
     monkeypatch.chdir(tmp_path)
-    commands = _bash_commands("Your robot's data")
+    commands = _bash_commands("A robot's log, step by step")
     assert [c[:2] for c in commands] == [
         ["dresslog", "convert"],
         ["dresslog", "infer"],
@@ -95,7 +96,7 @@ def test_readme_robot_bag_example_gives_the_csv_logs_trial(
 
     (tmp_path / "samples").symlink_to(ROOT / "samples")
     monkeypatch.chdir(tmp_path)
-    csv, _, bag = _bash_commands("Your robot's data")
+    csv, _, bag = _bash_commands("A robot's log, step by step")
     assert bag[2] == "samples/robot/bag" and "--pose-tf" in bag
     for argv in (csv, bag):
         result = CliRunner().invoke(main, argv[1:])
