@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import struct
 from collections.abc import Sequence
 from functools import cache
@@ -32,7 +33,7 @@ from dresslog.io.files import (
     temporary_path,
 )
 from dresslog.io.msgdefs import schema_text
-from dresslog.spec import TrialMetadata
+from dresslog.spec import TRIAL_FORMAT_VERSION, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
 
 CHUNK_SIZE = 4 * 1024 * 1024
@@ -103,6 +104,7 @@ class TrialWriter:
         self._points: int | None = None  # limb points written: every map's width
         self._garment_size: int | None = None  # vertices of the first garment message
         self._steps: dict[str, list[np.ndarray]] = {wk.WRENCH: [], wk.TWIST: []}
+        self._origin = wk.TIME_ORIGIN_NS  # what a stamp adds to a trial time
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
@@ -141,14 +143,26 @@ class TrialWriter:
                 path=self.path,
             )
         metadata = self.metadata.model_copy(
-            update={"software": self.metadata.software or software_versions()}
+            update={
+                "software": self.metadata.software or software_versions(),
+                "format_version": TRIAL_FORMAT_VERSION,
+                "time_origin_ns": self._origin,
+            }
         )
-        writer.add_metadata(
-            wk.METADATA_NAME, {"task": metadata.task.value, "trial": metadata.model_dump_json()}
-        )
+        record = {"task": metadata.task.value, "trial": metadata.model_dump_json()}
+        self._write_metadata_message(record)
+        writer.add_metadata(wk.METADATA_NAME, record)
         writer.finish()
         stream.close()
         self._writer = self._stream = None
+
+    def _write_metadata_message(self, record: dict[str, str]) -> None:
+        """The metadata record again as a latched message at the trial's time 0, which
+        tools that drop MCAP metadata records keep (see `wk.METADATA_TOPIC`)."""
+        text = json.dumps(record).encode()
+        message = cdr.new_messages(wk.UNSTAMPED[wk.METADATA_TOPIC], {"data": len(text)}, 1)
+        message["data"] = text
+        self._write_payloads(wk.METADATA_TOPIC, [self._origin], cdr.to_payloads(message))
 
     def place(self) -> None:
         """Move the file `finish` wrote to its final name."""
@@ -204,7 +218,7 @@ class TrialWriter:
         if self._writer is None:
             raise TrialWriteError("writer is not open", path=self.path)
         if topic not in self._channels:
-            name = wk.SCHEMAS[topic]
+            name = wk.SCHEMAS.get(topic) or wk.UNSTAMPED[topic]
             if name not in self._schemas:
                 self._schemas[name] = self._writer.register_schema(
                     name, wk.SCHEMA_ENCODING, schema_text(name).encode()
@@ -213,7 +227,7 @@ class TrialWriter:
                 topic,
                 wk.MESSAGE_ENCODING,
                 self._schemas[name],
-                metadata={"offered_qos_profiles": wk.QOS[topic]},
+                metadata={"offered_qos_profiles": wk.QOS.get(topic, wk.LATCHED_QOS)},
             )
             self._sequence[topic] = 0
         return self._channels[topic]
@@ -231,7 +245,8 @@ class TrialWriter:
         self._sequence[topic] = seq
 
     def _times(self, topic: str, t_ns: int | np.ndarray, count: int) -> np.ndarray:
-        """`count` integer-nanosecond stamps, increasing on `topic` from call to call."""
+        """The stamps of `count` integer-nanosecond trial times, increasing on `topic` from
+        call to call: the times moved on by the origin (`wk.TIME_ORIGIN_NS`)."""
         raw = np.atleast_1d(np.asarray(t_ns))
         problem = ""
         if raw.dtype.kind not in "iu":
@@ -243,12 +258,15 @@ class TrialWriter:
             after = self._last_stamp.get(topic, -1)
             if times[0] <= after or (np.diff(times) <= 0).any():
                 problem = "times must increase from message to message, and not be negative"
-            elif times[-1] > MAX_STAMP_NS:
-                problem = f"time {times[-1]} ns is past what a ROS 2 stamp holds (2**31 s)"
+            elif times[-1] > MAX_STAMP_NS - self._origin:
+                problem = (
+                    f"time {times[-1]} ns is past what a ROS 2 stamp holds (2**31 s from 1970, "
+                    f"and the trial's time 0 is at {self._origin} ns)"
+                )
             self._last_stamp[topic] = int(times[-1])
         if problem:
             raise TrialWriteError(f"{topic}: {problem}", path=self.path)
-        return times
+        return times + self._origin
 
     def _stamped(
         self, topic: str, t_ns: int | np.ndarray, sizes: dict, count: int = 1
