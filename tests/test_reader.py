@@ -80,6 +80,23 @@ def test_stamps_count_from_2020_and_the_reader_from_the_trials_start(make_trial)
         np.testing.assert_array_equal(reader.wrench.t_ns, sent["t_ns"])
 
 
+def test_rerun_shows_a_trial_on_its_2020_dates(make_trial) -> None:
+    """Rerun's MCAP importer had put every trial in January 1970."""
+    from datetime import datetime
+
+    from rerun.chunk import McapReader
+
+    path, sent = make_trial()
+    times = {}
+    for chunk in McapReader(path).stream():
+        if str(chunk.entity_path) == wk.WRENCH and "ros2_timestamp" in chunk.timeline_names:
+            batch = chunk.to_record_batch()
+            for name in ("message_log_time", "ros2_timestamp"):
+                times[name] = batch.column(name)[0].as_py()
+    first = datetime(2020, 1, 1) + (sent["t_ns"][0] // 1000) * np.timedelta64(1, "us").item()
+    assert times == {"message_log_time": first, "ros2_timestamp": first}
+
+
 def _as_format_1(new: Path, old: Path) -> Path:
     """`new` as dresslog wrote trials before format 2: stamps from 0, no metadata channel."""
     messages, metadata = mcap_records(new)
@@ -159,3 +176,42 @@ def test_a_metadata_channel_that_is_not_the_record_is_one_line(tmp_path: Path, m
     bad = write_mcap(tmp_path / "bad.mcap", "dresslog 0.1.0", rows, [])
     with pytest.raises(TrialFormatError, match=f"{wk.METADATA_TOPIC}.*metadata"):
         TrialReader(bad).open()
+
+
+def test_info_checks_the_force_maps_block_by_block_and_holds_none(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`info` read the whole trial to check it: a 30-minute file's streams, 1.9 GB."""
+    from dresslog.io import reader as reader_module
+    from dresslog.io.summary import summarize
+
+    steps = 20_000
+    t_ns = np.arange(steps, dtype=np.int64) * 10_000_000
+    forces = np.random.default_rng(0).random((steps, 400)).astype(np.float32)
+    path = tmp_path / "maps.mcap"
+    with TrialWriter(path, TrialMetadata(task=Task.SHORTS)) as writer:
+        writer.write_wrench(t_ns, np.ones((steps, 6)))
+        writer.write_twist(t_ns, np.ones((steps, 6)))
+        writer.write_force_map(t_ns, forces)
+    monkeypatch.setattr(reader_module, "BLOCK", 1024)
+    tracemalloc.start()
+    try:
+        summary = summarize(path)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert summary.steps == steps and summary.has_ground_truth
+    # the whole read held the maps twice over (payloads and arrays): 64 MB and more
+    assert peak < 0.75 * forces.nbytes, f"{peak / 1e6:.1f} MB to check {forces.nbytes / 1e6} MB"
+    messages, records = mcap_records(path)  # a NaN in a later block is still found
+    bad = tmp_path / "bad.mcap"
+    rows = []
+    for schema, channel, message in messages:
+        data = message.data
+        if channel.topic == wk.FORCE_MAP and message.log_time == wk.TIME_ORIGIN_NS + t_ns[5000]:
+            data = data[:-8] + np.float32(np.nan).tobytes() + data[-4:]  # its last force
+        rows.append((channel.id, schema, channel.topic, message.log_time, data, message.log_time))
+    write_mcap(bad, "dresslog 0.1.0", rows, records)
+    said = "force_map: NaN or infinite value in message 5000 of 20000"  # counted in the channel
+    with pytest.raises(TrialFormatError, match=said):
+        summarize(bad)

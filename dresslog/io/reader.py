@@ -22,10 +22,9 @@ from types import TracebackType
 from typing import NoReturn, Self
 
 import numpy as np
-from pydantic import ValidationError
 
-from dresslog.errors import TrialFormatError, first_problem
-from dresslog.io import cdr, jsontext
+from dresslog.errors import TrialFormatError
+from dresslog.io import cdr
 from dresslog.io import well_known as wk
 from dresslog.io.checks import (
     CONVERT_HINT,
@@ -38,8 +37,9 @@ from dresslog.io.checks import (
     task_points,
 )
 from dresslog.io.files import NOT_REGULAR, no_such
+from dresslog.io.opening import check_channels, has_metadata_channel, trial_metadata
 from dresslog.io.source import MAGIC, ChannelInfo, McapSource, file_summary, summary_counts
-from dresslog.spec import RECORDED, TRIAL_FORMAT_VERSION, TrialMetadata
+from dresslog.spec import TrialMetadata
 from dresslog.trial import (
     CONTACT_DTYPE,
     Contacts,
@@ -99,12 +99,14 @@ class TrialMessage:
 
 
 class _Gathered:
-    """One channel's messages decoded as they are read: runs of one layout, their log
-    times, and the payloads of the block not yet decoded."""
+    """One channel's messages decoded as they are read: runs of one layout (none if only
+    checked), their log times and stamps, and the payloads of the block not yet decoded."""
 
-    def __init__(self) -> None:
+    def __init__(self, check_only: bool = False) -> None:
+        self.check_only = check_only
         self.runs: list[np.ndarray] = []
         self.log_ns: list[np.ndarray] = []
+        self.stamps: list[np.ndarray] = []
         self.block: list[bytes] = []
         self.block_log: list[int] = []
         self.decoded = 0
@@ -119,6 +121,8 @@ class TrialReader:
         self._metadata: TrialMetadata | None = None
         self._origin = 0
         self._pending: dict[str, list[np.ndarray]] = {}  # read ahead by `read`, not yet taken
+        self._widths: dict[str, int] = {}  # per channel checked block by block: its width
+        self._block: tuple[int, int] | None = None  # the block checked: first message, of all
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
@@ -146,9 +150,9 @@ class TrialReader:
         self._source = McapSource(self.path)
         try:
             self._source.open()
-            metadata = self._source.metadata.get(wk.METADATA_NAME)
-            self._check_channels(metadata is not None or self._has_metadata_channel())
-            self._metadata = self._parse_metadata(metadata)
+            has_record = wk.METADATA_NAME in self._source.metadata
+            check_channels(self._source, has_record or has_metadata_channel(self._source))
+            self._metadata = trial_metadata(self._source)
             self._origin = self._metadata.time_origin_ns
         except BaseException:
             self.close()
@@ -171,103 +175,6 @@ class TrialReader:
         tb: TracebackType | None,
     ) -> None:
         self.close()
-
-    def _has_metadata_channel(self) -> bool:
-        info = self._opened().channels.get(wk.METADATA_TOPIC)
-        return info is not None and info.count > 0
-
-    def _check_channels(self, has_metadata: bool) -> None:
-        """Refuse a file without our required channels, or with ours under another schema."""
-        channels = self._opened().channels
-        if not any(info.count for t, info in channels.items() if t != wk.METADATA_TOPIC):
-            empty = ", ".join(sorted(channels))
-            what = f" (its channels {empty} are empty)" if empty else ""
-            if not has_metadata:
-                raise TrialFormatError(
-                    f"holds no messages{what} and no `{wk.METADATA_NAME}` metadata record: "
-                    f"an empty MCAP file, not a trial; {CONVERT_HINT}",
-                    path=self.path,
-                )
-            raise TrialFormatError(
-                f"holds no messages{what}: a trial with no step; re-record it", path=self.path
-            )
-        missing = [t for t in wk.REQUIRED if t not in channels]
-        if missing and (not has_metadata or not any(t in channels for t in wk.SCHEMAS)):
-            topics = ", ".join(sorted(channels)) or "none"
-            raise TrialFormatError(
-                f"not a dresslog trial (channels: {topics}); {CONVERT_HINT}", path=self.path
-            )
-        if missing:
-            raise TrialFormatError(
-                f"missing channel {missing[0]}; the model needs end-effector wrench and twist",
-                path=self.path,
-            )
-        for topic, info in channels.items():
-            expected = wk.SCHEMAS.get(topic) or wk.UNSTAMPED.get(topic)
-            if expected and (info.schema, info.encoding) != (expected, wk.MESSAGE_ENCODING):
-                raise TrialFormatError(
-                    f"has schema {info.schema or 'none'} ({info.encoding}), "
-                    f"expected {expected} (cdr)",
-                    path=self.path,
-                    channel=topic,
-                )
-
-    def _metadata_from_channel(self) -> dict[str, str] | None:
-        """The metadata a generic tool kept: the last message of the latched channel
-        `/dresslog/metadata` (a std_msgs/msg/String of the record's JSON), for a file whose
-        record a conversion (to a ROS 1 bag and back) dropped."""
-        if not self._has_metadata_channel():
-            return None
-        last = b""
-        for _, _, data in self._opened().messages([wk.METADATA_TOPIC]):
-            last = data
-        try:
-            text = cdr.decode(wk.UNSTAMPED[wk.METADATA_TOPIC], [last])[0][0]["data"]
-            record = jsontext.loads(text.decode())
-        except (cdr.MessageError, ValueError, KeyError) as err:
-            raise TrialFormatError(
-                f"message does not hold the trial's metadata: {err}",
-                path=self.path,
-                channel=wk.METADATA_TOPIC,
-            ) from None
-        if not isinstance(record, dict) or not all(isinstance(v, str) for v in record.values()):
-            raise TrialFormatError(
-                "message is not the JSON of the metadata record (names and texts)",
-                path=self.path,
-                channel=wk.METADATA_TOPIC,
-            )
-        return record
-
-    def _parse_metadata(self, metadata: dict[str, str] | None) -> TrialMetadata:
-        """The trial's metadata from the `dresslog` record (or, where a generic tool dropped
-        it, from its latched channel), or why it cannot be read."""
-        if metadata is None:
-            metadata = self._metadata_from_channel()
-        if metadata is None:
-            raise TrialFormatError(
-                f"has no `{wk.METADATA_NAME}` metadata record; {CONVERT_HINT}", path=self.path
-            )
-        if "trial" not in metadata:
-            raise TrialFormatError(
-                f"`{wk.METADATA_NAME}` metadata record has no `trial` entry", path=self.path
-            )
-        try:
-            entry = jsontext.loads(metadata["trial"])
-            version = entry.get("format_version") if isinstance(entry, dict) else None
-            if isinstance(version, int) and version > TRIAL_FORMAT_VERSION:
-                raise TrialFormatError(
-                    f"written by a newer dresslog (trial format {version}; this one reads "
-                    f"{TRIAL_FORMAT_VERSION}); upgrade dresslog",
-                    path=self.path,
-                )
-            return TrialMetadata.model_validate(entry, context=RECORDED)
-        except ValidationError as err:
-            problem = first_problem(err, "metadata")
-            message = f"metadata record is invalid: {problem}"
-            raise TrialFormatError(message, path=self.path) from None
-        except ValueError as err:  # not JSON, NaN, nested past reading
-            first = str(err).splitlines()[0]
-            raise TrialFormatError(f"metadata record is invalid: {first}", path=self.path) from None
 
     # -- reading on demand -----------------------------------------------------
     def _opened(self) -> McapSource:
@@ -306,12 +213,14 @@ class TrialReader:
         found = self._opened().messages(chosen, low, high)  # refused now, read when iterated
         return (TrialMessage(topic, log_ns - origin, data) for topic, log_ns, data in found)
 
-    def _read_ahead(self, topics: Iterable[str]) -> None:
+    def _read_ahead(self, topics: Iterable[str], check_only: Iterable[str] = ()) -> None:
         """Decode the channels of `topics` in one pass over the file, for the properties
         that take them (`read` asks for every stream, and a pass per channel would
-        decompress the file once for each)."""
+        decompress the file once for each); those of `check_only` are checked block by
+        block and let go (`check`)."""
         wanted = [t for t in topics if self.has(t) and t not in self._pending]
-        gathered = {topic: _Gathered() for topic in wanted}
+        only = set(check_only)
+        gathered = {topic: _Gathered(topic in only) for topic in wanted}
         if not gathered:
             return
         # in file order: the stamps put them in order, and merging by log time costs more
@@ -323,7 +232,9 @@ class TrialReader:
                 self._decode_block(topic, into)
         for topic, into in gathered.items():
             self._decode_block(topic, into)
-            self._pending[topic] = self._in_stamp_order(topic, into)
+            runs = self._in_stamp_order(topic, into)
+            if not into.check_only:
+                self._pending[topic] = runs
 
     def _decode_block(self, topic: str, into: _Gathered) -> None:
         """Decode the payloads gathered so far; refuse one not plain CDR or not its schema."""
@@ -342,7 +253,7 @@ class TrialReader:
                     channel=topic,
                 )
         try:
-            into.runs += cdr.decode(wk.SCHEMAS[topic], block)
+            runs = cdr.decode(wk.SCHEMAS[topic], block)
         except cdr.MessageError as err:
             raise TrialFormatError(
                 f"message {at + err.index} of {count} does not match its schema: "
@@ -357,6 +268,33 @@ class TrialReader:
         into.log_ns.append(np.asarray(into.block_log, dtype=np.int64))
         into.decoded += len(block)
         into.block, into.block_log = [], []
+        if into.check_only:
+            into.stamps += [cdr.stamp_ns(run) for run in runs]
+            self._block = into.decoded - len(block), self._opened().channels[topic].count
+            try:
+                self._check_block(topic, runs)
+            finally:
+                self._block = None
+        else:
+            into.runs += runs
+
+    def _check_block(self, topic: str, runs: list[np.ndarray]) -> None:
+        """Check one block of a channel as its property checks the whole, and that it has
+        the width of the blocks before it; nothing of it is kept (`check`)."""
+        self._pending[topic] = runs  # what the property's `_decode` takes
+        if topic == wk.CONTACTS:
+            self._contacts()
+            return
+        if topic == wk.GARMENT:
+            width = len(self._garment().vertices[0])
+            problem = "the garment changes size ({} vertices)"
+        else:
+            maps = self.force_maps(estimate=topic == wk.ESTIMATE)
+            assert maps is not None
+            width, problem = maps.forces.shape[1], "force maps change size ({})"
+        first = self._widths.setdefault(topic, width)
+        if first != width:
+            self._corrupt(problem.format(sorted({first, width})), topic)
 
     def _in_stamp_order(self, topic: str, into: _Gathered) -> list[np.ndarray]:
         """A channel's decoded runs ordered by header stamp; refuse a stamp that repeats or
@@ -367,12 +305,12 @@ class TrialReader:
         driver that never set its headers, a message written twice) have no one meaning.
         """
         runs = into.runs
-        stamps = np.concatenate([cdr.stamp_ns(run) for run in runs])
+        stamps = np.concatenate(into.stamps or [cdr.stamp_ns(run) for run in runs])
         log_ns = np.concatenate(into.log_ns)
         if topic != wk.LIMB_POINTS and (back := backwards(log_ns, stamps)):
             raise TrialFormatError(f"{back}; {CURE}", path=self.path, channel=topic)
         order = np.argsort(stamps, kind="stable")
-        if (np.diff(order) != 1).any():  # one message per row, put in order, runs joined again
+        if runs and (np.diff(order) != 1).any():  # a row per message, in order, joined again
             rows = [run[i : i + 1] for run in runs for i in range(len(run))]
             groups: list[list[np.ndarray]] = []
             for i in order:
@@ -499,7 +437,8 @@ class TrialReader:
         maps = ForceMaps(self._t_ns(msgs), msgs["forces"].copy(), msgs["contact"].copy())
         bad = np.flatnonzero(~np.isfinite(maps.forces).all(axis=1))
         if len(bad) or not np.isfinite(maps.contact).all():
-            at = f" in message {bad[0]} of {len(msgs)}" if len(bad) else " in a contact map"
+            first, count = self._block or (0, len(msgs))  # a block's: counted in the channel
+            at = f" in message {first + bad[0]} of {count}" if len(bad) else " in a contact map"
             self._corrupt(f"NaN or infinite value{at}", topic)
         limb = self.limb_points
         width = maps.forces.shape[1]
@@ -548,8 +487,9 @@ class TrialReader:
     @cached_property
     def contacts(self) -> Contacts | None:
         """Per-step garment-limb contacts (CONTACT_DTYPE arrays)."""
-        if not self.has(wk.CONTACTS):
-            return None
+        return self._contacts() if self.has(wk.CONTACTS) else None
+
+    def _contacts(self) -> Contacts:
         items: list[np.ndarray] = []
         times: list[np.ndarray] = []
         for run in self._decode(wk.CONTACTS):
@@ -575,8 +515,9 @@ class TrialReader:
     @cached_property
     def garment(self) -> GarmentStates | None:
         """Garment vertices over time and the triangles from the first message."""
-        if not self.has(wk.GARMENT):
-            return None
+        return self._garment() if self.has(wk.GARMENT) else None
+
+    def _garment(self) -> GarmentStates:
         runs = self._decode(wk.GARMENT)
         msgs = [m for run in runs for m in run]
         corners = msgs[0]["triangles"].astype(np.int64)
@@ -619,18 +560,19 @@ class TrialReader:
         )
 
     def check(self) -> None:
-        """Read and check every stream as `read` does, in one pass, letting each go once
-        checked: what `info` does to pass only files `infer` runs on, in the memory of the
-        decoded streams rather than of the whole `Trial` beside them."""
-        self._read_ahead(t for t, name in _PROPERTY.items() if name not in self.__dict__)
-        _ = self.measurements
-        for name in ("force_map", "estimate"):  # they check the limb points, kept (small)
-            _ = getattr(self, name)
-            self.__dict__.pop(name, None)
+        """Read and check every stream as `read` does, in one pass, keeping only the small
+        ones: the force maps, contacts and garment are checked block by block and let go.
+        What `info` does to pass only files `infer` runs on, in the memory of one block
+        of them rather than of the whole `Trial`."""
+        _ = self.limb_points  # small, and every map is checked against it
+        heavy = [
+            t
+            for t in (wk.FORCE_MAP, wk.ESTIMATE, wk.CONTACTS, wk.GARMENT)
+            if self.has(t) and _PROPERTY[t] not in self.__dict__
+        ]
+        self._read_ahead([wk.WRENCH, wk.TWIST, wk.POSE, *heavy], check_only=heavy)
+        _ = self.measurements, self.pose
         self._check_limb()
-        for name in ("pose", "contacts", "garment"):
-            _ = getattr(self, name)
-            self.__dict__.pop(name, None)
 
 
 def read_trial(path: str | Path) -> Trial:

@@ -248,8 +248,9 @@ class McapSource:
 
 def file_summary(path: str | Path) -> tuple[str, Summary, bool] | None:
     """An MCAP file's profile, its summary section and whether it holds a `dresslog`
-    metadata record, read without its messages; None for a file with none of that to
-    read (not MCAP, cut short, no summary section), which a whole read explains."""
+    metadata record (or the channel `/dresslog/metadata`), read without its messages;
+    None for a file with none of that to read (not MCAP, cut short, no summary section),
+    which a whole read explains."""
     try:
         with Path(path).open("rb") as stream:
             if stream.read(len(MAGIC)) != MAGIC:
@@ -261,7 +262,9 @@ def file_summary(path: str | Path) -> tuple[str, Summary, bool] | None:
         return None
     if summary is None:
         return None
-    ours = any(index.name == wk.METADATA_NAME for index in summary.metadata_indexes)
+    ours = any(index.name == wk.METADATA_NAME for index in summary.metadata_indexes) or any(
+        channel.topic == wk.METADATA_TOPIC for channel in summary.channels.values()
+    )  # the record, or its copy on the channel that generic tools keep
     return profile, summary, ours
 
 
