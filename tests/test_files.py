@@ -85,6 +85,8 @@ def test_a_lock_held_by_another_process_refuses_and_names_it(tmp_path: Path) -> 
     finally:
         holder.kill()
         holder.wait()
+        if holder.stdout is not None:
+            holder.stdout.close()
     for _ in range(50):  # the OS lets go when the holder dies, however it dies
         try:
             with exclusive(lock, "dresslog generate", tmp_path):

@@ -570,7 +570,8 @@ class TrialReader:
             for t in (wk.FORCE_MAP, wk.ESTIMATE, wk.CONTACTS, wk.GARMENT)
             if self.has(t) and _PROPERTY[t] not in self.__dict__
         ]
-        self._read_ahead([wk.WRENCH, wk.TWIST, wk.POSE, *heavy], check_only=heavy)
+        kept = [t for t in (wk.WRENCH, wk.TWIST, wk.POSE) if _PROPERTY[t] not in self.__dict__]
+        self._read_ahead([*kept, *heavy], check_only=heavy)
         _ = self.measurements, self.pose
         self._check_limb()
 
