@@ -349,7 +349,8 @@ class TrialSpec(BaseModel):
 
 
 #: The version of the metadata a trial written now carries; a newer one is refused.
-TRIAL_FORMAT_VERSION = 1
+#: 2: stamps count from `time_origin_ns` (2020-01-01), not from 0.
+TRIAL_FORMAT_VERSION = 2
 
 
 class TrialMetadata(BaseModel):
@@ -370,6 +371,12 @@ class TrialMetadata(BaseModel):
         description="for converted logs: source file, topics, rates, processing",
     )
     software: dict[str, str] = Field(default_factory=dict)
+    time_origin_ns: StrictInt = Field(
+        0,
+        ge=0,
+        description="the stamp (ns since the Unix epoch) of the trial's time 0, which "
+        "readers count its times from: 2020-01-01 in files of format 2, 0 in those before",
+    )
 
 
 SCHEMA_FILE = "trial_metadata.schema.json"

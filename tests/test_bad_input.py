@@ -18,7 +18,7 @@ from dresslog.io import cdr
 from dresslog.io import well_known as wk
 from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader
-from dresslog.spec import Task, TrialMetadata
+from dresslog.spec import TRIAL_FORMAT_VERSION, Task, TrialMetadata
 from tests.conftest import SAMPLES, McapRow, mcap_records, prints_warnings, write_mcap
 
 
@@ -297,7 +297,7 @@ def nan_contact(tmp: Path, good: Path) -> Path:
 
 
 def from_a_newer_dresslog(tmp: Path, good: Path) -> Path:
-    trial = '{"format_version": 2, "task": "gown", "new_field": 1}'
+    trial = f'{{"format_version": {TRIAL_FORMAT_VERSION + 1}, "task": "gown", "new_field": 1}}'
     return _with_steps(tmp / "newer.mcap", {}, metadata={"task": "gown", "trial": trial})
 
 
@@ -349,7 +349,11 @@ CASES: list[tuple[Callable[[Path, Path], Path], str]] = [
     (nan_garment_vertex, "channel /garment/state: NaN or infinite vertex"),
     (nan_limb_point, "channel /limb/points: NaN or infinite limb point"),
     (nan_contact, "channel /limb/contacts: NaN or infinite value in a contact"),
-    (from_a_newer_dresslog, r"newer dresslog \(trial format 2; this one reads 1\); upgrade"),
+    (
+        from_a_newer_dresslog,
+        rf"newer dresslog \(trial format {TRIAL_FORMAT_VERSION + 1}; this one reads "
+        rf"{TRIAL_FORMAT_VERSION}\); upgrade",
+    ),
     (metadata_without_the_trial, "`dresslog` metadata record has no `trial` entry"),
     (a_pipe, "not a regular file"),
     (link_to_nothing, "is a symbolic link to .*moved/trial.mcap, which does not exist; mend the"),

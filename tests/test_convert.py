@@ -214,15 +214,15 @@ def test_a_dresslog_trial_exported_as_a_ros2_bag_converts_back_unchanged(tmp_pat
     with TrialReader(original) as reader, Writer(bag, version=9) as out:
         for topic in (wk.WRENCH, wk.TWIST, wk.POSE):
             connection = out.add_connection(topic, wk.SCHEMAS[topic], typestore=typestore(False))
-            for log_ns, payload in zip(*reader.messages(topic), strict=True):
-                out.write(connection, int(log_ns) + 5_000_000_000, payload)  # logged later
+            for message in reader.messages(topic):  # on the trial's clock, from 0
+                out.write(connection, message.t_ns + 5_000_000_000, message.data)  # logged later
         before = reader.measurements
     back = tmp_path / "back.mcap"
     report = convert(bag, back, "gown")
     with TrialReader(back) as reader:
         after = reader.measurements
-    # the simulation clock's first stamp is 0, and it is still the header clock that counts
-    assert report.source["start_ns"] == 0 and "notes" not in report.source
+    # the trial's first stamp is its time origin, and it is still the header clock that counts
+    assert report.source["start_ns"] == wk.TIME_ORIGIN_NS and "notes" not in report.source
     assert {s["clock"] for s in report.source["streams"].values()} == {"header"}
     np.testing.assert_array_equal(after.t_ns, before.t_ns)
     np.testing.assert_allclose(after.phi, before.phi, atol=1e-6)

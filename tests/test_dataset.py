@@ -364,7 +364,9 @@ def test_a_hand_edited_manifest_that_moves_a_trial_is_refused(
 
 
 def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
-    """A slow fake generation in its own session, once two trials are on disk."""
+    """A slow fake generation in its own session, once its three quick trials are on disk
+    (slots 0-2): a stop then keeps two or more, the last placed perhaps not yet reported
+    (its worker stopped between renaming and reporting it: tidied, as it is unlisted)."""
     script = (
         "from dresslog.dataset import Execution, generate\n"
         "from tests.test_dataset import slow_record\n"
@@ -377,7 +379,7 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
         [sys.executable, "-c", script], cwd=root, start_new_session=True, stderr=subprocess.PIPE
     )
     deadline = time.monotonic() + 60
-    while len(list(out.glob("*/*.mcap"))) < 2 and time.monotonic() < deadline:
+    while len(list(out.glob("*/*.mcap"))) < 3 and time.monotonic() < deadline:
         time.sleep(0.05)
     return run
 

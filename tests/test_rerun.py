@@ -656,6 +656,30 @@ def test_a_trial_with_no_force_on_the_limb_gets_the_fixed_colour_scale(tmp_path:
     assert "dark to bright = 0 to 0.5 N and over (one scale" in spec_text(rrd)
 
 
+def _on_the_wall_clock(trial: Path, out: Path, start_ns: int) -> Path:
+    """`trial` as another tool writes one on the wall clock: its time 0 stamped `start_ns`
+    and no time origin in its metadata (TrialWriter stamps time 0 as 2020-01-01)."""
+    import json
+    import struct
+
+    from dresslog.io import well_known as wk
+    from tests.conftest import mcap_records, write_mcap
+
+    stamp = struct.Struct("<iI")  # a header stamp after the 4-byte encapsulation
+    messages, metadata = mcap_records(trial)
+    rows = []
+    for schema, channel, message in messages:
+        t = message.log_time - wk.TIME_ORIGIN_NS + start_ns
+        data = bytearray(message.data)
+        if channel.topic in wk.SCHEMAS:
+            stamp.pack_into(data, 4, *divmod(t, 1_000_000_000))
+        rows.append((channel.id, schema, channel.topic, t, bytes(data), t))
+    records = dict(metadata)
+    entry = json.loads(records[wk.METADATA_NAME]["trial"]) | {"time_origin_ns": 0}
+    records[wk.METADATA_NAME] = {"task": entry["task"], "trial": json.dumps(entry)}
+    return write_mcap(out, "another tool", rows, list(records.items()))
+
+
 def test_a_trial_stamped_on_the_wall_clock_opens_at_zero_seconds_with_its_timestamps(
     tmp_path: Path,
 ) -> None:
@@ -665,11 +689,13 @@ def test_a_trial_stamped_on_the_wall_clock_opens_at_zero_seconds_with_its_timest
     from dresslog.replay.pipeline import replay_file
     from dresslog.spec import TrialMetadata
 
-    t_ns = LOG_START_NS + np.arange(15, dtype=np.int64) * 10_000_000
-    log = tmp_path / "stamped.mcap"
-    with TrialWriter(log, TrialMetadata(task=Task.GOWN)) as writer:
-        writer.write_wrench(t_ns, np.zeros((15, 6)))
-        writer.write_twist(t_ns, np.zeros((15, 6)))
+    steps = np.arange(15, dtype=np.int64) * 10_000_000
+    ours = tmp_path / "ours.mcap"
+    with TrialWriter(ours, TrialMetadata(task=Task.GOWN)) as writer:
+        writer.write_wrench(steps, np.zeros((15, 6)))
+        writer.write_twist(steps, np.zeros((15, 6)))
+    t_ns = LOG_START_NS + steps
+    log = _on_the_wall_clock(ours, tmp_path / "stamped.mcap", LOG_START_NS)
     rrd = tmp_path / "stamped.rrd"
     replay_file(log, model=save_random_model(tmp_path), rrd=rrd)
     force = temporal(rrd)[bp.EE_FORCE]

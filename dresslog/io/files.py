@@ -305,11 +305,44 @@ def discard_temporaries(path: str | Path) -> None:
         discard(tmp)
 
 
+def _sync_tree(path: Path) -> None:
+    """`_sync` a file, or a folder's files and then the folder."""
+    if path.is_dir() and not path.is_symlink():
+        for inner in sorted(path.rglob("*")):
+            if inner.is_file() and not inner.is_symlink():
+                _sync(inner)
+    _sync(path)
+
+
+def _sync(path: Path) -> None:
+    """Flush a file's bytes (a folder's entries) to the disk: a rename is written before
+    the data it names, so a power cut after it could leave an empty file under the final
+    name. A folder is not opened for syncing on Windows: skipped there."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:  # a folder on Windows
+        return
+    try:
+        os.fsync(fd)
+    except OSError as err:  # a file system that cannot sync (EINVAL): nothing to do
+        if err.errno not in (errno.EINVAL, errno.EBADF, errno.EROFS):
+            raise
+    finally:
+        os.close(fd)
+
+
 def put_in_place(tmp: str | Path, path: str | Path, *, overwrite: bool) -> None:
-    """Rename the finished `tmp` to `path`. Without `overwrite`, never over a file that
-    appeared there meanwhile (another command's, written while this one worked): rename
-    would replace it silently, a hard link refuses to."""
-    tmp = Path(tmp)
+    """Rename the finished `tmp` to `path`, its bytes on the disk first and the folder's
+    new entry after. Without `overwrite`, never over a file that appeared there meanwhile
+    (another command's, written while this one worked): rename would replace it
+    silently, a hard link refuses to."""
+    tmp, path = Path(tmp), Path(path)
+    _sync_tree(tmp)
+    _rename(tmp, path, overwrite=overwrite)
+    _sync(path.parent)
+
+
+def _rename(tmp: Path, path: Path, *, overwrite: bool) -> None:
     if overwrite:
         tmp.replace(path)
         return
@@ -360,40 +393,33 @@ def sha256_file(path: str | Path) -> str:
 
 @contextmanager
 def exclusive(lock: str | Path, command: str, output: str | Path | None = None) -> Iterator[None]:
-    """Refuse a second `command` on `output` while one runs: an OS lock on the file `lock`.
+    """Refuse a second `command` on `output` while one runs: an OS lock on the file `lock`
+    (`filelock`: flock on POSIX, LockFileEx on Windows).
 
-    The kernel releases the lock when its process ends, however it ends, so a killed
-    run leaves nothing to clean up; the file names the holder for the message.
+    The OS releases the lock when its process ends, however it ends, so a killed run
+    leaves nothing to clean up; the file names the holder for the message. The file is
+    removed while still held, and `filelock` takes a file removed under it for none.
     """
-    import fcntl
+    from filelock import FileLock, Timeout
 
     lock = Path(lock)
-    while True:
+    held = FileLock(lock, timeout=0, thread_local=False)
+    try:
+        held.acquire()
+    except Timeout:
         try:
-            fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
-        except PermissionError:  # left by another user: a shared lock on it still works
-            fd = os.open(lock, os.O_RDONLY)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.read(fd, 200).decode(errors="replace").strip() or "starting"
-            os.close(fd)
-            raise TrialWriteError(
-                f"another `{command}` ({holder}) is writing it; wait for it to finish",
-                path=output or lock.parent,
-            ) from None
-        try:  # the file may have been removed by the holder we waited on: lock the new one
-            if os.fstat(fd).st_ino == lock.stat().st_ino:
-                break
-        except FileNotFoundError:
-            pass
-        os.close(fd)
+            holder = lock.read_text(errors="replace").strip()[:200]
+        except OSError:
+            holder = ""
+        raise TrialWriteError(
+            f"another `{command}` ({holder or 'starting'}) is writing it; wait for it to finish",
+            path=output or lock.parent,
+        ) from None
     try:
         with contextlib.suppress(OSError):  # read-only when another user made the file
-            os.ftruncate(fd, 0)
-            os.write(fd, f"{socket.gethostname()} pid {os.getpid()}".encode())
+            lock.write_text(f"{socket.gethostname()} pid {os.getpid()}")
         yield
     finally:
         with contextlib.suppress(OSError):  # while still held, so no one locks a removed file
             lock.unlink(missing_ok=True)
-        os.close(fd)
+        held.release()

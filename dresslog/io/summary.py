@@ -40,10 +40,11 @@ class TrialSummary(BaseModel):
 def summarize(path: str | Path) -> TrialSummary:
     """Open a trial and describe it; raises `TrialFormatError` for anything not a trial.
 
-    Every stream is decoded and checked, so a file `info` passes is one `infer` runs on.
+    Every stream is decoded and checked, so a file `info` passes is one `infer` runs on;
+    none is kept once checked.
     """
     with TrialReader(path) as reader:
-        reader.read()
+        reader.check()
         t_ns = reader.measurements.t_ns
         steps = len(t_ns)
         rate = median_rate(t_ns)

@@ -115,8 +115,18 @@ _QOS = """\
 STREAM_QOS = _QOS.format(depth=10, durability=2)
 #: Written once: latched (transient local, keep the last 1), so a late subscriber still gets it.
 LATCHED_QOS = _QOS.format(depth=1, durability=1)
+#: The trial's metadata record again, as the JSON text of a std_msgs/msg/String on a
+#: latched channel: generic tools (rosbags-convert to a ROS 1 bag and back) drop MCAP
+#: metadata records but keep messages. Not stamped, so not one of `SCHEMAS`' streams.
+METADATA_TOPIC = "/dresslog/metadata"
+#: Topic -> ROS 2 message type of dresslog's channels without a header.
+UNSTAMPED: dict[str, str] = {METADATA_TOPIC: "std_msgs/msg/String"}
+#: The stamp of a trial's time 0 in files of format 2 (2020-01-01T00:00:00Z, ns since the
+#: Unix epoch): viewers that show stamps as dates (Foxglove, Rerun's MCAP importer) show
+#: a date near today's, not 1970, and the same spec still gives the same bytes.
+TIME_ORIGIN_NS = 1_577_836_800 * 1_000_000_000
 QOS: dict[str, str] = dict.fromkeys([*SCHEMAS, *DRAWN], STREAM_QOS) | dict.fromkeys(
-    (LIMB_POINTS, LIMB_MARKER, PATH_MARKER, TF_STATIC), LATCHED_QOS
+    (LIMB_POINTS, LIMB_MARKER, PATH_MARKER, TF_STATIC, *UNSTAMPED), LATCHED_QOS
 )
 #: The metadata record Humble's recorder writes (name, contents); see `_QOS`.
 ROSBAG2_METADATA = ("rosbag2", {"ROS_DISTRO": "humble"})

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import struct
 from collections.abc import Sequence
 from functools import cache
@@ -36,7 +37,7 @@ from dresslog.io.files import (
     temporary_path,
 )
 from dresslog.io.msgdefs import schema_text
-from dresslog.spec import TrialMetadata
+from dresslog.spec import TRIAL_FORMAT_VERSION, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
 
 CHUNK_SIZE = 4 * 1024 * 1024
@@ -117,6 +118,7 @@ class TrialWriter:
         self._path: list[tuple[np.ndarray, np.ndarray]] = []  # pose stamps and positions
         self._drawn_bin: dict[str, int] = {}  # per drawn topic: the last period it drew
         self._steps: dict[str, list[np.ndarray]] = {wk.WRENCH: [], wk.TWIST: []}
+        self._origin = wk.TIME_ORIGIN_NS  # what a stamp adds to a trial time
 
     # -- lifecycle -------------------------------------------------------------
     def open(self) -> Self:
@@ -156,14 +158,26 @@ class TrialWriter:
             )
         self._write_path()
         metadata = self.metadata.model_copy(
-            update={"software": self.metadata.software or software_versions()}
+            update={
+                "software": self.metadata.software or software_versions(),
+                "format_version": TRIAL_FORMAT_VERSION,
+                "time_origin_ns": self._origin,
+            }
         )
-        writer.add_metadata(
-            wk.METADATA_NAME, {"task": metadata.task.value, "trial": metadata.model_dump_json()}
-        )
+        record = {"task": metadata.task.value, "trial": metadata.model_dump_json()}
+        self._write_metadata_message(record)
+        writer.add_metadata(wk.METADATA_NAME, record)
         writer.finish()
         stream.close()
         self._writer = self._stream = None
+
+    def _write_metadata_message(self, record: dict[str, str]) -> None:
+        """The metadata record again as a latched message at the trial's time 0, which
+        tools that drop MCAP metadata records keep (see `wk.METADATA_TOPIC`)."""
+        text = json.dumps(record).encode()
+        message = cdr.new_messages(wk.UNSTAMPED[wk.METADATA_TOPIC], {"data": len(text)}, 1)
+        message["data"] = text
+        self._write_payloads(wk.METADATA_TOPIC, [self._origin], cdr.to_payloads(message))
 
     def place(self) -> None:
         """Move the file `finish` wrote to its final name."""
@@ -219,7 +233,12 @@ class TrialWriter:
         if self._writer is None:
             raise TrialWriteError("writer is not open", path=self.path)
         if topic not in self._channels:
-            name = wk.SCHEMAS.get(topic) or wk.RECEIVED_SCHEMAS.get(topic) or wk.DRAWN[topic]
+            name = (
+                wk.SCHEMAS.get(topic)
+                or wk.RECEIVED_SCHEMAS.get(topic)
+                or wk.UNSTAMPED.get(topic)
+                or wk.DRAWN[topic]
+            )
             if name not in self._schemas:
                 self._schemas[name] = self._writer.register_schema(
                     name, wk.SCHEMA_ENCODING, schema_text(name).encode()
@@ -246,7 +265,8 @@ class TrialWriter:
         self._sequence[topic] = seq
 
     def _times(self, topic: str, t_ns: int | np.ndarray, count: int) -> np.ndarray:
-        """`count` integer-nanosecond stamps, increasing on `topic` from call to call."""
+        """The stamps of `count` integer-nanosecond trial times, increasing on `topic` from
+        call to call: the times moved on by the origin (`wk.TIME_ORIGIN_NS`)."""
         raw = np.atleast_1d(np.asarray(t_ns))
         problem = ""
         if raw.dtype.kind not in "iu":
@@ -258,12 +278,15 @@ class TrialWriter:
             after = self._last_stamp.get(topic, -1)
             if times[0] <= after or (np.diff(times) <= 0).any():
                 problem = "times must increase from message to message, and not be negative"
-            elif times[-1] > MAX_STAMP_NS:
-                problem = f"time {times[-1]} ns is past what a ROS 2 stamp holds (2**31 s)"
+            elif times[-1] > MAX_STAMP_NS - self._origin:
+                problem = (
+                    f"time {times[-1]} ns is past what a ROS 2 stamp holds (2**31 s from 1970, "
+                    f"and the trial's time 0 is at {self._origin} ns)"
+                )
             self._last_stamp[topic] = int(times[-1])
         if problem:
             raise TrialWriteError(f"{topic}: {problem}", path=self.path)
-        return times
+        return times + self._origin
 
     def _stamped(
         self,

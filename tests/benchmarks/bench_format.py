@@ -1,7 +1,11 @@
 """Benchmark: write and read back 100,000 ForceMap messages of 400 float32.
 
-dresslog's numpy CDR codec (TrialWriter / TrialReader) against mcap_ros2's
-generic writer and decoder, measured in the same run. Target: >= 5x both ways.
+dresslog's numpy CDR codec (TrialWriter / TrialReader) against the strongest peer,
+rosbags' serde (`Typestore.serialize_cdr` / `deserialize_cdr`, compiled per type),
+each message written and read through mcap's own writer and reader; mcap_ros2's
+pure-Python codec is shown beside them. The codec alone (payloads to and from numpy,
+no file) is timed too, so the file's share is seen apart. Target: >= 5x both ways
+against mcap_ros2; against rosbags, what is measured.
 
 Then the cost of the standard channels viewers draw (`dresslog.io.drawn`: force
 clouds, markers, tf): a recorded trial (samples/gown.mcap) written with them
@@ -21,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from dresslog.io import well_known as wk
-from dresslog.io.msgdefs import schema_text
+from dresslog.io.msgdefs import msg_text, schema_text
 from dresslog.io.reader import TrialReader
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Task, TrialMetadata
@@ -74,6 +78,85 @@ def ros2_read(path: Path) -> np.ndarray:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         rows = [msg.forces for *_, msg in reader.iter_decoded_messages(topics=[wk.FORCE_MAP])]
     return np.asarray(rows, dtype=np.float32)
+
+
+def _rosbags_store():  # rosbags.typesys.Typestore
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    name = wk.SCHEMAS[wk.FORCE_MAP]
+    store.register(get_types_from_msg(msg_text(name), name))
+    return store
+
+
+def rosbags_write(path: Path, t_ns: np.ndarray, forces: np.ndarray) -> None:
+    """rosbags' serialiser message by message, into an MCAP by mcap's writer."""
+    from mcap.writer import CompressionType, Writer
+
+    store, name = _rosbags_store(), wk.SCHEMAS[wk.FORCE_MAP]
+    ForceMap, Header, Time = (  # noqa: N806 (classes)
+        store.types[n] for n in (name, "std_msgs/msg/Header", "builtin_interfaces/msg/Time")
+    )
+    empty = np.zeros(0, np.float32)
+    with path.open("wb") as stream:
+        writer = Writer(stream, compression=CompressionType.ZSTD)
+        writer.start(profile="ros2", library="bench")
+        sid = writer.register_schema(name, "ros2msg", schema_text(name).encode())
+        cid = writer.register_channel(wk.FORCE_MAP, "cdr", sid)
+        for i, (t, row) in enumerate(zip(t_ns.tolist(), forces, strict=True)):
+            stamp = Time(sec=t // 10**9, nanosec=t % 10**9)
+            msg = ForceMap(header=Header(stamp=stamp, frame_id="world"), forces=row, contact=empty)
+            writer.add_message(cid, t, bytes(store.serialize_cdr(msg, name)), t, i)
+        writer.finish()
+
+
+def rosbags_read(path: Path) -> np.ndarray:
+    """mcap's reader, rosbags' deserialiser message by message."""
+    from mcap.reader import make_reader
+
+    store, name = _rosbags_store(), wk.SCHEMAS[wk.FORCE_MAP]
+    with path.open("rb") as stream:
+        rows = [
+            store.deserialize_cdr(message.data, name).forces
+            for *_, message in make_reader(stream).iter_messages(topics=[wk.FORCE_MAP])
+        ]
+    return np.asarray(rows, dtype=np.float32)
+
+
+def codecs(t_ns: np.ndarray, forces: np.ndarray) -> dict[str, tuple[float, float]]:
+    """Encode and decode alone, no file: (encode s, decode s) of dresslog's and rosbags'."""
+    from dresslog.io import cdr
+
+    name = wk.SCHEMAS[wk.FORCE_MAP]
+
+    def ours_encode() -> list[bytes]:
+        msgs = cdr.new_messages(name, {"header.frame_id": 5, "forces": N_POINTS, "contact": 0},
+                                len(forces))  # fmt: skip
+        cdr.set_stamp(msgs, t_ns, "world")
+        msgs["forces"] = forces
+        return cdr.to_payloads(msgs)
+
+    encode_ours, payloads = timed(ours_encode)
+    decode_ours, runs = timed(cdr.decode, name, payloads)
+    np.testing.assert_array_equal(runs[0]["forces"], forces)
+    store = _rosbags_store()
+    ForceMap, Header, Time = (  # noqa: N806 (classes)
+        store.types[n] for n in (name, "std_msgs/msg/Header", "builtin_interfaces/msg/Time")
+    )
+    empty = np.zeros(0, np.float32)
+
+    def theirs_encode() -> list[bytes]:
+        return [
+            bytes(store.serialize_cdr(ForceMap(
+                header=Header(stamp=Time(sec=t // 10**9, nanosec=t % 10**9), frame_id="world"),
+                forces=row, contact=empty), name))
+            for t, row in zip(t_ns.tolist(), forces, strict=True)
+        ]  # fmt: skip
+
+    encode_theirs, theirs = timed(theirs_encode)
+    assert theirs == payloads, "rosbags' bytes are dresslog's"
+    decode_theirs, _ = timed(lambda: [store.deserialize_cdr(p, name).forces for p in theirs])
+    return {"dresslog": (encode_ours, decode_ours), "rosbags": (encode_theirs, decode_theirs)}
 
 
 SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "gown.mcap"
@@ -158,12 +241,24 @@ def main() -> None:
         w_theirs, _ = timed(ros2_write, theirs, t_ns, forces)
         r_theirs, got = timed(ros2_read, theirs)
         np.testing.assert_array_equal(got, forces)
-        sizes = ours.stat().st_size / 1e6, theirs.stat().st_size / 1e6
-    print(f"{count} ForceMap messages of {N_POINTS} float32")
-    print(f"{'':10}{'dresslog':>14}{'mcap_ros2':>14}{'ratio':>8}")
-    for label, a, b in (("write", w_ours, w_theirs), ("read", r_ours, r_theirs)):
+        peer = Path(tmp) / "rosbags.mcap"
+        w_peer, _ = timed(rosbags_write, peer, t_ns, forces)
+        r_peer, got = timed(rosbags_read, peer)
+        np.testing.assert_array_equal(got, forces)
+        sizes = [p.stat().st_size / 1e6 for p in (ours, peer, theirs)]
+    print(f"{count} ForceMap messages of {N_POINTS} float32, written to and read from MCAP")
+    print(f"{'':10}{'dresslog':>14}{'rosbags':>14}{'ratio':>8}{'mcap_ros2':>14}{'ratio':>8}")
+    for label, a, b, c in (("write", w_ours, w_peer, w_theirs), ("read", r_ours, r_peer, r_theirs)):
+        print(
+            f"{label:10}{count / a:>10,.0f} m/s{count / b:>10,.0f} m/s{b / a:>7.1f}x"
+            f"{count / c:>10,.0f} m/s{c / a:>7.1f}x"
+        )
+    print(f"{'file MB':10}{sizes[0]:>14.1f}{sizes[1]:>14.1f}{'':>8}{sizes[2]:>14.1f}")
+    alone = codecs(t_ns, forces)
+    (enc_ours, dec_ours), (enc_peer, dec_peer) = alone["dresslog"], alone["rosbags"]
+    print("codec alone (payloads <-> numpy, no file)")
+    for label, a, b in (("encode", enc_ours, enc_peer), ("decode", dec_ours, dec_peer)):
         print(f"{label:10}{count / a:>10,.0f} m/s{count / b:>10,.0f} m/s{b / a:>7.1f}x")
-    print(f"{'file MB':10}{sizes[0]:>14.1f}{sizes[1]:>14.1f}")
     drawn_cost(args.repeats)
     if args.record:
         record_cost()
