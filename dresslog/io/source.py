@@ -97,6 +97,7 @@ class McapSource:
         self._name_channels(schemas, channels, counts)
 
     def close(self) -> None:
+        """Close the file; what opening read (channels, counts, metadata) stays."""
         if self._stream is not None:
             self._stream.close()
         self._stream = self._reader = None
