@@ -722,7 +722,8 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
                 assert schema.name == wk.DRAWN[channel.topic]
                 msg = humble.deserialize_cdr(message.data, schema.name)
                 got.setdefault(channel.topic, []).append((message.log_time, msg))
-    t_ns, limb = sent["t_ns"], sent["limb"].points
+    limb = sent["limb"].points
+    t_ns = sent["t_ns"] + wk.TIME_ORIGIN_NS  # stamps: trial time from the 2020 origin
     drawn = np.flatnonzero(np.diff(t_ns // PERIOD_NS, prepend=-1) != 0)
     clouds = got[wk.FORCE_CLOUD]
     assert [t for t, _ in clouds] == t_ns[drawn].tolist()
@@ -775,6 +776,7 @@ def test_a_writer_told_not_to_draw_writes_dresslogs_channels_alone(tmp_path: Pat
         writer.write_force_map(sent["t_ns"], sent["forces"])
     counts = summary_counts(path)
     assert counts is not None and set(counts) == {
+        wk.METADATA_TOPIC,
         wk.LIMB_POINTS,
         wk.WRENCH,
         wk.TWIST,
