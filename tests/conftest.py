@@ -1,4 +1,5 @@
-"""Shared fixtures: small trials written by the real `TrialWriter`."""
+"""Shared fixtures: small trials written by the real `TrialWriter`, and the helpers that
+tests in several folders use (tests/README.md maps them)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,14 @@ from typing import Any
 
 import numpy as np
 import pytest
+from mcap.writer import Writer
 
+from dresslog.dataset import Split, trial_seed
+from dresslog.errors import SimulationError
+from dresslog.io import cdr
+from dresslog.io import well_known as wk
+from dresslog.io.msgdefs import schema_text
+from dresslog.io.reader import TrialReader
 from dresslog.io.writer import TrialWriter
 from dresslog.limb import build_limb
 from dresslog.spec import Outcome, Task, TrialMetadata, TrialSpec
@@ -174,3 +182,92 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
     if process is not None and process.poll() is None:
         process.kill()
         process.communicate()
+
+
+# Helpers that tests in several folders share: a recorder without pybullet, MCAPs written
+# by mcap's own writer (not ours), and a trial as a force/torque CSV.
+
+#: The seed `fake_record` fails on: slot 1 of the train split, first attempt.
+FAILING_SEED = trial_seed(0, Split.TRAIN, 1, 0)
+
+
+class RecordResult:
+    """What `generate` reads of a recorder's result: the outcome and the step count."""
+
+    outcome = "dressed"
+    steps = 20
+
+
+def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> RecordResult:
+    """A recorder without pybullet (for failure paths): fails on one seed, or on every one."""
+    if spec.seed == FAILING_SEED or spec.speed == 0.99:
+        raise SimulationError(f"garment exploded (seed {spec.seed})")
+    write_synthetic_trial(Path(path), spec.task, steps=20)
+    return RecordResult()
+
+
+def raw_mcap(
+    path: Path, channels: dict[str, tuple[str, list[bytes]]], metadata: bool | dict[str, str]
+) -> None:
+    """An MCAP written with mcap's own writer: topic -> (schema name, payloads); the
+    metadata record a new trial's, none, or the one given."""
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="another tool")
+        for topic, (schema, payloads) in channels.items():
+            sid = writer.register_schema(schema, "ros2msg", schema_text(schema).encode())
+            cid = writer.register_channel(topic, "cdr", sid)
+            for i, payload in enumerate(payloads):
+                writer.add_message(cid, i * 10_000_000, payload, i * 10_000_000, i)
+        if metadata is True:
+            metadata = {"task": "gown", "trial": TrialMetadata(task=Task.GOWN).model_dump_json()}
+        if metadata:
+            writer.add_metadata(wk.METADATA_NAME, metadata)
+        writer.finish()
+
+
+def vector_payloads(schema: str, fields: tuple[str, str], values: np.ndarray) -> list[bytes]:
+    """CDR payloads of `schema` at 100 Hz, its two vector `fields` from `values` (N x 6)."""
+    msgs = cdr.new_messages(schema, {"header.frame_id": 2}, len(values))
+    cdr.set_stamp(msgs, np.arange(len(values)) * 10_000_000, "ee")
+    msgs[fields[0]], msgs[fields[1]] = values[:, :3], values[:, 3:]
+    return cdr.to_payloads(msgs)
+
+
+WRENCH = ("geometry_msgs/msg/WrenchStamped", ("wrench.force", "wrench.torque"))
+
+
+TWIST = ("geometry_msgs/msg/TwistStamped", ("twist.linear", "twist.angular"))
+
+
+def missing_twist(tmp: Path, good: Path) -> Path:
+    path = tmp / "no_twist.mcap"
+    raw_mcap(path, {wk.WRENCH: (WRENCH[0], vector_payloads(*WRENCH, np.zeros((3, 6))))}, True)
+    return path
+
+
+def nan_wrench(tmp: Path, good: Path) -> Path:
+    path = tmp / "nan.mcap"
+    values = np.zeros((3, 6))
+    values[1, 2] = np.nan
+    channels = {
+        wk.WRENCH: (WRENCH[0], vector_payloads(*WRENCH, values)),
+        wk.TWIST: (TWIST[0], vector_payloads(*TWIST, np.zeros((3, 6)))),
+    }
+    raw_mcap(path, channels, True)
+    return path
+
+
+def csv_of(trial: Path, out: Path, fz_offset: float = 0.0, turn: np.ndarray | None = None) -> Path:
+    """The trial's wrench and velocity as a force/torque CSV, fz shifted (a sensor not
+    tared) and every vector turned by the rotation matrix `turn` (another robot's axes)."""
+    with TrialReader(trial) as reader:
+        m = reader.read().measurements
+    phi = m.phi.astype(np.float64)
+    phi[:, 2] += fz_offset
+    if turn is not None:
+        phi = (phi.reshape(-1, 3, 3) @ turn.T).reshape(-1, 9)
+    header = "Time (s),Fx (N),Fy (N),Fz (N),Mx (Nm),My (Nm),Mz (Nm),vx (m/s),vy (m/s),vz (m/s)"
+    rows = np.column_stack([(m.t_ns - m.t_ns[0]) / 1e9, phi])
+    out.write_text(header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
+    return out

@@ -10,47 +10,26 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from mcap.writer import Writer
 
 from dresslog.cli.main import main
 from dresslog.errors import TrialFormatError
 from dresslog.io import cdr
 from dresslog.io import well_known as wk
-from dresslog.io.msgdefs import schema_text
 from dresslog.io.reader import TrialReader
 from dresslog.spec import TRIAL_FORMAT_VERSION, Task, TrialMetadata
-from tests.conftest import SAMPLES, McapRow, mcap_records, prints_warnings, write_mcap
-
-
-def _raw_mcap(
-    path: Path, channels: dict[str, tuple[str, list[bytes]]], metadata: bool | dict[str, str]
-) -> None:
-    """An MCAP written with mcap's own writer: topic -> (schema name, payloads); the
-    metadata record a new trial's, none, or the one given."""
-    with path.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="ros2", library="another tool")
-        for topic, (schema, payloads) in channels.items():
-            sid = writer.register_schema(schema, "ros2msg", schema_text(schema).encode())
-            cid = writer.register_channel(topic, "cdr", sid)
-            for i, payload in enumerate(payloads):
-                writer.add_message(cid, i * 10_000_000, payload, i * 10_000_000, i)
-        if metadata is True:
-            metadata = {"task": "gown", "trial": TrialMetadata(task=Task.GOWN).model_dump_json()}
-        if metadata:
-            writer.add_metadata(wk.METADATA_NAME, metadata)
-        writer.finish()
-
-
-def _vectors(schema: str, fields: tuple[str, str], values: np.ndarray) -> list[bytes]:
-    msgs = cdr.new_messages(schema, {"header.frame_id": 2}, len(values))
-    cdr.set_stamp(msgs, np.arange(len(values)) * 10_000_000, "ee")
-    msgs[fields[0]], msgs[fields[1]] = values[:, :3], values[:, 3:]
-    return cdr.to_payloads(msgs)
-
-
-WRENCH = ("geometry_msgs/msg/WrenchStamped", ("wrench.force", "wrench.torque"))
-TWIST = ("geometry_msgs/msg/TwistStamped", ("twist.linear", "twist.angular"))
+from tests.conftest import (
+    SAMPLES,
+    TWIST,
+    WRENCH,
+    McapRow,
+    mcap_records,
+    missing_twist,
+    nan_wrench,
+    prints_warnings,
+    raw_mcap,
+    vector_payloads,
+    write_mcap,
+)
 
 
 def missing(tmp: Path, good: Path) -> Path:
@@ -108,32 +87,14 @@ def flipped_bit(tmp: Path, good: Path) -> Path:
 
 def foreign(tmp: Path, good: Path) -> Path:
     path = tmp / "chatter.mcap"
-    _raw_mcap(path, {"/joint_states": (TWIST[0], _vectors(*TWIST, np.zeros((3, 6))))}, False)
+    raw_mcap(path, {"/joint_states": (TWIST[0], vector_payloads(*TWIST, np.zeros((3, 6))))}, False)
     return path
 
 
 def wrong_schema(tmp: Path, good: Path) -> Path:
     path = tmp / "wrong.mcap"
-    twist = _vectors(*TWIST, np.zeros((3, 6)))
-    _raw_mcap(path, {wk.WRENCH: (TWIST[0], twist), wk.TWIST: (TWIST[0], twist)}, True)
-    return path
-
-
-def missing_twist(tmp: Path, good: Path) -> Path:
-    path = tmp / "no_twist.mcap"
-    _raw_mcap(path, {wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6))))}, True)
-    return path
-
-
-def nan_wrench(tmp: Path, good: Path) -> Path:
-    path = tmp / "nan.mcap"
-    values = np.zeros((3, 6))
-    values[1, 2] = np.nan
-    channels = {
-        wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, values)),
-        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
-    }
-    _raw_mcap(path, channels, True)
+    twist = vector_payloads(*TWIST, np.zeros((3, 6)))
+    raw_mcap(path, {wk.WRENCH: (TWIST[0], twist), wk.TWIST: (TWIST[0], twist)}, True)
     return path
 
 
@@ -143,9 +104,9 @@ def robot_bag(tmp: Path, good: Path) -> Path:
     poses = cdr.new_messages(wk.SCHEMAS[wk.POSE], {"header.frame_id": 4}, 3)
     channels = {
         wk.POSE: (wk.SCHEMAS[wk.POSE], cdr.to_payloads(poses)),
-        "/ft/wrench": (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
+        "/ft/wrench": (WRENCH[0], vector_payloads(*WRENCH, np.zeros((3, 6)))),
     }
-    _raw_mcap(path, channels, False)
+    raw_mcap(path, channels, False)
     return path
 
 
@@ -154,11 +115,11 @@ def _with_steps(
 ) -> Path:
     """Three zero wrench and twist steps and the `extra` channels, by mcap's own writer."""
     channels = {
-        wk.WRENCH: (WRENCH[0], _vectors(*WRENCH, np.zeros((3, 6)))),
-        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+        wk.WRENCH: (WRENCH[0], vector_payloads(*WRENCH, np.zeros((3, 6)))),
+        wk.TWIST: (TWIST[0], vector_payloads(*TWIST, np.zeros((3, 6)))),
         **extra,
     }
-    _raw_mcap(path, channels, metadata)
+    raw_mcap(path, channels, metadata)
     return path
 
 
@@ -225,9 +186,9 @@ def no_wrench_messages(tmp: Path, good: Path) -> Path:
     path = tmp / "silent.mcap"
     channels = {
         wk.WRENCH: (WRENCH[0], []),
-        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+        wk.TWIST: (TWIST[0], vector_payloads(*TWIST, np.zeros((3, 6)))),
     }
-    _raw_mcap(path, channels, True)
+    raw_mcap(path, channels, True)
     return path
 
 
@@ -247,9 +208,9 @@ def _stamped_wrench(tmp: Path, name: str, stamps: list[int]) -> Path:
     cdr.set_stamp(msgs, np.array(stamps), "ee")
     channels = {
         wk.WRENCH: (WRENCH[0], cdr.to_payloads(msgs)),
-        wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6)))),
+        wk.TWIST: (TWIST[0], vector_payloads(*TWIST, np.zeros((3, 6)))),
     }
-    _raw_mcap(path := tmp / name, channels, True)
+    raw_mcap(path := tmp / name, channels, True)
     return path
 
 
@@ -307,7 +268,7 @@ def metadata_without_the_trial(tmp: Path, good: Path) -> Path:
 
 def big_endian(tmp: Path, good: Path) -> Path:
     """CDR's other byte order, which neither ROS 2 on x86/ARM nor dresslog writes."""
-    wrench = [b"\x00\x00" + p[2:] for p in _vectors(*WRENCH, np.zeros((3, 6)))]
+    wrench = [b"\x00\x00" + p[2:] for p in vector_payloads(*WRENCH, np.zeros((3, 6)))]
     return _with_steps(tmp / "big.mcap", {wk.WRENCH: (WRENCH[0], wrench)}, metadata=True)
 
 
@@ -494,7 +455,7 @@ def test_a_trial_at_another_rate_than_the_models_is_refused_by_infer(
         msgs = cdr.new_messages(schema, {"header.frame_id": 2}, steps)
         cdr.set_stamp(msgs, np.arange(steps) * (step_ms if name == topic else 10) * 10**6, "ee")
         channels[name] = (schema, cdr.to_payloads(msgs))
-    _raw_mcap(path := tmp_path / "rate.mcap", channels, metadata=True)
+    raw_mcap(path := tmp_path / "rate.mcap", channels, metadata=True)
     out = tmp_path / "out.rrd"
     result = CliRunner().invoke(main, ["infer", str(path), "-o", str(out)])
     assert result.exit_code == 1 and not out.exists()
@@ -674,11 +635,11 @@ def test_a_string_length_of_zero_is_refused_as_cdr_counts_its_nul(tmp_path: Path
 def test_convert_refuses_a_length_field_past_its_messages_end(tmp_path: Path) -> None:
     """A robot's bag: the message is named by its place in the topic."""
     pytest.importorskip("rosbags")
-    wrench = _vectors(*WRENCH, np.zeros((300, 6)))
+    wrench = vector_payloads(*WRENCH, np.zeros((300, 6)))
     wrench[100] = wrench[100][:12] + (0xFFFFFFF0).to_bytes(4, "little") + wrench[100][16:]
-    twist = _vectors(*TWIST, np.zeros((300, 6)))
+    twist = vector_payloads(*TWIST, np.zeros((300, 6)))
     channels = {"/ft/wrench": (WRENCH[0], wrench), "/ft/twist": (TWIST[0], twist)}
-    _raw_mcap(bag := tmp_path / "robot.mcap", channels, False)
+    raw_mcap(bag := tmp_path / "robot.mcap", channels, False)
     out = tmp_path / "t.mcap"
     line = _one_line(["convert", str(bag), "-o", str(out), "--task", "gown"])
     assert line == (
@@ -751,7 +712,7 @@ def _steps_at(path: Path, wrench_ns: np.ndarray, twist_ns: np.ndarray) -> Path:
         msgs = cdr.new_messages(schema, {"header.frame_id": 2}, len(stamps))
         cdr.set_stamp(msgs, np.asarray(stamps, np.int64), "ee")
         channels[topic] = (schema, cdr.to_payloads(msgs))
-    _raw_mcap(path, channels, True)
+    raw_mcap(path, channels, True)
     return path
 
 
@@ -955,7 +916,7 @@ def test_a_gown_trial_with_a_legs_limb_is_blamed_on_the_trial(tmp_path: Path, wi
 def test_a_file_of_no_messages_says_it_holds_none(tmp_path: Path, metadata, registered) -> None:
     """It was `not a dresslog trial (channels: none)`."""
     channels = {wk.WRENCH: (WRENCH[0], []), wk.TWIST: (TWIST[0], [])} if registered else {}
-    _raw_mcap(path := tmp_path / "silent.mcap", channels, metadata)
+    raw_mcap(path := tmp_path / "silent.mcap", channels, metadata)
     line = _one_line(["infer", str(path), "-o", str(tmp_path / "o.rrd")])
     assert line.startswith(f"Error: {path}: holds no messages"), line
     if metadata:

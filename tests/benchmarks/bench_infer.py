@@ -67,7 +67,7 @@ def inputs(tmp: Path, trial: Path | None, model: Path | None) -> tuple[Path, Pat
             task = reader.metadata.task
         model = bundled_model(task)
         if model is None:
-            from tests.test_replay import save_random_model
+            from tests.replay.conftest import save_random_model
 
             model = save_random_model(tmp, task)
     return trial, model

@@ -18,7 +18,7 @@ from dresslog.errors import ConversionError
 from dresslog.io.reader import TrialReader, read_trial
 from dresslog.io.summary import format_summary, summarize
 from tests.conftest import SAMPLES, prints_warnings
-from tests.convert_signals import T0_NS, pose, seconds_of, times, twist, wrench
+from tests.convert.signals import T0_NS, pose, seconds_of, times, twist, wrench
 
 
 def write_csv(path: Path, header: list[str], columns: list[np.ndarray]) -> Path:
@@ -437,7 +437,7 @@ def test_a_motion_file_covering_part_of_the_wrench_is_said(tmp_path: Path) -> No
 def test_an_option_for_the_other_kind_of_input_is_refused(
     tmp_path: Path, options: dict, message: str
 ) -> None:
-    from tests.convert_signals import standard_topics, write_bag
+    from tests.convert.signals import standard_topics, write_bag
 
     source = _with_velocity(tmp_path / "v.csv", np.arange(300) / 1000.0)
     if options.pop("bag", False):
@@ -992,7 +992,7 @@ def test_a_last_line_of_spaces_or_tabs_is_blank(
         assert len(reader.wrench.t_ns) == 199 and reader.wrench.values[:, 0].mean() == 1.0
 
 
-ROBOT = Path(__file__).resolve().parents[1] / "samples" / "robot"
+ROBOT = Path(__file__).resolve().parents[2] / "samples" / "robot"
 #: The README's --rotate for samples/robot/ (-90 degrees about z), then the --translate that
 #: takes the elbow, at (0.6, -0.1, 0.25) m in the robot's base frame, to the world's origin.
 TO_SCENE = ["--rotate", "0", "0", "-0.7071068", "0.7071068", "--translate", "0.1", "0.6", "-0.25"]
@@ -1011,7 +1011,7 @@ def test_rotate_then_translate_puts_a_robots_gripper_path_on_the_scenes_limb(
     assert moved.exit_code == 0 and not moved.stderr, moved.output
     turned = CliRunner().invoke(main, [*args, "-o", str(out["turned"]), *TO_SCENE[:5]])
     assert turned.exit_code == 0, turned.output
-    sample = read_trial(Path(__file__).resolve().parents[1] / "samples" / "gown.mcap")
+    sample = read_trial(Path(__file__).resolve().parents[2] / "samples" / "gown.mcap")
     with TrialReader(out["moved"]) as log:
         pose, phi = log.pose.values, log.measurements.phi
         processing = log.metadata.source["processing"]

@@ -15,7 +15,7 @@ from dresslog.model.files import read_card
 from dresslog.model.options import BUNDLED, PAPER
 from dresslog.model.recipe import options_of, train_command
 from tests.conftest import SAMPLES
-from tests.test_experiments import data  # noqa: F401  (the module's 4 gown trials)
+from tests.experiments.conftest import data  # noqa: F401  (the module's 4 gown trials)
 
 TINY = ["--epochs", "2", "--hidden", "4", "--layers", "1", "--quiet"]
 

@@ -18,7 +18,7 @@ from dresslog.spec import Outcome, Task, TrialMetadata
 from dresslog.trial import CONTACT_DTYPE, LimbPoints
 from tests.conftest import mcap_records, write_mcap, write_synthetic_trial
 
-SAMPLES = Path(__file__).resolve().parents[1] / "samples"
+SAMPLES = Path(__file__).resolve().parents[2] / "samples"
 
 
 @pytest.mark.parametrize("task", list(Task))
@@ -489,7 +489,7 @@ def test_dresslog_msgs_is_a_ros2_interface_package_of_exactly_its_msg_files() ->
     import re
     import xml.etree.ElementTree as ET
 
-    folder = Path(__file__).resolve().parents[1] / "schemas" / "dresslog_msgs"
+    folder = Path(__file__).resolve().parents[2] / "schemas" / "dresslog_msgs"
     package = ET.parse(folder / "package.xml").getroot()
     assert package.get("format") == "3" and package.findtext("name") == folder.name
     assert package.findtext("member_of_group") == "rosidl_interface_packages"

@@ -22,7 +22,7 @@ from dresslog.io.summary import format_summary, summarize
 from dresslog.io.writer import TrialWriter
 from dresslog.spec import Outcome, Task, TrialMetadata
 from tests.conftest import SAMPLES, prints_warnings
-from tests.convert_signals import (
+from tests.convert.signals import (
     YAW_RATE,
     pose,
     quat_rotate,
@@ -200,7 +200,7 @@ def test_a_rotation_quaternion_turns_the_same_at_any_scale(
 def test_a_dresslog_trial_exported_as_a_ros2_bag_converts_back_unchanged(tmp_path: Path) -> None:
     from rosbags.rosbag2 import Writer
 
-    from tests.convert_signals import typestore
+    from tests.convert.signals import typestore
 
     t_ns = np.arange(400, dtype=np.int64) * 10_000_000  # 4 s at 100 Hz, as the simulator records
     t = t_ns / 1e9

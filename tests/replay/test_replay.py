@@ -15,9 +15,8 @@ from dresslog.cli.main import main
 from dresslog.errors import TrialFormatError, TrialWriteError
 from dresslog.io import well_known as wk
 from dresslog.io.reader import TrialReader, read_trial
-from dresslog.model import ModelCard, Normalisation, load_model, save_model
+from dresslog.model import load_model
 from dresslog.model.bundled import MODELS_ENV
-from dresslog.model.numpy_lstm import expected_shapes
 from dresslog.model.postprocess import sequence_rmse
 from dresslog.replay.engine import Replay, run, trial_context, trial_steps
 from dresslog.replay.live import SimulationSource
@@ -26,27 +25,19 @@ from dresslog.replay.metrics import MetricsSink
 from dresslog.replay.pipeline import replay_file
 from dresslog.replay.rerun_sink import RerunSink
 from dresslog.spec import Task
-from tests.conftest import SAMPLES, prints_warnings
-from tests.test_bad_input import TWIST, _raw_mcap, _vectors, missing_twist, nan_wrench
+from tests.conftest import (
+    SAMPLES,
+    TWIST,
+    csv_of,
+    missing_twist,
+    nan_wrench,
+    prints_warnings,
+    raw_mcap,
+    vector_payloads,
+)
+from tests.replay.conftest import STEPS, save_random_model
 
-STEPS = 40
 N_POINTS = {Task.GOWN: 300, Task.SHORTS: 400}
-
-
-def save_random_model(
-    folder: Path, task: Task = Task.GOWN, seed: int = 0, std: float = 2.0
-) -> Path:
-    """A real model folder (save_model) with random weights large enough to saturate gates,
-    its inputs standardised by `std` (the training signal's spread, as the card says)."""
-    rng = np.random.default_rng(seed)
-    shapes = expected_shapes(N_POINTS[task])
-    weights = {k: rng.normal(0, 0.4, size=s).astype(np.float32) for k, s in shapes.items()}
-    weights["input_mean"][:] = 0.0
-    weights["input_std"][:] = std
-    path = folder / f"model-{task.value}"
-    norm = Normalisation(mean=[0.0] * 9, std=[std] * 9)
-    save_model(path, weights, ModelCard(task=task, n_points=N_POINTS[task], normalisation=norm))
-    return path
 
 
 @pytest.fixture
@@ -271,7 +262,7 @@ def no_twist(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
 
 def no_wrench(tmp: Path, trial: Path, model: Path) -> tuple[Path, Path]:
     path = tmp / "no_wrench.mcap"
-    _raw_mcap(path, {wk.TWIST: (TWIST[0], _vectors(*TWIST, np.zeros((3, 6))))}, True)
+    raw_mcap(path, {wk.TWIST: (TWIST[0], vector_payloads(*TWIST, np.zeros((3, 6))))}, True)
     return path, model
 
 
@@ -418,21 +409,6 @@ def test_an_estimate_copy_needs_a_model_that_runs(tmp_path: Path) -> None:
     assert not (tmp_path / "copy.mcap").exists()
 
 
-def _csv_of(trial: Path, out: Path, fz_offset: float = 0.0, turn: np.ndarray | None = None) -> Path:
-    """The trial's wrench and velocity as a force/torque CSV, fz shifted (a sensor not
-    tared) and every vector turned by the rotation matrix `turn` (another robot's axes)."""
-    with TrialReader(trial) as reader:
-        m = reader.read().measurements
-    phi = m.phi.astype(np.float64)
-    phi[:, 2] += fz_offset
-    if turn is not None:
-        phi = (phi.reshape(-1, 3, 3) @ turn.T).reshape(-1, 9)
-    header = "Time (s),Fx (N),Fy (N),Fz (N),Mx (Nm),My (Nm),Mz (Nm),vx (m/s),vy (m/s),vz (m/s)"
-    rows = np.column_stack([(m.t_ns - m.t_ns[0]) / 1e9, phi])
-    out.write_text(header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
-    return out
-
-
 @prints_warnings
 def test_a_signal_far_from_the_training_data_is_warned_about_with_its_likely_cause(
     tmp_path: Path, monkeypatch
@@ -443,7 +419,7 @@ def test_a_signal_far_from_the_training_data_is_warned_about_with_its_likely_cau
     runner = CliRunner()
     said = {}
     for name, offset in (("tared", 0.0), ("untared", -1.5 * 9.81)):
-        csv = _csv_of(SAMPLES / "gown.mcap", tmp_path / f"{name}.csv", offset)
+        csv = csv_of(SAMPLES / "gown.mcap", tmp_path / f"{name}.csv", offset)
         mcap = tmp_path / f"{name}.mcap"
         converted = runner.invoke(main, ["convert", str(csv), "-o", str(mcap), "--task", "gown"])
         assert converted.exit_code == 0, converted.output
@@ -537,7 +513,7 @@ def test_a_log_in_another_robots_axes_is_warned_about_and_rotate_puts_it_right(
     the gripper heads along y, not -x; `convert --rotate` back makes the warning go."""
     monkeypatch.delenv(MODELS_ENV, raising=False)
     turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-    csv = _csv_of(SAMPLES / "gown.mcap", tmp_path / "turned.csv", turn=turn)
+    csv = csv_of(SAMPLES / "gown.mcap", tmp_path / "turned.csv", turn=turn)
     runner = CliRunner()
     said = {}
     back = ["--rotate", "0", "0", str(-np.sqrt(0.5)), str(np.sqrt(0.5))]  # -90 deg about z

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dresslog.convert import tf, tfmessage
-from tests.convert_signals import tf_topics, write_bag
+from tests.convert.signals import tf_topics, write_bag
 
 pytest.importorskip("rosbags")
 

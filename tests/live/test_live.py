@@ -32,7 +32,7 @@ from dresslog.live.options import HIGH_FORCE_N
 from dresslog.live.ros import SUMMARY_FIELDS
 from dresslog.model.bundled import resolve_model
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BAG = ROOT / "samples" / "robot" / "bag"
 WRENCH, POSE = "/ft_sensor/wrench", "/tool_pose"
 #: The README's options for the sample bag (its pose here on a topic, not from /tf).

@@ -37,32 +37,21 @@ from dresslog.dataset import (
 )
 from dresslog.dataset import cache as cache_module
 from dresslog.dataset.manifest import check_files
-from dresslog.errors import DatasetError, DresslogError, DresslogWarning, SimulationError
+from dresslog.errors import DatasetError, DresslogError, DresslogWarning
 from dresslog.io.files import exclusive
 from dresslog.io.reader import TrialReader
 from dresslog.spec import Outcome, Task, TrialSpec
-from tests.conftest import SAMPLES, prints_warnings, write_synthetic_trial
-
-FAILING_SEED = trial_seed(0, Split.TRAIN, 1, 0)
-
-
-class _Result:
-    outcome = "dressed"
-    steps = 20
-
-
-def fake_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
-    """A recorder without pybullet (for failure paths): fails on one seed, or on every one."""
-    if spec.seed == FAILING_SEED or spec.speed == 0.99:
-        raise SimulationError(f"garment exploded (seed {spec.seed})")
-    write_synthetic_trial(Path(path), spec.task, steps=20)
-    return _Result()
-
+from tests.conftest import (
+    SAMPLES,
+    RecordResult,
+    fake_record,
+    prints_warnings,
+)
 
 FAKE = fake_record
 
 
-def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> _Result:
+def slow_record(spec: TrialSpec, path: Path, *, overwrite: bool = False) -> RecordResult:
     """The fake recorder at a pace a Ctrl-C can land in the middle of: the first slots
     quickly (slot 1's first seed fails), the rest as slowly as real trials, so that a stop
     that waits for one shows."""
@@ -369,12 +358,12 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
     (its worker stopped between renaming and reporting it: tidied, as it is unlisted)."""
     script = (
         "from dresslog.dataset import Execution, generate\n"
-        "from tests.test_dataset import slow_record\n"
+        "from tests.dataset.test_generate import slow_record\n"
         "if __name__ == '__main__':\n"
         f"    generate('gown', {trials}, {str(out)!r}, progress=False,\n"
         "             execution=Execution(workers=2, recorder=slow_record))\n"
     )
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     run = subprocess.Popen(
         [sys.executable, "-c", script], cwd=root, start_new_session=True, stderr=subprocess.PIPE
     )

@@ -20,7 +20,7 @@ from dresslog.model import load_model
 from dresslog.replay import blueprint as bp
 from dresslog.replay.engine import run, trial_context, trial_steps
 from dresslog.spec import Task
-from tests.test_replay import STEPS, save_random_model
+from tests.replay.conftest import STEPS, save_random_model
 
 rc = pytest.importorskip("rerun.chunk")
 
@@ -403,7 +403,7 @@ def _software_vulkan() -> bool:
 @pytest.mark.slow
 @pytest.mark.skipif(not _software_vulkan(), reason="needs Mesa's software Vulkan (lavapipe)")
 def test_default_layout_renders_headless(inferred, tmp_path: Path) -> None:
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
     from screenshot import capture
 
     _, _, rrd = inferred
