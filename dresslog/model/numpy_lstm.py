@@ -1,7 +1,7 @@
 """The force-map LSTM's forward pass in numpy (float32): inference without importing torch.
 
 Importing torch costs about 1.5 s, so `dresslog infer` and evaluation run this instead;
-it matches `dresslog.model.network.ForceMapLSTM` to 1e-5 (tests/test_model.py).
+it matches `dresslog.model.network.ForceMapLSTM` to 1e-5 (tests/model/test_model.py).
 
 Public API
 ----------
