@@ -125,6 +125,9 @@ UNSTAMPED: dict[str, str] = {METADATA_TOPIC: "std_msgs/msg/String"}
 #: Unix epoch): viewers that show stamps as dates (Foxglove, Rerun's MCAP importer) show
 #: a date near today's, not 1970, and the same spec still gives the same bytes.
 TIME_ORIGIN_NS = 1_577_836_800 * 1_000_000_000
+#: Every topic a `TrialWriter` writes -> its ROS 2 type: dresslog's streams, a live
+#: session's received signal, the metadata channel and the drawn channels, in one map.
+TYPES: dict[str, str] = SCHEMAS | RECEIVED_SCHEMAS | UNSTAMPED | DRAWN
 QOS: dict[str, str] = dict.fromkeys([*SCHEMAS, *DRAWN], STREAM_QOS) | dict.fromkeys(
     (LIMB_POINTS, LIMB_MARKER, PATH_MARKER, TF_STATIC, *UNSTAMPED), LATCHED_QOS
 )

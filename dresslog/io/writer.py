@@ -233,12 +233,7 @@ class TrialWriter:
         if self._writer is None:
             raise TrialWriteError("writer is not open", path=self.path)
         if topic not in self._channels:
-            name = (
-                wk.SCHEMAS.get(topic)
-                or wk.RECEIVED_SCHEMAS.get(topic)
-                or wk.UNSTAMPED.get(topic)
-                or wk.DRAWN[topic]
-            )
+            name = wk.TYPES[topic]
             if name not in self._schemas:
                 self._schemas[name] = self._writer.register_schema(
                     name, wk.SCHEMA_ENCODING, schema_text(name).encode()
@@ -298,7 +293,7 @@ class TrialWriter:
     ) -> tuple[np.ndarray, np.ndarray]:
         times = self._times(topic, t_ns, count)
         frame = wk.FRAMES[topic] if frame is None else frame
-        schema = wk.SCHEMAS.get(topic) or wk.RECEIVED_SCHEMAS[topic]
+        schema = wk.TYPES[topic]
         messages = cdr.new_messages(schema, {"header.frame_id": len(frame), **sizes}, count)
         cdr.set_stamp(messages, times, frame)
         return times, messages
