@@ -39,6 +39,8 @@ class EvalReport:
     manifest_sha256: str
     overall: Scores
     per_outcome: dict[str, Scores] = field(default_factory=dict)
+    #: limb part -> the scores over its points alone (`SequenceScores.part_scores`)
+    per_part: dict[str, Scores] = field(default_factory=dict)
     #: oracle name -> its ratio on the same split (`dresslog.model.bounds`), if asked
     #: for (None if not; empty if the split has no force, so nothing to place)
     bounds: dict[str, float] | None = None
@@ -62,8 +64,9 @@ class EvalReport:
         )
 
     def table(self) -> str:
-        """What `eval` prints: the headline, then one row per group (all, each outcome) with n,
-        RMSE, the all-zero RMSE, their ratio, contact precision and recall."""
+        """What `eval` prints: the headline, then one row per group (all, each outcome, then
+        each limb part over its points alone) with n, RMSE, the all-zero RMSE, their ratio,
+        contact precision and recall."""
         head = (
             f"{'group':<10}{'n':>6}{'RMSE (N)':>12}{'zero (N)':>12}{'ratio':>8}"
             f"{'prec':>7}{'rec':>7}"
@@ -81,11 +84,10 @@ class EvalReport:
                 "generalises (as `dresslog sweep` does)"
             )
         lines.append(head)
-        for name, s in rows:
-            lines.append(
-                f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
-                f"{s.contact_precision:>7.3f}{s.contact_recall:>7.3f}"
-            )
+        lines += [_row(name, s) for name, s in rows]
+        if parts := [(part, s) for part, s in self.per_part.items() if s.n]:
+            lines.append("each limb part over its own points:")
+            lines += [_row(name, s) for name, s in parts]
         forceless = [o for o, s in self.per_outcome.items() if s.n and s.zero_rmse == 0]
         if forceless and self.overall.zero_rmse > 0:  # a split with none at all is warned of
             lines.append(
@@ -108,6 +110,13 @@ class EvalReport:
         elif self.bounds is not None:
             lines.append("oracle ratios: none, no force on the limb in these sequences")
         return "\n".join(lines)
+
+
+def _row(name: str, s: Scores) -> str:
+    return (
+        f"{name:<10}{s.n:>6}{s.rmse:>12.5f}{s.zero_rmse:>12.5f}{s.ratio:>8.3f}"
+        f"{s.contact_precision:>7.3f}{s.contact_recall:>7.3f}"
+    )
 
 
 def finite(value: Any) -> Any:
@@ -143,6 +152,16 @@ def warn_no_force(where: str | Path, sequences: str, consequence: str, cure: str
         DresslogWarning,
         stacklevel=3,
     )
+
+
+def limb_parts(task: Task) -> dict[str, np.ndarray]:
+    """Each part of the task's limb (fist, elbow, ...; the names `info` shares force by)
+    and the mask of its points in a force map, largest first."""
+    from dresslog.limb import build_limb, limb_points
+
+    points = limb_points(build_limb(task))
+    masks = {name: points.segment == i for i, name in enumerate(points.segment_names)}
+    return dict(sorted(masks.items(), key=lambda item: -int(item[1].sum())))
 
 
 def score_rows(model: LoadedModel, arrays: DatasetArrays, rows: np.ndarray) -> Scores:
@@ -199,7 +218,13 @@ def evaluate_dataset(
     check_data_task(loaded, arrays.task, arrays.n_points)
     rows = arrays.rows(split)
     profile = ErrorProfile(arrays.n_points) if plot is not None else None
-    each = score_sequences(loaded, arrays.sequences(rows), arrays.force_maps(rows), profile=profile)
+    each = score_sequences(
+        loaded,
+        arrays.sequences(rows),
+        arrays.force_maps(rows),
+        profile=profile,
+        parts=limb_parts(arrays.task),
+    )
     overall, outcomes = each.scores(), arrays.outcomes[rows]
     # the three outcomes always, empty ones with n 0 (a script's keys do not come and go)
     present = set(outcomes.tolist())
@@ -222,6 +247,7 @@ def evaluate_dataset(
         manifest_sha256=arrays.manifest_sha256,
         overall=overall,
         per_outcome=per_outcome,
+        per_part=each.part_scores(),
         bounds=_bounds(arrays, rows) if bounds else None,
         conditions=held.describe(),
         trained=trained.describe(),

@@ -2,8 +2,8 @@
 
 Public API
 ----------
-``score_sequences(model, sequences, forces, *, batch_size=32, progress=False, profile=None)
--> SequenceScores``
+``score_sequences(model, sequences, forces, *, batch_size=32, progress=False, profile=None,
+parts=None) -> SequenceScores``
     ``model``: a ``LoadedModel`` or ``NumpyEstimator``; ``sequences``: phi (T_i, 9);
     ``forces``: ground truth (T_i, N). Runs every sequence from a zero state (batched,
     zero-padded at the end, which cannot change earlier outputs), applies Eq. 2, and keeps
@@ -18,13 +18,16 @@ Public API
     ``as_metrics()`` gives the finite ones as a dict for ``ModelCard.metrics``.
     With ``profile`` (an ``ErrorProfile``), every step's truth and estimate are also added
     to it: where along the limb and at what total force the model errs (``eval --plot``).
+    With ``parts`` (limb part name -> its points' mask), ``.part_scores(which)`` gives the
+    same figures over each part's points alone: whether the elbow's force is found as
+    well as the fist's.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -126,6 +129,11 @@ class SequenceScores:
     at_true_total: np.ndarray  # (S,) N, RMSE of the estimate rescaled to the true totals
     true_shape: np.ndarray  # (S,) N, RMSE of the true map rescaled to the estimate's totals
     contacts: np.ndarray  # (S, 3) int: contact true positives, false positives, false negatives
+    #: the limb parts scored alone, in the order of the arrays below (empty: none asked for)
+    part_names: tuple[str, ...] = ()
+    part_rmse: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (S, P) N
+    part_zero: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (S, P) N
+    part_contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3), np.int64))
 
     def scores(self, which: np.ndarray | None = None) -> Scores:
         """The paper's numbers for the sequences `which` selects (a mask or indices; all
@@ -147,6 +155,32 @@ class SequenceScores:
             ratio_true_shape=_ratio(float(np.mean(self.true_shape[chosen])), mean_zero),
         )
 
+    def part_scores(self, which: np.ndarray | None = None) -> dict[str, Scores]:
+        """Per limb part, the paper's numbers over that part's points alone (each sequence's
+        RMSE over its steps and the part's points, averaged over sequences; the ratio to
+        the all-zero estimate's): the error where the force is, not diluted by the rest
+        of the limb. The split of the error into place and amount is left nan."""
+        chosen = slice(None) if which is None else which
+        out = {}
+        for j, name in enumerate(self.part_names):
+            rmse, zero = self.part_rmse[chosen, j], self.part_zero[chosen, j]
+            if not len(rmse):
+                out[name] = Scores.none()
+                continue
+            tp, fp, fn = (int(n) for n in self.part_contacts[chosen, j].sum(axis=0))
+            mean_rmse, mean_zero = float(np.mean(rmse)), float(np.mean(zero))
+            out[name] = Scores(
+                n=len(rmse),
+                rmse=mean_rmse,
+                zero_rmse=mean_zero,
+                ratio=_ratio(mean_rmse, mean_zero),
+                contact_precision=_ratio(tp, tp + fp),
+                contact_recall=_ratio(tp, tp + fn),
+                ratio_at_true_total=math.nan,
+                ratio_true_shape=math.nan,
+            )
+        return out
+
 
 def score_sequences(
     model: LoadedModel | NumpyEstimator,
@@ -156,6 +190,7 @@ def score_sequences(
     batch_size: int = 32,
     progress: bool = False,
     profile: ErrorProfile | None = None,
+    parts: Mapping[str, np.ndarray] | None = None,
 ) -> SequenceScores:
     """Run every sequence through the model once (batched from a zero state), apply Eq. 2,
     and keep each sequence's figures: `.scores()` gives the paper's numbers for all of
@@ -174,6 +209,9 @@ def score_sequences(
     n = len(sequences)
     rmse, zero, at_true_total, true_shape = (np.zeros(n) for _ in range(4))
     contacts = np.zeros((n, 3), np.int64)
+    masks = [np.asarray(m, bool) for m in (parts or {}).values()]
+    part_rmse, part_zero = np.zeros((n, len(masks))), np.zeros((n, len(masks)))
+    part_contacts = np.zeros((n, len(masks), 3), np.int64)
     order = np.argsort([len(p) for p in sequences])  # similar lengths together
     for start in tqdm(range(0, len(order), batch_size), disable=not progress, unit="batch"):
         idx = order[start : start + batch_size]
@@ -188,5 +226,17 @@ def score_sequences(
             if profile is not None:
                 profile.add(truth, estimate)
             said, real = contact > 0, truth > 0
-            contacts[k] = [np.count_nonzero(m) for m in (said & real, said & ~real, ~said & real)]
-    return SequenceScores(rmse, zero, at_true_total, true_shape, contacts)
+            contacts[k] = _confusion(said, real)
+            for j, mask in enumerate(masks):
+                part_rmse[k, j] = sequence_rmse(truth[:, mask], estimate[:, mask])
+                part_zero[k, j] = sequence_rmse(truth[:, mask], np.zeros_like(truth[:, mask]))
+                part_contacts[k, j] = _confusion(said[:, mask], real[:, mask])
+    return SequenceScores(
+        rmse, zero, at_true_total, true_shape, contacts,
+        tuple(parts or ()), part_rmse, part_zero, part_contacts,
+    )  # fmt: skip
+
+
+def _confusion(said: np.ndarray, real: np.ndarray) -> list[int]:
+    """Contact true positives, false positives and false negatives."""
+    return [np.count_nonzero(m) for m in (said & real, said & ~real, ~said & real)]

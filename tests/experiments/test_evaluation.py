@@ -18,7 +18,7 @@ from dresslog.cli.main import main
 from dresslog.dataset import Execution, Manifest, generate, load_dataset, load_manifest
 from dresslog.errors import DatasetError
 from dresslog.experiments import dataset_bounds
-from dresslog.experiments.evaluation import data_conditions
+from dresslog.experiments.evaluation import data_conditions, limb_parts
 from dresslog.experiments.plots import eval_figure
 from dresslog.model.bounds import describe_oracle
 from dresslog.model.conditions import Conditions, combined, spec_conditions
@@ -41,6 +41,7 @@ def test_eval_reports_rmse_baseline_and_per_outcome(model: Path, data: Path) -> 
     assert overall["zero_rmse"] > 0  # the test trial carries force
     assert overall["ratio"] == pytest.approx(overall["rmse"] / overall["zero_rmse"])
     assert 0 <= overall["contact_precision"] <= 1 and 0 <= overall["contact_recall"] <= 1
+    assert set(report["per_part"]) == {"fist", "forearm", "elbow", "upper_arm"}
     code, output = invoke("eval", model, data, "--split", "train", "--json")
     assert code == 0, output
     train = json.loads(output)
@@ -102,6 +103,18 @@ def test_eval_plots_where_along_the_limb_and_at_what_total_force_the_model_errs(
     np.testing.assert_allclose(profile.rmse, np.sqrt(((estimate - truth) ** 2).mean(0)), atol=1e-6)
     np.testing.assert_allclose(profile.totals[:, 0], truth.sum(axis=1), rtol=1e-12)
     np.testing.assert_allclose(profile.totals[:, 1], estimate.sum(axis=1), rtol=1e-5, atol=1e-6)
+    # each limb part scored over its own points, as the paper's RMSE is over the whole map
+    parts = limb_parts(Task.GOWN)
+    assert sum(m.astype(int) for m in parts.values()).tolist() == [1] * arrays.n_points
+    each = score_sequences(
+        load_model(model), arrays.sequences(rows), arrays.force_maps(rows), parts=parts
+    )
+    for name, scores in each.part_scores().items():
+        mask = parts[name]
+        own = [np.sqrt(np.mean((e[:, mask] - t[:, mask]) ** 2)) for t, e in zip(truths, estimates)]
+        zero = [np.sqrt(np.mean(t[:, mask] ** 2)) for t in truths]
+        assert scores.rmse == pytest.approx(np.mean(own), rel=1e-5, abs=1e-9)
+        assert scores.zero_rmse == pytest.approx(np.mean(zero), rel=1e-9)
     fig = eval_figure(profile, "gown", "title")
     where, how_much = fig.axes[:2]
     labels = [line.get_label() for line in where.get_lines()[:3]]
