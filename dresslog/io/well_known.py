@@ -59,7 +59,7 @@ DRAWN: dict[str, str] = {
     FORCE_CLOUD: "sensor_msgs/msg/PointCloud2",
     ESTIMATE_CLOUD: "sensor_msgs/msg/PointCloud2",
     LIMB_MARKER: "visualization_msgs/msg/MarkerArray",
-    GARMENT_MARKER: "visualization_msgs/msg/MarkerArray",
+    GARMENT_MARKER: "foxglove_msgs/msg/SceneUpdate",
     PATH_MARKER: "visualization_msgs/msg/MarkerArray",
     TF: "tf2_msgs/msg/TFMessage",
     TF_STATIC: "tf2_msgs/msg/TFMessage",

@@ -56,6 +56,14 @@ function digest(message) {
   if (message.markers) {
     return message.markers.map((m) => ({ type: m.type, frame: m.header.frame_id, points: m.points.length }));
   }
+  if (message.entities) {
+    // a SceneUpdate: each entity's id, frame and triangle lists' sizes
+    return message.entities.map((e) => ({
+      id: e.id,
+      frame: e.frame_id,
+      triangles: e.triangles.map((t) => ({ points: t.points.length, indices: t.indices.length })),
+    }));
+  }
   if (message.transforms) {
     return message.transforms.map((t) => [t.header.frame_id, t.child_frame_id, t.transform.translation]);
   }
