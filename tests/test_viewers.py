@@ -76,7 +76,7 @@ def test_rerun_imports_force_clouds_with_a_force_column_the_mesh_and_the_frames(
         np.testing.assert_array_equal(positions, limb.astype(np.float32))
         assert cloud["CoordinateFrame:frame"][0] == ["limb"]
     assert columns[wk.FORCE_CLOUD]["Points3D:force"] != columns[wk.ESTIMATE_CLOUD]["Points3D:force"]
-    # Rerun 0.41 draws no scene types: the mesh arrives as its message, vertices indexed
+    # Rerun 0.41 draws no scene types: the mesh arrives as its message, vertices indexed,
     mesh = columns[wk.GARMENT_MARKER]["foxglove_msgs.msg.SceneUpdate:message"]
     steps = _drawn_steps(garment.t_ns, MESH_PERIOD_NS)
     assert len(mesh) == len(steps) == 14
@@ -85,6 +85,11 @@ def test_rerun_imports_force_clouds_with_a_force_column_the_mesh_and_the_frames(
     assert triangles["indices"] == garment.triangles.ravel().tolist()
     points = [[p["x"], p["y"], p["z"]] for p in triangles["points"]]
     _on_grid(np.array(points), garment.vertices[steps[-1]], POSITION_STEP)
+    # ... and draws the same vertices, beside it, as points
+    vertices = columns[wk.GARMENT_CLOUD]["Points3D:positions"]
+    assert len(vertices) == len(steps)
+    np.testing.assert_array_equal(np.array(vertices[-1]), np.array(points, np.float32))
+    assert columns[wk.GARMENT_CLOUD]["CoordinateFrame:frame"][0] == ["world"]
     # every transform arrives, each message's at its log time, where its last one (its
     # first pose) wins: the frames at 10 Hz, each at its own time
     tf = columns[wk.TF]
@@ -159,6 +164,10 @@ def test_foxglove_decoders_read_every_channel(trial: Path) -> None:
     mesh = decoded[wk.GARMENT_MARKER]["last"]
     assert mesh == [{"id": "garment", "frame": "world", "triangles": [
         {"points": len(garment.vertices[0]), "indices": garment.triangles.size}]}]  # fmt: skip
+    cloud = decoded[wk.GARMENT_CLOUD]["last"]
+    assert cloud["fields"] == ["x", "y", "z"] and cloud["width"] == len(garment.vertices[0])
+    last = garment.vertices[_drawn_steps(garment.t_ns, MESH_PERIOD_NS)[-1]]
+    _on_grid(np.array(cloud["points"]).reshape(-1, 3), last, POSITION_STEP)
     last = decoded[wk.TF]["last"]  # the last poses, two frames each
     assert [t[:2] for t in last] == [["world", "gripper"], ["world", "ee"]] * (len(last) // 2)
 

@@ -18,7 +18,9 @@ of the sample trials, where drawing every value at its own rate added 24-30%
   their indices. A visualization_msgs `TRIANGLE_LIST` holds each triangle's three corners,
   every vertex six times as float64: 23 KB a message that zstd brought only to 3.8 KB,
   14% of a trial at the garment's 10 Hz. Foxglove draws both; Rerun 0.41's importer
-  draws neither (it has no marker or scene type), and shows the message's fields;
+  draws neither (it has no marker or scene type), so the same vertices go beside each
+  mesh as a `PointCloud2` (`/garment/cloud`, float64 x y z), which it draws as points:
+  their bytes are the mesh's, and written next to it they cost 1 KB a trial;
 - the limb (once, latched) as a `visualization_msgs/msg/MarkerArray` of spheres, and the
   gripper's path (once, latched, written at the end) as a line strip through its pose
   at 10 Hz and its last pose;
@@ -67,10 +69,9 @@ PATH_PERIOD_NS = 100_000_000
 #: mantissa bits are zeros that compress, and within what a viewer shows.
 FORCE_STEP = 2.0**-12
 POSITION_STEP = 2.0**-10
-#: The cloud's point fields: name, byte offset; each one float32 (PointField.FLOAT32 = 7).
-CLOUD_FIELDS = (("x", 0), ("y", 4), ("z", 8), ("force", 12))
-_FLOAT32 = 7
-_POINT_STEP = 16
+#: A cloud's point fields by letter, and their datatypes (PointField's FLOAT32, FLOAT64).
+_FIELD_NAMES = {"x": "x", "y": "y", "z": "z", "f": "force"}
+_DATATYPES = {"<f4": 7, "<f8": 8}
 
 #: Marker types and action (visualization_msgs/msg/Marker's constants).
 LINE_STRIP, SPHERE_LIST = 4, 7
@@ -111,31 +112,47 @@ def drawn_steps(t_ns: np.ndarray, period_ns: int, last_bin: int = -1) -> np.ndar
     return np.diff(np.asarray(t_ns, np.int64) // period_ns, prepend=last_bin) != 0
 
 
-def point_clouds(t_ns: np.ndarray, points: np.ndarray, forces: np.ndarray) -> np.ndarray:
-    """One PointCloud2 per force map: the limb's (N, 3) points with forces (T, N) on the
-    `FORCE_STEP` grid, in frame `limb`, stamped `t_ns` (T,)."""
-    count, n = forces.shape
+def _clouds(t_ns: np.ndarray, frame: str, fields: str, data: np.ndarray) -> np.ndarray:
+    """PointCloud2s (one a row of `data` (T, N, F), a dtype of `_DATATYPES`) of N points
+    whose F fields are named by the letters of `fields`, in `frame`, stamped `t_ns`."""
+    count, n, width = data.shape
+    size = data.dtype.itemsize
     sizes: dict[str, int | tuple[int, ...]] = {
-        "header.frame_id": len(LIMB),
-        "fields": len(CLOUD_FIELDS),
-        "data": n * _POINT_STEP,
+        "header.frame_id": len(frame),
+        "fields": width,
+        "data": n * width * size,
     }
-    sizes |= {f"fields.{i}.name": len(name) for i, (name, _) in enumerate(CLOUD_FIELDS)}
+    sizes |= {f"fields.{i}.name": len(_FIELD_NAMES[c]) for i, c in enumerate(fields)}
     msgs = cdr.new_messages(POINT_CLOUD, sizes, count)
-    cdr.set_stamp(msgs, t_ns, LIMB)
-    for i, (name, offset) in enumerate(CLOUD_FIELDS):
-        msgs[f"fields.{i}.name"] = name.encode()
-        msgs[f"fields.{i}.offset"] = offset
-        msgs[f"fields.{i}.datatype"] = _FLOAT32
+    cdr.set_stamp(msgs, np.asarray(t_ns, np.int64), frame)
+    for i, c in enumerate(fields):
+        msgs[f"fields.{i}.name"] = _FIELD_NAMES[c].encode()
+        msgs[f"fields.{i}.offset"] = i * size
+        msgs[f"fields.{i}.datatype"] = _DATATYPES[data.dtype.str]
         msgs[f"fields.{i}.count"] = 1
     msgs["height"], msgs["width"] = 1, n
-    msgs["point_step"], msgs["row_step"] = _POINT_STEP, n * _POINT_STEP
+    msgs["point_step"], msgs["row_step"] = width * size, n * width * size
     msgs["is_dense"] = 1
+    msgs["data"] = data.reshape(count, -1).view("u1")
+    return msgs
+
+
+def point_clouds(t_ns: np.ndarray, points: np.ndarray, forces: np.ndarray) -> np.ndarray:
+    """One PointCloud2 per force map: the limb's (N, 3) points, float32, with forces (T, N)
+    on the `FORCE_STEP` grid, in frame `limb`, stamped `t_ns` (T,)."""
+    count, n = forces.shape
     data = np.empty((count, n, 4), "<f4")
     data[:, :, :3] = np.asarray(points, np.float32)
     data[:, :, 3] = on_grid(np.asarray(forces, np.float32), FORCE_STEP)
-    msgs["data"] = data.reshape(count, -1).view("u1")
-    return msgs
+    return _clouds(t_ns, LIMB, "xyzf", data)
+
+
+def vertex_cloud(t_ns: int, frame: str, vertices: np.ndarray) -> np.ndarray:
+    """A PointCloud2 of `vertices` (V, 3) on the `POSITION_STEP` grid, float64 x y z: the
+    points of a `scene_update` byte for byte, so written beside it the cloud compresses to
+    almost nothing, and Rerun's importer, which draws no mesh, draws the garment's points."""
+    data = on_grid(np.asarray(vertices, np.float64), POSITION_STEP).astype("<f8")
+    return _clouds(np.array([t_ns]), frame, "xyz", data[None])
 
 
 def marker_array(t_ns: int, frame: str, ns: str, look: Look, points: np.ndarray) -> np.ndarray:

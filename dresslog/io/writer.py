@@ -476,7 +476,9 @@ class TrialWriter:
         if self._triangles is not None and keep.any():  # the mesh, at 2 Hz
             stamp = int(times[0])
             mesh = drawn.scene_update(stamp, drawn.WORLD, "garment", vertices, self._triangles)
-            self._write(wk.GARMENT_MARKER, times, mesh)
+            self._write(wk.GARMENT_MARKER, times, mesh)  # Foxglove draws it
+            cloud = drawn.vertex_cloud(stamp, drawn.WORLD, vertices)  # Rerun's importer, this
+            self._write(wk.GARMENT_CLOUD, times, cloud)
 
     def _write_path(self) -> None:
         """The gripper's whole path, once (latched) at its first pose: a viewer shows where

@@ -826,6 +826,14 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
         np.testing.assert_array_equal(mesh.indices, sent["triangles"].ravel())
         points = np.array([[p.x, p.y, p.z] for p in mesh.points])
         _on_position_grid(points, sent["vertices"] + 10 * i)  # the garment: vertices + its step
+    clouds = got[wk.GARMENT_CLOUD]  # the same vertices, float64, beside each mesh
+    assert [t for t, _ in clouds] == [t for t, _ in got[wk.GARMENT_MARKER]]
+    for (t, cloud), (_, scene) in zip(clouds, got[wk.GARMENT_MARKER], strict=True):
+        assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [
+            ("x", 0, 8), ("y", 8, 8), ("z", 16, 8)]  # fmt: skip
+        assert (cloud.header.frame_id, _stamp(cloud.header), cloud.point_step) == ("world", t, 24)
+        points = [[p.x, p.y, p.z] for p in scene.entities[0].triangles[0].points]
+        np.testing.assert_array_equal(cloud.data.view(np.float64).reshape(-1, 3), points)
     ((_, path_marker),) = got[wk.PATH_MARKER]
     line = path_marker.markers[0]
     assert line.type == line.LINE_STRIP and _stamp(line.header) == t_ns[0]
