@@ -18,7 +18,7 @@ from click.testing import CliRunner
 from dresslog.cli.main import main
 from dresslog.io import TrialReader
 from dresslog.io import well_known as wk
-from dresslog.io.drawn import PERIOD_NS
+from dresslog.io.drawn import CLOUD_PERIOD_NS, FORCE_STEP, MESH_PERIOD_NS, POSITION_STEP
 from tests.conftest import SAMPLES
 
 FOXGLOVE = Path(__file__).parent / "foxglove"
@@ -34,10 +34,16 @@ def trial(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out / "g.mcap"
 
 
-def _drawn_steps(t_ns: np.ndarray) -> np.ndarray:
-    """The steps whose maps are drawn as clouds: the first of each 50 ms."""
-    bins = t_ns // PERIOD_NS
+def _drawn_steps(t_ns: np.ndarray, period_ns: int = CLOUD_PERIOD_NS) -> np.ndarray:
+    """The steps drawn: the first of each period (clouds 100 ms, the mesh 500 ms)."""
+    bins = t_ns // period_ns
     return np.flatnonzero(np.diff(bins, prepend=-1) != 0)
+
+
+def _on_grid(drawn: np.ndarray, values: np.ndarray, step: float) -> None:
+    """`drawn` is `values` rounded to multiples of `step`."""
+    np.testing.assert_array_equal(np.round(drawn / step), drawn / step)
+    np.testing.assert_allclose(drawn, values, rtol=0, atol=step / 2)
 
 
 def _rerun_columns(path: Path) -> dict[str, dict[str, list]]:
@@ -58,28 +64,47 @@ def test_rerun_imports_force_clouds_with_a_force_column_the_mesh_and_the_frames(
     with TrialReader(trial) as reader:
         limb = reader.limb_points.points
         maps = {wk.FORCE_CLOUD: reader.force_map, wk.ESTIMATE_CLOUD: reader.estimate}
-        triangles = reader.garment.triangles
+        garment = reader.garment
         pose = reader.pose
     columns = _rerun_columns(trial)
     for topic, fm in maps.items():
         cloud = columns[topic]
         drawn = _drawn_steps(fm.t_ns)
-        assert len(cloud["Points3D:force"]) == len(drawn) == 140, topic
-        np.testing.assert_array_equal(np.array(cloud["Points3D:force"]), fm.forces[drawn])
+        assert len(cloud["Points3D:force"]) == len(drawn) == 70, topic
+        _on_grid(np.array(cloud["Points3D:force"]), fm.forces[drawn], FORCE_STEP)
         positions = np.array(cloud["Points3D:positions"][0])
         np.testing.assert_array_equal(positions, limb.astype(np.float32))
         assert cloud["CoordinateFrame:frame"][0] == ["limb"]
     assert columns[wk.FORCE_CLOUD]["Points3D:force"] != columns[wk.ESTIMATE_CLOUD]["Points3D:force"]
-    # Rerun 0.41 draws no visualization_msgs: the mesh arrives as its message, every vertex
-    mesh = columns[wk.GARMENT_MARKER]["visualization_msgs.msg.MarkerArray:message"]
-    assert len(mesh) == 71
-    marker = mesh[0][0]["markers"][0]
-    assert marker["type"] == 11 and len(marker["points"]) == triangles.size
+    # Rerun 0.41 draws no scene types: the mesh arrives as its message, vertices indexed,
+    mesh = columns[wk.GARMENT_MARKER]["foxglove_msgs.msg.SceneUpdate:message"]
+    steps = _drawn_steps(garment.t_ns, MESH_PERIOD_NS)
+    assert len(mesh) == len(steps) == 14
+    (entity,) = mesh[-1][0]["entities"]
+    (triangles,) = entity["triangles"]
+    assert triangles["indices"] == garment.triangles.ravel().tolist()
+    points = [[p["x"], p["y"], p["z"]] for p in triangles["points"]]
+    _on_grid(np.array(points), garment.vertices[steps[-1]], POSITION_STEP)
+    # ... and draws the same vertices, beside it, as points
+    vertices = columns[wk.GARMENT_CLOUD]["Points3D:positions"]
+    assert len(vertices) == len(steps)
+    np.testing.assert_array_equal(np.array(vertices[-1]), np.array(points, np.float32))
+    assert columns[wk.GARMENT_CLOUD]["CoordinateFrame:frame"][0] == ["world"]
+    # every transform arrives, each message's at its log time, where its last one (its
+    # first pose) wins: the frames at 10 Hz, each at its own time
     tf = columns[wk.TF]
     assert len(tf["Transform3D:translation"]) == 2 * len(pose)  # gripper and sensor
     assert {p[0] for p in tf["Transform3D:parent_frame"]} == {"world"}
     assert {c[0] for c in tf["Transform3D:child_frame"]} == {"gripper", "ee"}
-    np.testing.assert_allclose(tf["Transform3D:translation"][0][0], pose.values[0, :3])
+    times = np.array(tf["message_log_time"], "timedelta64[ns]").astype(np.int64) - wk.TIME_ORIGIN_NS
+    ends = np.flatnonzero(np.diff(times, append=times[-1] + 1))  # a message's last row
+    gripper = ends - 1  # listed gripper, ee for each pose
+    assert len(ends) == len(_drawn_steps(pose.t_ns))
+    np.testing.assert_array_equal(times[ends], pose.t_ns[_drawn_steps(pose.t_ns)])
+    np.testing.assert_allclose(
+        np.array(tf["Transform3D:translation"], np.float64)[gripper, 0],
+        pose.values[_drawn_steps(pose.t_ns), :3].astype(np.float32),
+    )
     assert columns[wk.TF_STATIC]["Transform3D:child_frame"] == [["limb"]]
 
 
@@ -97,7 +122,7 @@ def _node_modules() -> Path:
             ["npm", "ci", "--ignore-scripts", "--no-audit", "--no-fund"],
             cwd=folder, check=True, capture_output=True, timeout=600,
         )  # fmt: skip
-    for script in ("decode.mjs", "script.mjs"):
+    for script in ("decode.mjs", "script.mjs", "rosmsg.mjs"):
         shutil.copy(FOXGLOVE / script, folder / script)
     return folder
 
@@ -132,10 +157,43 @@ def test_foxglove_decoders_read_every_channel(trial: Path) -> None:
     assert cloud["fields"] == ["x", "y", "z", "force"] and cloud["width"] == len(limb)
     points = np.array(cloud["points"], np.float32).reshape(-1, 4)
     np.testing.assert_array_equal(points[:, :3], limb.astype(np.float32))
-    np.testing.assert_array_equal(points[:, 3], estimate.forces[_drawn_steps(estimate.t_ns)[-1]])
-    kinds = {t: decoded[t]["last"][0]["type"] for t in (wk.LIMB_MARKER, wk.GARMENT_MARKER)}
-    assert kinds == {wk.LIMB_MARKER: 7, wk.GARMENT_MARKER: 11}  # SPHERE_LIST, TRIANGLE_LIST
-    assert [t[:2] for t in decoded[wk.TF]["last"]] == [["world", "gripper"], ["world", "ee"]]
+    _on_grid(points[:, 3], estimate.forces[_drawn_steps(estimate.t_ns)[-1]], FORCE_STEP)
+    assert decoded[wk.LIMB_MARKER]["last"][0]["type"] == 7  # SPHERE_LIST
+    with TrialReader(trial) as reader:
+        garment = reader.garment
+    mesh = decoded[wk.GARMENT_MARKER]["last"]
+    assert mesh == [{"id": "garment", "frame": "world", "triangles": [
+        {"points": len(garment.vertices[0]), "indices": garment.triangles.size}]}]  # fmt: skip
+    cloud = decoded[wk.GARMENT_CLOUD]["last"]
+    assert cloud["fields"] == ["x", "y", "z"] and cloud["width"] == len(garment.vertices[0])
+    last = garment.vertices[_drawn_steps(garment.t_ns, MESH_PERIOD_NS)[-1]]
+    _on_grid(np.array(cloud["points"]).reshape(-1, 3), last, POSITION_STEP)
+    last = decoded[wk.TF]["last"]  # the last poses, two frames each
+    assert [t[:2] for t in last] == [["world", "gripper"], ["world", "ee"]] * (len(last) // 2)
+
+
+@NEEDS_NODE
+def test_our_foxglove_msgs_are_foxgloves_own_definitions() -> None:
+    """schemas/foxglove_msgs (the garment's SceneUpdate and what it holds) has the fields,
+    types and constants of the ROS 2 definitions Foxglove's @foxglove/schemas generates
+    its foxglove_msgs package from: the names Foxglove's 3D panel reads."""
+    from rosbags.typesys import get_types_from_msg
+
+    from dresslog.io import msgdefs
+
+    ours = [n for n in [wk.DRAWN[wk.GARMENT_MARKER], *msgdefs.dependencies(wk.DRAWN[
+        wk.GARMENT_MARKER])] if n.startswith("foxglove_msgs/")]  # fmt: skip
+    assert len(ours) == 13
+    short = [n.rsplit("/", 1)[1] for n in ours]
+    run = subprocess.run(
+        ["node", "rosmsg.mjs", *short], cwd=_node_modules(), capture_output=True, text=True,
+        timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    theirs = json.loads(run.stdout)
+    for name, type_ in zip(ours, short, strict=True):
+        want = get_types_from_msg(theirs[type_], name)[name]
+        assert get_types_from_msg(msgdefs.msg_text(name), name)[name] == want, name
 
 
 def test_the_foxglove_layout_draws_our_channels_on_one_force_scale() -> None:
@@ -217,7 +275,9 @@ def test_a_converted_log_carries_its_frames_and_its_estimate_copy_the_heat_map(
     result = CliRunner().invoke(main, [*args, "--translate", "0.1", "0.6", "-0.25"])
     assert result.exit_code == 0, result.output
     converted = summary_counts(tmp_path / "t.mcap") or {}
-    assert converted[wk.TF] == converted[wk.POSE] and converted[wk.PATH_MARKER] == 1
+    with TrialReader(tmp_path / "t.mcap") as reader:
+        poses = reader.pose.t_ns
+    assert converted[wk.TF] == len(_drawn_steps(poses)) and converted[wk.PATH_MARKER] == 1
     assert wk.FORCE_CLOUD not in converted and wk.LIMB_MARKER not in converted  # no limb
     args = ["infer", str(tmp_path / "t.mcap"), "-o", str(tmp_path / "t.rrd")]
     result = CliRunner().invoke(main, [*args, "--mcap-out", str(tmp_path / "e.mcap")])

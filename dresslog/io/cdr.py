@@ -126,21 +126,24 @@ class _Builder:
                 self.add(f"{path}.{i}", f"S{length + 1}", 1)
             return
         assert isinstance(count, int)
+        # an empty sequence has no padding either: CDR aligns the elements it reads, and
+        # Foxglove's and mcap_ros2's readers align nothing for none (a scene entity's
+        # empty float64 lists, between its other fields)
         if base in _NUMPY:
             fmt = np.dtype(_NUMPY[base])
-            self.add(path, (fmt, (count,)), fmt.itemsize)
+            self.add(path, (fmt, (count,)), fmt.itemsize if count else 1)
             return
         full = full_type_name(base, package)
         if uniform := _uniform_primitive(full):
             fmt = np.dtype(_NUMPY[uniform[0]])
-            self.add(path, (fmt, (count, uniform[1])), fmt.itemsize)
+            self.add(path, (fmt, (count, uniform[1])), fmt.itemsize if count else 1)
             return
         if not is_fixed(full):  # elements of their own sizes (a MarkerArray's markers)
             for i in range(count):
                 self.message(full, f"{path}.{i}.")
             return
         elem = element_dtype(full)
-        self.add(path, (elem, (count,)), _max_align(elem))
+        self.add(path, (elem, (count,)), _max_align(elem) if count else 1)
 
     def _least_size(self, base: str, package: str) -> int:
         """The fewest bytes one element of a `base[]` sequence takes: a string's length

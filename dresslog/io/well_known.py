@@ -52,6 +52,7 @@ FORCE_CLOUD = "/limb/force_map/cloud"
 ESTIMATE_CLOUD = "/limb/force_map/estimate/cloud"
 LIMB_MARKER = "/limb/marker"
 GARMENT_MARKER = "/garment/marker"
+GARMENT_CLOUD = "/garment/cloud"
 PATH_MARKER = "/ee/path"
 TF = "/tf"
 TF_STATIC = "/tf_static"
@@ -59,7 +60,8 @@ DRAWN: dict[str, str] = {
     FORCE_CLOUD: "sensor_msgs/msg/PointCloud2",
     ESTIMATE_CLOUD: "sensor_msgs/msg/PointCloud2",
     LIMB_MARKER: "visualization_msgs/msg/MarkerArray",
-    GARMENT_MARKER: "visualization_msgs/msg/MarkerArray",
+    GARMENT_MARKER: "foxglove_msgs/msg/SceneUpdate",
+    GARMENT_CLOUD: "sensor_msgs/msg/PointCloud2",
     PATH_MARKER: "visualization_msgs/msg/MarkerArray",
     TF: "tf2_msgs/msg/TFMessage",
     TF_STATIC: "tf2_msgs/msg/TFMessage",

@@ -1,8 +1,8 @@
 """`TrialWriter`: a dresslog trial as an MCAP file (profile ros2, CDR, zstd chunks).
 
 Beside dresslog's own channels it writes, from the same data, the standard ones a 3D
-viewer draws (`dresslog.io.drawn`): force-map clouds, limb, garment and path markers,
-and the frames on `/tf` and `/tf_static`.
+viewer draws (`dresslog.io.drawn`): force-map clouds, the garment's mesh, limb and path
+markers, and the frames on `/tf` and `/tf_static`.
 
 The file appears under its final name only when the writer closes cleanly;
 until then it is a hidden temporary beside it, removed if anything fails.
@@ -80,6 +80,8 @@ def _contacts_header() -> tuple[bytes, int, int]:
     # the struct formats above must be the fields' own layouts (fixed by the .msg text)
     assert (sec[0], nanosec[0], count[0]) == (np.dtype("<i4"), np.dtype("<u4"), np.dtype("<u4"))
     assert nanosec[1] == sec[1] + 4
+    # contacts follow it unpadded: the first would be aligned to 8 (an empty list is not)
+    assert (head.itemsize - len(cdr.ENCAPSULATION)) % 8 == 0
     return head.tobytes(), sec[1], count[1]
 
 
@@ -344,7 +346,8 @@ class TrialWriter:
         if topic in self._steps:
             self._steps[topic].append(times)
         if topic == wk.POSE and self.draw:  # the frames at every pose, as tf readers expect
-            self._write(wk.TF, times, drawn.moving_frames(times, rows))
+            tf_times, frames = drawn.moving_frames(times, rows)
+            self._write_payloads(wk.TF, tf_times.tolist(), frames)
             self._path.append((times, rows[:, :3]))
 
     def write_force_map(
@@ -379,20 +382,21 @@ class TrialWriter:
             msgs["contact"] = contact.reshape(forces.shape)
         self._write(topic, times, msgs)
         cloud = wk.ESTIMATE_CLOUD if estimate else wk.FORCE_CLOUD
-        if self._limb is not None and (keep := self._drawn_steps(cloud, times)).any():
+        keep = self._drawn_steps(cloud, times, drawn.CLOUD_PERIOD_NS)
+        if self._limb is not None and keep.any():
             clouds = drawn.point_clouds(times[keep], self._limb, forces[keep])
             self._write(cloud, times[keep], clouds)
 
-    def _drawn_steps(self, topic: str, times: np.ndarray) -> np.ndarray:
-        """Which of these maps `topic` draws: the first of each `drawn.PERIOD_NS`, counted
-        on from the maps written before (none if the writer does not draw)."""
-        if not self.draw:
+    def _drawn_steps(self, topic: str, times: np.ndarray, period_ns: int) -> np.ndarray:
+        """Which of these messages `topic` draws: the first of each `period_ns`, counted on
+        from the messages written before (none if the writer does not draw)."""
+        if not self.draw or not len(times):
             return np.zeros(len(times), bool)
-        bins = times // drawn.PERIOD_NS
-        keep = np.diff(bins, prepend=self._drawn_bin.get(topic, -1)) != 0
-        if len(bins):
-            self._drawn_bin[topic] = int(bins[-1])
-        return keep
+        last = self._drawn_bin.get(topic, -1)
+        self._drawn_bin[topic] = int(times[-1]) // period_ns
+        if len(times) == 1:  # a garment state at a time: numpy's diff took 2 ms a trial
+            return np.array([self._drawn_bin[topic] != last])
+        return drawn.drawn_steps(times, period_ns, last)
 
     def write_contacts(self, t_ns: int, contacts: np.ndarray) -> None:
         """Every garment-limb contact at one step, a CONTACT_DTYPE array (possibly empty).
@@ -440,8 +444,9 @@ class TrialWriter:
         if not self.draw:
             return
         self._limb = np.asarray(limb_points.points, np.float32)
-        self._write(wk.TF_STATIC, times, drawn.static_frames(t_ns))
-        marker = drawn.marker_array(t_ns, drawn.LIMB, "limb", drawn.LIMB_LOOK, self._limb)
+        stamp = int(times[0])  # the stamp with the origin, as every other header's
+        self._write(wk.TF_STATIC, times, drawn.static_frames(stamp))
+        marker = drawn.marker_array(stamp, drawn.LIMB, "limb", drawn.LIMB_LOOK, self._limb)
         self._write(wk.LIMB_MARKER, times, marker)
 
     def write_garment(
@@ -468,17 +473,23 @@ class TrialWriter:
         self._write(wk.GARMENT, times, msgs)
         if len(tris):
             self._triangles = tris
-        if self._triangles is not None and self.draw:  # the mesh, drawn at the garment's own rate
-            corners = vertices[self._triangles]
-            mesh = drawn.marker_array(t_ns, drawn.WORLD, "garment", drawn.GARMENT_LOOK, corners)
-            self._write(wk.GARMENT_MARKER, times, mesh)
+        keep = self._drawn_steps(wk.GARMENT_MARKER, times, drawn.MESH_PERIOD_NS)
+        if self._triangles is not None and keep.any():  # the mesh, at 2 Hz
+            stamp = int(times[0])
+            mesh = drawn.scene_update(stamp, drawn.WORLD, "garment", vertices, self._triangles)
+            self._write(wk.GARMENT_MARKER, times, mesh)  # Foxglove draws it
+            cloud = drawn.vertex_cloud(stamp, drawn.WORLD, vertices)  # Rerun's importer, this
+            self._write(wk.GARMENT_CLOUD, times, cloud)
 
     def _write_path(self) -> None:
         """The gripper's whole path, once (latched) at its first pose: a viewer shows where
-        the gripper goes while `/tf` moves it along."""
+        the gripper goes while `/tf` moves it along. Through its pose at 10 Hz and its
+        last: a line through all 100 a second looks the same and took 12 KB."""
         if not self._path:
             return
         times = np.concatenate([t for t, _ in self._path])
-        points = np.concatenate([p for _, p in self._path])
+        keep = drawn.drawn_steps(times, drawn.PATH_PERIOD_NS)
+        keep[-1] = True
+        points = np.concatenate([p for _, p in self._path])[keep]
         marker = drawn.marker_array(int(times[0]), drawn.WORLD, "path", drawn.PATH_LOOK, points)
         self._write(wk.PATH_MARKER, times[:1], marker)

@@ -8,7 +8,7 @@ no file) is timed too, so the file's share is seen apart. Target: >= 5x both way
 against mcap_ros2; against rosbags, what is measured.
 
 Then the cost of the standard channels viewers draw (`dresslog.io.drawn`: force
-clouds, markers, tf): a recorded trial (samples/gown.mcap) written with them
+clouds, the garment's mesh, markers, tf): a recorded trial (samples/gown.mcap) written with them
 against the same trial without them (`TrialWriter(draw=False)`), time and size;
 with `--record`, `dresslog record`'s whole run both ways (two simulations).
 

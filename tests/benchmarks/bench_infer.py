@@ -11,8 +11,9 @@ one core (affinity pinned, BLAS single-threaded) against the 10 ms budget of a
 100 Hz loop; the target is p99 <= 0.5 ms.
 
 Then `infer --mcap-out`'s copy: the whole run with the copy, and what the standard
-channels viewers draw (force clouds of truth and estimate, markers, tf) add to it: the
-copy and its estimate written without them (`TrialWriter(draw=False)`) and with them.
+channels viewers draw (force clouds of truth and estimate, the garment's mesh, markers,
+tf) add to it: the copy and its estimate written without them (`TrialWriter(draw=False)`)
+and with them.
 """
 
 from __future__ import annotations

@@ -47,14 +47,23 @@ process.stdout.write(JSON.stringify(topics));
 /** The parts of a message the test compares with what dresslog wrote. */
 function digest(message) {
   if (message.fields && message.data) {
-    // a PointCloud2: its field names and its points as float32 rows
-    const floats = new Float32Array(
+    // a PointCloud2: its field names and its points' values (all float32 or all float64)
+    const Floats = message.fields[0].datatype === 8 ? Float64Array : Float32Array;
+    const floats = new Floats(
       message.data.buffer.slice(message.data.byteOffset, message.data.byteOffset + message.data.byteLength),
     );
     return { fields: message.fields.map((f) => f.name), width: message.width, points: Array.from(floats) };
   }
   if (message.markers) {
     return message.markers.map((m) => ({ type: m.type, frame: m.header.frame_id, points: m.points.length }));
+  }
+  if (message.entities) {
+    // a SceneUpdate: each entity's id, frame and triangle lists' sizes
+    return message.entities.map((e) => ({
+      id: e.id,
+      frame: e.frame_id,
+      triangles: e.triangles.map((t) => ({ points: t.points.length, indices: t.indices.length })),
+    }));
   }
   if (message.transforms) {
     return message.transforms.map((t) => [t.header.frame_id, t.child_frame_id, t.transform.translation]);

@@ -136,6 +136,39 @@ def test_numpy_codec_agrees_with_the_msg_text(msg: str) -> None:
     _compare(decoded, messages[0], dtype)
 
 
+def test_an_empty_sequence_of_float64s_takes_no_padding() -> None:
+    """CDR aligns elements, so an empty sequence of 8-byte ones pads nothing: a scene
+    entity's empty lists of primitives (float64 inside) sit between its other fields, and
+    the codec padded them as if they held some. Bytes as rosbags serialises them."""
+    from dresslog.io import drawn
+
+    store = _ros2_and_foxglove_types()
+    scene = store.types[drawn.SCENE_UPDATE]
+    entity, tri = (
+        store.types[f"foxglove_msgs/msg/{n}"] for n in ("SceneEntity", "TriangleListPrimitive")
+    )
+    Time, Duration, Pose, Point, Quaternion, Color = (  # noqa: N806 (classes)
+        store.types[n] for n in ("builtin_interfaces/msg/Time", "builtin_interfaces/msg/Duration",
+        "geometry_msgs/msg/Pose", "geometry_msgs/msg/Point", "geometry_msgs/msg/Quaternion",
+        "foxglove_msgs/msg/Color"))  # fmt: skip
+    vertices = np.array([[0.5, 0.25, 1.0], [0.75, 0.0, -1.0], [2.0, 1.5, 0.125]])
+    mesh = tri(
+        pose=Pose(position=Point(x=0.0, y=0.0, z=0.0),
+                  orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+        points=[Point(x=x, y=y, z=z) for x, y, z in vertices],
+        color=Color(r=0.3, g=0.5, b=0.85, a=0.75), colors=[],
+        indices=np.array([0, 1, 2], np.uint32),
+    )  # fmt: skip
+    lists = ("metadata", "arrows", "cubes", "spheres", "cylinders", "lines", "texts", "models")
+    empty: dict[str, list] = {name: [] for name in lists}
+    theirs = store.serialize_cdr(scene(deletions=[], entities=[entity(
+        timestamp=Time(sec=3, nanosec=7), frame_id="world", id="garment",
+        lifetime=Duration(sec=0, nanosec=0), frame_locked=False, triangles=[mesh], **empty,
+    )]), drawn.SCENE_UPDATE)  # fmt: skip
+    ours = drawn.scene_update(3_000_000_007, "world", "garment", vertices, np.arange(3))
+    assert cdr.to_payloads(ours)[0] == bytes(theirs)
+
+
 def _uses(msg: str, key: str) -> bool:
     return key == "header.frame_id" or key in {f for _, f in _fields(msg)}
 
@@ -571,11 +604,14 @@ def test_the_writer_refuses_metadata_that_is_not_a_trial_metadata_before_writing
     sorted({n for n in map(str, (wk.SCHEMAS | wk.DRAWN).values()) if not n.startswith("dresslog")}),
 )
 def test_standard_schemas_are_ros2s_own_with_their_defaults(name: str) -> None:
-    """ROS 2 tools read our standard messages as theirs: same fields, same default values."""
+    """ROS 2 tools read our standard messages as theirs: same fields, same default values.
+    foxglove_msgs is no ROS 2 core package: tests/test_viewers.py checks it against
+    Foxglove's own definitions; what it holds from the core packages is checked here."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     humble = get_typestore(Stores.ROS2_HUMBLE)
-    for type_name in [name, *msgdefs.dependencies(name)]:
+    types = [name, *msgdefs.dependencies(name)]
+    for type_name in [n for n in types if not n.startswith("foxglove_msgs/")]:
         ours = get_types_from_msg(msgdefs.msg_text(type_name), type_name)[type_name]
         assert ours == humble.fielddefs[type_name], type_name
     assert "float64 w 1" in msgdefs.msg_text("geometry_msgs/msg/Quaternion")  # identity
@@ -705,62 +741,129 @@ def test_the_reader_and_writer_are_dresslog_ios_own_names_loaded_on_first_use() 
     assert out.stdout.strip() == "False"
 
 
+def _ros2_and_foxglove_types():  # rosbags.typesys.Typestore
+    """ROS 2 Humble's own types, and foxglove_msgs' from our .msg files (Foxglove's own
+    field by field: tests/test_viewers.py)."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    scene = wk.DRAWN[wk.GARMENT_MARKER]
+    for name in [scene, *msgdefs.dependencies(scene)]:
+        if name.startswith("foxglove_msgs/"):
+            store.register(get_types_from_msg(msgdefs.msg_text(name), name))
+    return store
+
+
+def _stamp(header) -> int:
+    return header.stamp.sec * 10**9 + header.stamp.nanosec
+
+
+def _on_position_grid(drawn: np.ndarray, positions: np.ndarray) -> None:
+    """Drawn positions are `positions` rounded to multiples of `drawn.POSITION_STEP`."""
+    from dresslog.io.drawn import POSITION_STEP
+
+    np.testing.assert_array_equal(drawn / POSITION_STEP, np.round(drawn / POSITION_STEP))
+    np.testing.assert_allclose(drawn, positions, rtol=0, atol=POSITION_STEP / 2)
+
+
 def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
     """The channels viewers draw decode with ROS 2 Humble's own definitions (rosbags'
-    typestore, not the schema text in the file), with the trial's values in them."""
+    typestore, not the schema text in the file), with the trial's values in them: what
+    is drawn on a grid within half its step."""
     from mcap.reader import make_reader
-    from rosbags.typesys import Stores, get_typestore
 
-    from dresslog.io.drawn import PERIOD_NS
+    from dresslog.io import drawn as dr
 
-    path, sent = make_trial(steps=30)
-    humble = get_typestore(Stores.ROS2_HUMBLE)
+    path, sent = make_trial(steps=120)  # 1.5 s to 2.69 s, the garment every 100 ms
+    store = _ros2_and_foxglove_types()
     got: dict[str, list] = {}
     with path.open("rb") as stream:
         for schema, channel, message in make_reader(stream).iter_messages():
             if channel.topic in wk.DRAWN:
                 assert schema.name == wk.DRAWN[channel.topic]
-                msg = humble.deserialize_cdr(message.data, schema.name)
+                msg = store.deserialize_cdr(message.data, schema.name)
                 got.setdefault(channel.topic, []).append((message.log_time, msg))
     limb = sent["limb"].points
     t_ns = sent["t_ns"] + wk.TIME_ORIGIN_NS  # stamps: trial time from the 2020 origin
-    drawn = np.flatnonzero(np.diff(t_ns // PERIOD_NS, prepend=-1) != 0)
+    drawn = np.flatnonzero(np.diff(t_ns // dr.CLOUD_PERIOD_NS, prepend=-1) != 0)
     clouds = got[wk.FORCE_CLOUD]
     assert [t for t, _ in clouds] == t_ns[drawn].tolist()
-    for (_, cloud), step in zip(clouds, drawn, strict=True):
+    for (t, cloud), step in zip(clouds, drawn, strict=True):
         assert [f.name for f in cloud.fields] == ["x", "y", "z", "force"]
         assert (
             cloud.width == len(limb) and cloud.point_step == 16 and cloud.header.frame_id == "limb"
         )
+        assert _stamp(cloud.header) == t
         points = cloud.data.view(np.float32).reshape(-1, 4)
         np.testing.assert_array_equal(points[:, :3], limb.astype(np.float32))
-        np.testing.assert_array_equal(points[:, 3], sent["forces"][step])
+        forces = points[:, 3] / dr.FORCE_STEP
+        np.testing.assert_array_equal(forces, np.round(forces))
+        np.testing.assert_allclose(points[:, 3], sent["forces"][step], atol=dr.FORCE_STEP / 2)
     assert wk.ESTIMATE_CLOUD not in got  # no estimate written
-    ((_, tf_static),) = got[wk.TF_STATIC]
+    ((t, tf_static),) = got[wk.TF_STATIC]
     assert [(t.header.frame_id, t.child_frame_id) for t in tf_static.transforms] == [
         ("world", "limb")
     ]
-    assert [t for t, _ in got[wk.TF]] == t_ns.tolist()  # at every pose
-    for (t, tf), pose in zip(got[wk.TF], sent["pose"], strict=True):
-        gripper, sensor = tf.transforms
+    assert _stamp(tf_static.transforms[0].header) == t == t_ns[0]
+    # every pose on /tf (written one at a time here, so one a message)
+    frames = [f for _, tf in got[wk.TF] for f in tf.transforms]
+    assert [_stamp(f.header) for f in frames[::2]] == t_ns.tolist()
+    for gripper, sensor, pose in zip(frames[::2], frames[1::2], sent["pose"], strict=True):
         assert (gripper.child_frame_id, sensor.child_frame_id) == ("gripper", "ee")
-        assert gripper.header.stamp.sec * 10**9 + gripper.header.stamp.nanosec == t
+        assert _stamp(sensor.header) == _stamp(gripper.header)
         r = gripper.transform.rotation
         assert [r.x, r.y, r.z, r.w] == pose[3:].tolist()
         assert [sensor.transform.translation.x, sensor.transform.rotation.w] == [pose[0], 1.0]
-    mesh = got[wk.GARMENT_MARKER]
-    assert len(mesh) == 3  # with each garment state
-    marker = mesh[-1][1].markers[0]
-    assert marker.type == marker.TRIANGLE_LIST and marker.pose.orientation.w == 1.0
-    corners = (sent["vertices"] + 20)[sent["triangles"].ravel()]
-    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in marker.points], corners)
+    garment_t = t_ns[::10]
+    meshes = np.flatnonzero(np.diff(garment_t // dr.MESH_PERIOD_NS, prepend=-1) != 0)
+    assert [t for t, _ in got[wk.GARMENT_MARKER]] == garment_t[meshes].tolist() != []
+    for (t, scene), i in zip(got[wk.GARMENT_MARKER], meshes, strict=True):
+        (entity,) = scene.entities
+        stamp = entity.timestamp.sec * 10**9 + entity.timestamp.nanosec
+        assert (entity.id, entity.frame_id, stamp) == ("garment", "world", t)
+        (mesh,) = entity.triangles
+        assert mesh.pose.orientation.w == 1.0 and mesh.color.a == dr.GARMENT_COLOR[3]
+        np.testing.assert_array_equal(mesh.indices, sent["triangles"].ravel())
+        points = np.array([[p.x, p.y, p.z] for p in mesh.points])
+        _on_position_grid(points, sent["vertices"] + 10 * i)  # the garment: vertices + its step
+    clouds = got[wk.GARMENT_CLOUD]  # the same vertices, float64, beside each mesh
+    assert [t for t, _ in clouds] == [t for t, _ in got[wk.GARMENT_MARKER]]
+    for (t, cloud), (_, scene) in zip(clouds, got[wk.GARMENT_MARKER], strict=True):
+        assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [
+            ("x", 0, 8), ("y", 8, 8), ("z", 16, 8)]  # fmt: skip
+        assert (cloud.header.frame_id, _stamp(cloud.header), cloud.point_step) == ("world", t, 24)
+        points = [[p.x, p.y, p.z] for p in scene.entities[0].triangles[0].points]
+        np.testing.assert_array_equal(cloud.data.view(np.float64).reshape(-1, 3), points)
     ((_, path_marker),) = got[wk.PATH_MARKER]
     line = path_marker.markers[0]
-    assert line.type == line.LINE_STRIP
+    assert line.type == line.LINE_STRIP and _stamp(line.header) == t_ns[0]
     points = [[p.x, p.y, p.z] for p in line.points]
-    np.testing.assert_array_equal(points, sent["pose"][:, :3])
+    along = np.flatnonzero(np.diff(t_ns // dr.PATH_PERIOD_NS, prepend=-1) != 0)
+    _on_position_grid(np.array(points), sent["pose"][[*along, len(t_ns) - 1], :3])
     ((_, limb_marker),) = got[wk.LIMB_MARKER]
-    assert len(limb_marker.markers[0].points) == len(limb)
+    _on_position_grid(np.array([[p.x, p.y, p.z] for p in limb_marker.markers[0].points]), limb)
+    assert _stamp(limb_marker.markers[0].header) == t_ns[0]
+
+
+def test_tf_holds_the_poses_of_each_100_ms_latest_first_logged_at_the_first() -> None:
+    """Poses written together: one TFMessage a 100 ms, each transform at its own stamp,
+    listed latest first so that the last one listed is at the message's log time."""
+    from dresslog.io import drawn as dr
+
+    t_ns = np.arange(25, dtype=np.int64) * 10_000_000 + 40_000_000  # 40 to 280 ms
+    pose = np.concatenate([np.arange(75.0).reshape(25, 3), np.tile([0, 0, 0, 1.0], (25, 1))], 1)
+    times, payloads = dr.moving_frames(t_ns, pose)
+    assert times.tolist() == [40_000_000, 100_000_000, 200_000_000]
+    store = _ros2_and_foxglove_types()
+    messages = [store.deserialize_cdr(p, dr.TF_MESSAGE).transforms for p in payloads]
+    assert [len(m) for m in messages] == [12, 20, 18]  # 6, 10 and 9 poses, two frames each
+    for t, frames in zip(times, messages, strict=True):
+        stamps = [_stamp(f.header) for f in frames[::2]]
+        assert stamps == sorted(stamps, reverse=True) and stamps[-1] == t
+        assert [_stamp(f.header) for f in frames[1::2]] == stamps
+        for f in frames[::2]:
+            at = np.flatnonzero(t_ns == _stamp(f.header))[0]
+            assert f.transform.translation.z == pose[at, 2]
 
 
 def test_a_writer_told_not_to_draw_writes_dresslogs_channels_alone(tmp_path: Path) -> None:
