@@ -77,7 +77,7 @@ def test_rerun_imports_force_clouds_with_a_force_column_the_mesh_and_the_frames(
         assert cloud["CoordinateFrame:frame"][0] == ["limb"]
     assert columns[wk.FORCE_CLOUD]["Points3D:force"] != columns[wk.ESTIMATE_CLOUD]["Points3D:force"]
     # Rerun 0.41 draws no scene types: the mesh arrives as its message, vertices indexed,
-    mesh = columns[wk.GARMENT_MARKER]["foxglove_msgs.msg.SceneUpdate:message"]
+    mesh = columns[wk.GARMENT_SCENE]["foxglove_msgs.msg.SceneUpdate:message"]
     steps = _drawn_steps(garment.t_ns, MESH_PERIOD_NS)
     assert len(mesh) == len(steps) == 14
     (entity,) = mesh[-1][0]["entities"]
@@ -161,7 +161,7 @@ def test_foxglove_decoders_read_every_channel(trial: Path) -> None:
     assert decoded[wk.LIMB_MARKER]["last"][0]["type"] == 7  # SPHERE_LIST
     with TrialReader(trial) as reader:
         garment = reader.garment
-    mesh = decoded[wk.GARMENT_MARKER]["last"]
+    mesh = decoded[wk.GARMENT_SCENE]["last"]
     assert mesh == [{"id": "garment", "frame": "world", "triangles": [
         {"points": len(garment.vertices[0]), "indices": garment.triangles.size}]}]  # fmt: skip
     cloud = decoded[wk.GARMENT_CLOUD]["last"]
@@ -181,8 +181,8 @@ def test_our_foxglove_msgs_are_foxgloves_own_definitions() -> None:
 
     from dresslog.io import msgdefs
 
-    ours = [n for n in [wk.DRAWN[wk.GARMENT_MARKER], *msgdefs.dependencies(wk.DRAWN[
-        wk.GARMENT_MARKER])] if n.startswith("foxglove_msgs/")]  # fmt: skip
+    ours = [n for n in [wk.DRAWN[wk.GARMENT_SCENE], *msgdefs.dependencies(wk.DRAWN[
+        wk.GARMENT_SCENE])] if n.startswith("foxglove_msgs/")]  # fmt: skip
     assert len(ours) == 13
     short = [n.rsplit("/", 1)[1] for n in ours]
     run = subprocess.run(

@@ -51,7 +51,7 @@ LIVE_FORMAT = "ros2 live"
 FORCE_CLOUD = "/limb/force_map/cloud"
 ESTIMATE_CLOUD = "/limb/force_map/estimate/cloud"
 LIMB_MARKER = "/limb/marker"
-GARMENT_MARKER = "/garment/marker"
+GARMENT_SCENE = "/garment/scene"
 GARMENT_CLOUD = "/garment/cloud"
 PATH_MARKER = "/ee/path"
 TF = "/tf"
@@ -60,7 +60,7 @@ DRAWN: dict[str, str] = {
     FORCE_CLOUD: "sensor_msgs/msg/PointCloud2",
     ESTIMATE_CLOUD: "sensor_msgs/msg/PointCloud2",
     LIMB_MARKER: "visualization_msgs/msg/MarkerArray",
-    GARMENT_MARKER: "foxglove_msgs/msg/SceneUpdate",
+    GARMENT_SCENE: "foxglove_msgs/msg/SceneUpdate",
     GARMENT_CLOUD: "sensor_msgs/msg/PointCloud2",
     PATH_MARKER: "visualization_msgs/msg/MarkerArray",
     TF: "tf2_msgs/msg/TFMessage",

@@ -473,11 +473,11 @@ class TrialWriter:
         self._write(wk.GARMENT, times, msgs)
         if len(tris):
             self._triangles = tris
-        keep = self._drawn_steps(wk.GARMENT_MARKER, times, drawn.MESH_PERIOD_NS)
+        keep = self._drawn_steps(wk.GARMENT_SCENE, times, drawn.MESH_PERIOD_NS)
         if self._triangles is not None and keep.any():  # the mesh, at 2 Hz
             stamp = int(times[0])
             mesh = drawn.scene_update(stamp, drawn.WORLD, "garment", vertices, self._triangles)
-            self._write(wk.GARMENT_MARKER, times, mesh)  # Foxglove draws it
+            self._write(wk.GARMENT_SCENE, times, mesh)  # Foxglove draws it
             cloud = drawn.vertex_cloud(stamp, drawn.WORLD, vertices)  # Rerun's importer, this
             self._write(wk.GARMENT_CLOUD, times, cloud)
 

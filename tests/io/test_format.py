@@ -747,7 +747,7 @@ def _ros2_and_foxglove_types():  # rosbags.typesys.Typestore
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS2_HUMBLE)
-    scene = wk.DRAWN[wk.GARMENT_MARKER]
+    scene = wk.DRAWN[wk.GARMENT_SCENE]
     for name in [scene, *msgdefs.dependencies(scene)]:
         if name.startswith("foxglove_msgs/"):
             store.register(get_types_from_msg(msgdefs.msg_text(name), name))
@@ -816,8 +816,8 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
         assert [sensor.transform.translation.x, sensor.transform.rotation.w] == [pose[0], 1.0]
     garment_t = t_ns[::10]
     meshes = np.flatnonzero(np.diff(garment_t // dr.MESH_PERIOD_NS, prepend=-1) != 0)
-    assert [t for t, _ in got[wk.GARMENT_MARKER]] == garment_t[meshes].tolist() != []
-    for (t, scene), i in zip(got[wk.GARMENT_MARKER], meshes, strict=True):
+    assert [t for t, _ in got[wk.GARMENT_SCENE]] == garment_t[meshes].tolist() != []
+    for (t, scene), i in zip(got[wk.GARMENT_SCENE], meshes, strict=True):
         (entity,) = scene.entities
         stamp = entity.timestamp.sec * 10**9 + entity.timestamp.nanosec
         assert (entity.id, entity.frame_id, stamp) == ("garment", "world", t)
@@ -827,8 +827,8 @@ def test_drawn_channels_decode_as_ros2s_own_types(make_trial) -> None:
         points = np.array([[p.x, p.y, p.z] for p in mesh.points])
         _on_position_grid(points, sent["vertices"] + 10 * i)  # the garment: vertices + its step
     clouds = got[wk.GARMENT_CLOUD]  # the same vertices, float64, beside each mesh
-    assert [t for t, _ in clouds] == [t for t, _ in got[wk.GARMENT_MARKER]]
-    for (t, cloud), (_, scene) in zip(clouds, got[wk.GARMENT_MARKER], strict=True):
+    assert [t for t, _ in clouds] == [t for t, _ in got[wk.GARMENT_SCENE]]
+    for (t, cloud), (_, scene) in zip(clouds, got[wk.GARMENT_SCENE], strict=True):
         assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [
             ("x", 0, 8), ("y", 8, 8), ("z", 16, 8)]  # fmt: skip
         assert (cloud.header.frame_id, _stamp(cloud.header), cloud.point_step) == ("world", t, 24)
