@@ -2,8 +2,9 @@
 
 `foxglove_layout.json` arranges a trial's standard channels (`dresslog.io.drawn`) as
 the Rerun view does: the ground-truth heat map and the estimate side by side, each a 3D
-panel colouring its cloud by `force` on one fixed scale (0-0.5 N, turbo) with the limb,
-the garment and the gripper's path; under them the gripper's wrench, its twist, and the
+panel colouring its cloud by `force` on one fixed scale (0-0.5 N, turbo) with the
+garment and the gripper's path (the cloud draws the limb; the limb's sphere marker, whose
+spheres would hide the cloud's dots, is off); under them the gripper's wrench, its twist, and the
 total force on the limb (a user script in the layout sums each map). Import it in
 Foxglove (Layouts, Import from file) and open a trial; `python -m dresslog.replay.foxglove
 OUT.json` writes it out of the installed package.
