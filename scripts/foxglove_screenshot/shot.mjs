@@ -2,12 +2,15 @@
 //
 //   node shot.mjs TRIAL.mcap LAYOUT.json OUT.png TIME_RFC3339 [WIDTH HEIGHT SETTLE_S]
 //
-// Foxglove's web app is not on npm as a site, but @foxglove/studio-base ships the whole
-// app prebuilt (webpack, React as an external) in assets/. This serves that bundle, a
-// page that mounts its <App> with an in-memory layout store holding LAYOUT, and TRIAL
-// (with HTTP range requests, as Foxglove's "remote file" source reads it), opens the
-// page in headless Chromium (Debian's `chromium`; CHROMIUM overrides the path) at TIME,
-// lets it load for SETTLE_S seconds, closes the sidebar and saves the window. Run by scripts/foxglove_screenshot.py.
+// Foxglove's web app is not on npm as a site, but @foxglove/studio-base 1.48.0 (MPL-2.0,
+// the newest version on npm) ships the whole app prebuilt in assets/: a webpack UMD
+// bundle with React 17 as an external (its package.json lists no dependencies). This serves
+// that bundle, a page that mounts its <App> with an in-memory layout store holding
+// LAYOUT, and TRIAL (with HTTP range requests, as Foxglove's "remote file" source reads
+// it); opens the page in headless Chromium (Debian's `chromium`, software WebGL;
+// CHROMIUM overrides the path) at TIME, lets it load and draw for SETTLE_S seconds,
+// closes the data-source sidebar and saves the window. Run by
+// scripts/foxglove_screenshot.py; needs Node 18+.
 import { createReadStream, readFileSync, statSync } from "node:fs";
 import { createServer } from "node:http";
 import { createRequire } from "node:module";
@@ -34,7 +37,8 @@ const page = `<!doctype html>
 <script>window.react = window.React; window["react-dom"] = window.ReactDOM;</script>
 <script src="/studio/index.js"></script>
 <script>
-// Start with the sidebars closed and the panels' first-use tooltips already seen.
+// Start with the panels' first-use tooltips already seen and the sidebars closed (the
+// data-source sidebar opens anyway when a source is given in the URL).
 localStorage.setItem("fox.workspace", JSON.stringify({ version: 0, state: {
   sidebarItem: undefined, leftSidebarOpen: false, rightSidebarOpen: false } }));
 localStorage.setItem("studio.profile-data", JSON.stringify({
@@ -94,7 +98,9 @@ function sendFile(req, res, path) {
 
 const server = createServer((req, res) => {
   const url = new URL(req.url, "http://localhost");
-  if (url.pathname === "/") {
+  if (url.pathname === "/favicon.ico") {
+    res.writeHead(204).end();
+  } else if (url.pathname === "/") {
     res.writeHead(200, { "Content-Type": "text/html" }).end(page);
   } else if (url.pathname === "/react.js") {
     sendFile(req, res, reactUmd);
@@ -130,8 +136,7 @@ try {
   const sleep = (s) => new Promise((ok) => setTimeout(ok, s * 1000));
   await tab.goto(`${base}/?${params}`, { waitUntil: "load" });
   await sleep(Number(settle));
-  await tab.click('[data-sidebar-key="connection"]');  // the open data-source sidebar
-
+  await tab.click('[data-sidebar-key="connection"]');  // close the data-source sidebar
   await sleep(3);
   await tab.screenshot({ path: out });
   console.log(`${out}: ${width}x${height} at ${time}`);
