@@ -111,7 +111,10 @@ def test_eval_plots_where_along_the_limb_and_at_what_total_force_the_model_errs(
     )
     for name, scores in each.part_scores().items():
         mask = parts[name]
-        own = [np.sqrt(np.mean((e[:, mask] - t[:, mask]) ** 2)) for t, e in zip(truths, estimates)]
+        own = [
+            np.sqrt(np.mean((e[:, mask] - t[:, mask]) ** 2))
+            for t, e in zip(truths, estimates, strict=True)
+        ]
         zero = [np.sqrt(np.mean(t[:, mask] ** 2)) for t in truths]
         assert scores.rmse == pytest.approx(np.mean(own), rel=1e-5, abs=1e-9)
         assert scores.zero_rmse == pytest.approx(np.mean(zero), rel=1e-9)
