@@ -239,4 +239,4 @@ def score_sequences(
 
 def _confusion(said: np.ndarray, real: np.ndarray) -> list[int]:
     """Contact true positives, false positives and false negatives."""
-    return [np.count_nonzero(m) for m in (said & real, said & ~real, ~said & real)]
+    return [int(np.count_nonzero(m)) for m in (said & real, said & ~real, ~said & real)]
