@@ -94,9 +94,10 @@ def test_sweep_plot_names_its_model_and_marks_the_training_speeds_and_the_papers
 
 def _card(epochs: int, n_val: int, kept: int | None = None) -> ModelCard:
     card = load_model(SAMPLES / "models" / "gown").card
+    # the bundled model's epochs, repeated as far as `epochs` asks
     history = [
-        e.model_copy(update={"val_loss": e.val_loss if n_val else None})
-        for e in card.history[:epochs]
+        e.model_copy(update={"epoch": k + 1, "val_loss": e.val_loss if n_val else None})
+        for k, e in enumerate(card.history[k % len(card.history)] for k in range(epochs))
     ]
     metrics = {**card.metrics, "kept_epoch": kept} if kept else {}
     return card.model_copy(
@@ -112,12 +113,13 @@ def test_learning_curve_ticks_whole_epochs_and_says_when_nothing_was_validated()
     """One epoch got ticks at 0.96, 0.98, ... and three at 1.25, 1.5, ...; without a
     validation split the plot showed one line with no word of the other."""
     one = training_figure(_card(1, 0))
+    n_train = _card(1, 0).data.n_train  # the bundled model's
     (ax,) = one.axes
     assert list(ax.get_xticks()) == [1]
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["training (no validation split)"]
     assert (
         ax.get_title()
-        == "Learning curve: gown, 3x100 LSTM, lr 0.001 cosine\n225 training sequences"
+        == f"Learning curve: gown, 3x100 LSTM, lr 0.001 cosine\n{n_train} training sequences"
     )
     (ax,) = training_figure(_card(3, 300, kept=2)).axes
     assert list(ax.get_xticks()) == [1, 2, 3]
@@ -126,7 +128,7 @@ def test_learning_curve_ticks_whole_epochs_and_says_when_nothing_was_validated()
         "validation",
         "kept (epoch 2)",
     ]
-    assert ax.get_title().endswith("\n225 training sequences, 300 validation")
+    assert ax.get_title().endswith(f"\n{n_train} training sequences, 300 validation")
     (ax,) = training_figure(_card(60, 300, kept=43)).axes
     ticks = ax.get_xticks()
     assert all(t == int(t) for t in ticks) and 4 <= len(ticks) <= 10, ticks
