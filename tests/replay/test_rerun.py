@@ -996,12 +996,17 @@ def test_ctrl_c_stops_view_whichever_thread_the_kernel_hands_it_to(inferred) -> 
 
     _, _, rrd = inferred
     command = [sys.executable, "-c", AS_FROM_A_TERMINAL]
+    # BLAS's threads are the ones a signal may land on: a shell's OMP_NUM_THREADS=1 would
+    # leave only the main thread, and the test nothing to send to
+    limits = {"OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"}
+    env = {k: v for k, v in os.environ.items() if k not in limits} | {"OPENBLAS_NUM_THREADS": "2"}
     run = subprocess.Popen(
         [*command, "view", str(rrd), "--web"],
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
         start_new_session=True,
+        env=env,
     )
     try:
         assert run.stdout is not None and "Web viewer" in run.stdout.readline()
