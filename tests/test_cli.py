@@ -539,9 +539,12 @@ def test_a_killed_record_leaves_no_file(tmp_path: Path, sent: str) -> None:
     import time
 
     out = tmp_path / "t.mcap"
-    nohup = "signal.signal(signal.SIGHUP, signal.SIG_IGN); " if "nohup" in sent else ""
+    # as from a terminal, or `nohup`; the former even when the tests run under nohup
+    nohup = "nohup" in sent
+    hup = "SIG_IGN" if nohup else "SIG_DFL"
     entry = (
-        f"import signal, sys; {nohup}from dresslog.cli.main import run; "
+        f"import signal, sys; signal.signal(signal.SIGHUP, signal.{hup}); "
+        "from dresslog.cli.main import run; "
         "sys.argv[0] = 'dresslog'; run()"
     )
     duration = "3" if nohup else "30"

@@ -356,7 +356,9 @@ def _generation_under_way(out: Path, trials: int) -> subprocess.Popen[bytes]:
     """A slow fake generation in its own session, once its three quick trials are on disk
     (slots 0-2): a stop then keeps two or more, the last placed perhaps not yet reported
     (its worker stopped between renaming and reporting it: tidied, as it is unlisted)."""
-    script = (
+    script = (  # a terminal's signal handling, even when the tests run under nohup
+        "import signal\n"
+        "signal.signal(signal.SIGHUP, signal.SIG_DFL)\n"
         "from dresslog.dataset import Execution, generate\n"
         "from tests.dataset.test_generate import slow_record\n"
         "if __name__ == '__main__':\n"
