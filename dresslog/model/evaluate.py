@@ -139,20 +139,12 @@ class SequenceScores:
         """The paper's numbers for the sequences `which` selects (a mask or indices; all
         if None): means over sequences, counts summed."""
         chosen = slice(None) if which is None else which
-        rmse, zero = self.rmse[chosen], self.zero_rmse[chosen]
-        if not len(rmse):
-            return Scores.none()
-        tp, fp, fn = (int(n) for n in self.contacts[chosen].sum(axis=0))
-        mean_rmse, mean_zero = float(np.mean(rmse)), float(np.mean(zero))
-        return Scores(
-            n=len(rmse),
-            rmse=mean_rmse,
-            zero_rmse=mean_zero,
-            ratio=_ratio(mean_rmse, mean_zero),
-            contact_precision=_ratio(tp, tp + fp),
-            contact_recall=_ratio(tp, tp + fn),
-            ratio_at_true_total=_ratio(float(np.mean(self.at_true_total[chosen])), mean_zero),
-            ratio_true_shape=_ratio(float(np.mean(self.true_shape[chosen])), mean_zero),
+        return _summed(
+            self.rmse[chosen],
+            self.zero_rmse[chosen],
+            self.contacts[chosen],
+            self.at_true_total[chosen],
+            self.true_shape[chosen],
         )
 
     def part_scores(self, which: np.ndarray | None = None) -> dict[str, Scores]:
@@ -161,25 +153,41 @@ class SequenceScores:
         the all-zero estimate's): the error where the force is, not diluted by the rest
         of the limb. The split of the error into place and amount is left nan."""
         chosen = slice(None) if which is None else which
-        out = {}
-        for j, name in enumerate(self.part_names):
-            rmse, zero = self.part_rmse[chosen, j], self.part_zero[chosen, j]
-            if not len(rmse):
-                out[name] = Scores.none()
-                continue
-            tp, fp, fn = (int(n) for n in self.part_contacts[chosen, j].sum(axis=0))
-            mean_rmse, mean_zero = float(np.mean(rmse)), float(np.mean(zero))
-            out[name] = Scores(
-                n=len(rmse),
-                rmse=mean_rmse,
-                zero_rmse=mean_zero,
-                ratio=_ratio(mean_rmse, mean_zero),
-                contact_precision=_ratio(tp, tp + fp),
-                contact_recall=_ratio(tp, tp + fn),
-                ratio_at_true_total=math.nan,
-                ratio_true_shape=math.nan,
+        return {
+            name: _summed(
+                self.part_rmse[chosen, j], self.part_zero[chosen, j], self.part_contacts[chosen, j]
             )
-        return out
+            for j, name in enumerate(self.part_names)
+        }
+
+
+def _summed(
+    rmse: np.ndarray,
+    zero: np.ndarray,
+    contacts: np.ndarray,
+    at_true_total: np.ndarray | None = None,
+    true_shape: np.ndarray | None = None,
+) -> Scores:
+    """A group's scores from its sequences' figures: means over sequences, counts summed;
+    the error's split into place and amount nan where not given."""
+    if not len(rmse):
+        return Scores.none()
+    tp, fp, fn = (int(n) for n in contacts.sum(axis=0))
+    mean_rmse, mean_zero = float(np.mean(rmse)), float(np.mean(zero))
+
+    def over_zero(values: np.ndarray | None) -> float:
+        return math.nan if values is None else _ratio(float(np.mean(values)), mean_zero)
+
+    return Scores(
+        n=len(rmse),
+        rmse=mean_rmse,
+        zero_rmse=mean_zero,
+        ratio=_ratio(mean_rmse, mean_zero),
+        contact_precision=_ratio(tp, tp + fp),
+        contact_recall=_ratio(tp, tp + fn),
+        ratio_at_true_total=over_zero(at_true_total),
+        ratio_true_shape=over_zero(true_shape),
+    )
 
 
 def score_sequences(
