@@ -8,6 +8,7 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -531,26 +532,31 @@ def _converted_log(tmp_path: Path, steps: int = 15) -> Path:
     return log
 
 
+def _replay_peak(log: Path, **outputs: Any) -> int:
+    """`replay_file(log, **outputs)`'s peak of Python-allocated memory, bytes."""
+    import tracemalloc
+
+    from dresslog.replay.pipeline import replay_file
+
+    tracemalloc.start()
+    try:
+        replay_file(log, **outputs)
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
 def test_a_long_log_is_recorded_in_memory_that_does_not_grow_with_its_length(
     tmp_path: Path,
 ) -> None:
     """A 30-minute log held whole until the outputs closed took 3.5 GB: the steps go
     out as they come, so four times the steps take about the memory of one part."""
-    import tracemalloc
-
-    from dresslog.replay.pipeline import replay_file
-
     model = save_random_model(tmp_path)
     peaks = []
     for steps in (1000, 4000):
         log = _converted_log(tmp_path, steps)
         rrd, copy = tmp_path / f"{steps}.rrd", tmp_path / f"estimate-{steps}.mcap"
-        tracemalloc.start()
-        try:
-            replay_file(log, model=model, rrd=rrd, mcap=copy)
-            peaks.append(tracemalloc.get_traced_memory()[1])
-        finally:
-            tracemalloc.stop()
+        peaks.append(_replay_peak(log, model=model, rrd=rrd, mcap=copy))
         assert len(column(temporal(rrd)[bp.ESTIMATE_LIMB], bp.STEP)) == steps
         estimate = read_trial(copy).estimate
         assert estimate is not None and len(estimate.t_ns) == steps
@@ -1040,10 +1046,7 @@ def test_a_rerun_replaces_an_earlier_estimate_copy_without_reading_it(tmp_path: 
     """Whether the copy's name holds an earlier copy (or a recording not to replace) was
     asked of the copy read whole: a 30-minute log's re-run peaked at 734 MB where its first
     run took 272 MB. Over a copy 10 times its length, it takes the memory of a first run."""
-    import tracemalloc
-
     from dresslog.io.writer import TrialWriter
-    from dresslog.replay.pipeline import replay_file
     from dresslog.spec import TrialMetadata
 
     model, log = save_random_model(tmp_path), _converted_log(tmp_path, 1000)
@@ -1055,14 +1058,10 @@ def test_a_rerun_replaces_an_earlier_estimate_copy_without_reading_it(tmp_path: 
         writer.write_force_map(
             t_ns, np.ones((len(t_ns), 300)), np.ones((len(t_ns), 300)), estimate=True
         )
-    peaks = []
-    for copy in (tmp_path / "first.mcap", earlier):
-        tracemalloc.start()
-        try:
-            replay_file(log, model=model, mcap=copy, overwrite=True)
-            peaks.append(tracemalloc.get_traced_memory()[1])
-        finally:
-            tracemalloc.stop()
+    peaks = [
+        _replay_peak(log, model=model, mcap=copy, overwrite=True)
+        for copy in (tmp_path / "first.mcap", earlier)
+    ]
     assert peaks[1] < 1.2 * peaks[0], [f"{p / 1e6:.1f} MB" for p in peaks]
     estimate = read_trial(earlier).estimate
     assert estimate is not None and len(estimate.t_ns) == 1000
