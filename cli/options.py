@@ -16,6 +16,7 @@ from dresslog.spec import (
     MAX_DURATION,
     MAX_ROTATION,
     MAX_SPEED,
+    SIMULATOR_NAME,
     SIMULATORS,
     Axis,
     Task,
@@ -75,11 +76,12 @@ def duration_option(each: str, *, checked: bool = True) -> Callable[[Any], Any]:
 simulator_option = click.option(
     "--simulator",
     type=click.Choice(SIMULATORS),
-    default=SIMULATORS[0],
+    default=SIMULATOR_NAME,
     show_default=True,
     help="Simulator version: v9 drapes its garments and draws them round the elbow and "
-    "up the leg; v8 (the bundled models' until they are retrained) and v7 (its wrench from "
-    "the gripper's constraint) stay for old data (docs/simulator.md).",
+    "up the leg, as the bundled models were trained; v10 draws the gown's sleeve up "
+    "beside the upper arm on a smoother cloth (its shorts are v9's); v8 and v7 (its "
+    "wrench from the gripper's constraint) stay for old data (docs/simulator.md).",
 )
 
 

@@ -57,7 +57,7 @@ def _cloth_on_box(p: SimParams) -> float:
         box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[1, 1, 0.1], physicsClientId=c)
         pb.createMultiBody(0, box, basePosition=[0, 0, -0.1], physicsClientId=c)
         with tempfile.TemporaryDirectory() as tmp:
-            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p, 40.0)
+            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p, 40.0, 0.5)
         reported = []
         for k in range(3 * p.physics_hz):
             pb.stepSimulation(physicsClientId=c)
@@ -76,7 +76,7 @@ def _lifted_drop(p: SimParams) -> float:
     c = _world(p)
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p, 40.0)
+            cloth = load_cloth(c, _grid_obj(Path(tmp)), np.array([0, 0, 0.02]), p, 40.0, 0.5)
 
         def com_z() -> float:
             _, v = pb.getMeshData(cloth, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=c)

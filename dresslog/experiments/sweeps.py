@@ -45,7 +45,7 @@ from dresslog.model.conditions import (
 from dresslog.model.evaluate import Scores
 from dresslog.model.files import FORMAT as MODEL_FORMAT
 from dresslog.model.files import LoadedModel, load_model
-from dresslog.spec import SIMULATORS, Task, TrialSpec, simulator_fields, task_of
+from dresslog.spec import SIMULATOR_NAME, Task, TrialSpec, simulator_fields, task_of
 
 #: The kinds of setting, in the order the table lists them.
 _KINDS = ("baseline", "speed", "rotation")
@@ -155,7 +155,7 @@ def sweep_settings(
     speeds: Sequence[float | str],
     rotations: Sequence[str],
     duration: float | None = None,
-    simulator: str = SIMULATORS[0],
+    simulator: str = SIMULATOR_NAME,
 ) -> list[Setting]:
     """The in-range baseline, then one setting per speed and per rotation.
 

@@ -17,12 +17,13 @@ from typing import Any
 from dresslog.model.files import ModelCard
 from dresslog.spec import (
     OFFSET_RANGES,
-    SIMULATORS,
+    SIMULATOR_NAME,
     SPEED_RANGE,
     LimbRotation,
     RotationRange,
     Task,
     TrialSpec,
+    oldest_first,
     simulator_fields,
     simulator_name,
     simulator_of,
@@ -43,7 +44,7 @@ UNSAID = "v7"
 
 
 def simulator_in(overrides: Mapping[str, Any]) -> str:
-    """The simulator version (`v9`, `v8`, `v7`) of trials made with these spec `overrides`."""
+    """The simulator version (`v10` ... `v7`) of trials made with these spec `overrides`."""
     return simulator_of(overrides.get("sim"))
 
 
@@ -160,9 +161,10 @@ def folder_conditions(
         rotations.append((rotation_range.axis, rotation_range.low, rotation_range.high))
     # a card that names no folder's fields (before format 4, or made by hand) cannot
     # say; it reads as `generate`'s defaults, the current simulator's
-    simulator = SIMULATORS[0] if overrides is None else simulator_in(fixed)
+    simulator = SIMULATOR_NAME if overrides is None else simulator_in(fixed)
     if (offset := fixed.get("limb_offset")) is None:  # drawn over its simulator's ranges
-        box = tuple((-r, r) for r in OFFSET_RANGES[9 if simulator == "v9" else 8][task])
+        ranges = OFFSET_RANGES[simulator_fields(simulator)["simulator"]]
+        box = tuple((-r, r) for r in ranges[task])
     else:
         box = tuple((float(v), float(v)) for v in offset)
     return Conditions(
@@ -184,7 +186,7 @@ def combined(conditions: Iterable[Conditions]) -> Conditions:
         unturned=any(c.unturned for c in parts),
         offsets=tuple(sorted({b for c in parts for b in c.offsets})),
         durations=tuple(sorted({d for c in parts for d in c.durations})),
-        simulators=tuple(sorted({v for c in parts for v in c.simulators})),
+        simulators=tuple(sorted({v for c in parts for v in c.simulators}, key=oldest_first)),
     )
 
 

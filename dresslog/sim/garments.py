@@ -10,7 +10,7 @@ to fold and catch on a fist or heel, coarse enough for real time in pybullet.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +35,9 @@ class Garment:
     #: the cloth's stretch stiffness where the spec leaves it to the garment
     #: (`SimParams.elastic_stiffness` None)
     elastic_stiffness: float = 40.0
+    #: the cloth's friction on the limb where the spec leaves it to the garment
+    #: (`SimParams.friction` None)
+    friction: float = 0.5
 
     def write_obj(self, directory: str | Path) -> Path:
         """Write the mesh as a Wavefront .obj (what pybullet's loadSoftBody reads)."""
@@ -222,8 +225,17 @@ _V8: dict[Task, dict[str, Any]] = {
 }  # fmt: skip
 
 
+#: v10's gown slides on the limb at this friction (v9 and before: 0.5), so that the
+#: armhole's rim, pulled up beside the upper arm, slides round the elbow instead of
+#: hooking under the forearm (docs/simulator.md, "v10").
+V10_GOWN_FRICTION = 0.3
+
+
 def garment_for(task: Task | str, simulator: int = SIMULATOR) -> Garment:
     """The task's garment as simulator version `simulator` makes it."""
     task = task_of(task, SimulationError)
     sizes = _V8[task] if simulator == 8 else {}
-    return gown(**sizes) if task is Task.GOWN else shorts(**sizes)
+    garment = gown(**sizes) if task is Task.GOWN else shorts(**sizes)
+    if simulator >= 10 and task is Task.GOWN:
+        garment = replace(garment, friction=V10_GOWN_FRICTION)
+    return garment

@@ -38,10 +38,16 @@ def _quat_z_to(u: np.ndarray) -> list[float]:
 
 
 def load_cloth(
-    client: int, obj: Path, position: np.ndarray, params: SimParams, stiffness: float
+    client: int,
+    obj: Path,
+    position: np.ndarray,
+    params: SimParams,
+    stiffness: float,
+    friction: float,
 ) -> int:
     """A mass-spring cloth from a Wavefront .obj with the spec's cloth parameters (its
-    stretch `stiffness` the spec's, or where it leaves it, the garment's own)."""
+    stretch `stiffness` and `friction` the spec's, or where it leaves them, the
+    garment's own)."""
     return pb.loadSoftBody(
         str(obj),
         basePosition=list(map(float, position)),
@@ -54,7 +60,7 @@ def load_cloth(
         springDampingAllDirections=1,
         springBendingStiffness=params.bending_stiffness,
         useSelfCollision=0,
-        frictionCoeff=params.friction,
+        frictionCoeff=friction if params.friction is None else params.friction,
         useFaceContact=1,
         collisionMargin=params.collision_margin,
         physicsClientId=client,
@@ -127,7 +133,9 @@ class Scene:
             )
         with tempfile.TemporaryDirectory(prefix="dresslog-") as tmp:
             obj = garment.write_obj(Path(tmp))
-            cloth = load_cloth(c, obj, ee_start, params, garment.elastic_stiffness)
+            cloth = load_cloth(
+                c, obj, ee_start, params, garment.elastic_stiffness, garment.friction
+            )
         box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.01] * 3, physicsClientId=c)
         ee = pb.createMultiBody(EE_MASS, box, basePosition=ee_start.tolist(), physicsClientId=c)
         pb.setCollisionFilterGroupMask(ee, -1, 0, 0, physicsClientId=c)

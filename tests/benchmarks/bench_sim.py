@@ -1,7 +1,7 @@
 """Simulator speed: real-time factor per task and dresslog's own per-step work vs bare stepping.
 
 Run as a script (not collected by pytest): `python tests/benchmarks/bench_sim.py [--seeds N]
-[--simulator v9|v8|v7]` (N trials per task, 3 by default; the simulator `record` uses by
+[--simulator v10|v9|v8|v7]` (N trials per task, 3 by default; the simulator `record` uses by
 default, whose wrench, the garment's momentum balance, queries the garment at every
 physics step). The peer is the bare physics: the same scene stepped with nothing read.
 Both figures come from one run per task: the simulator times its physics
@@ -23,7 +23,7 @@ from dresslog.sim import WriterSink, random_spec, simulate
 from dresslog.sim.garments import garment_for
 from dresslog.sim.scene import Scene
 from dresslog.sim.trajectory import constant_speed
-from dresslog.spec import SIMULATORS, Task, TrialMetadata, simulator_fields
+from dresslog.spec import SIMULATOR_NAME, SIMULATORS, Task, TrialMetadata, simulator_fields
 
 
 def bare_physics_seconds(spec) -> float:
@@ -45,7 +45,7 @@ def bare_physics_seconds(spec) -> float:
         scene.close()
 
 
-def main(seeds: int = 3, simulator: str = SIMULATORS[0]) -> None:
+def main(seeds: int = 3, simulator: str = SIMULATOR_NAME) -> None:
     from dresslog.io.writer import TrialWriter
 
     for task in Task:
@@ -79,6 +79,6 @@ def main(seeds: int = 3, simulator: str = SIMULATORS[0]) -> None:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, choices=range(1, 101), default=3, metavar="N")
-    parser.add_argument("--simulator", choices=SIMULATORS, default=SIMULATORS[0])
+    parser.add_argument("--simulator", choices=SIMULATORS, default=SIMULATOR_NAME)
     args = parser.parse_args()
     main(args.seeds, args.simulator)

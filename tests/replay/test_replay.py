@@ -474,6 +474,7 @@ def test_a_simulated_trial_at_a_speed_or_pose_the_model_never_saw_is_warned_abou
             "limb offset y +0.35 m (trained on y -0.1...+0.1)",
         ),
         ("older", ["--simulator", "v8"], "simulator v8 (trained on v9)"),
+        ("newer", ["--simulator", "v10"], "simulator v10 (trained on v9)"),
     ):
         trial = tmp_path / f"{name}.mcap"
         args = ["record", "--task", "gown", "--seed", "4", "--duration", "1", *option]

@@ -114,3 +114,42 @@ def test_a_caught_shorts_trial_names_the_foot_and_info_states_the_folders_fideli
     listed = json.loads(CliRunner().invoke(main, ["info", str(data), "--json"]).output)
     assert listed["fidelity"]["trials_read"] == 2
     assert listed["fidelity"]["paper_zero_rmse"] == 0.102
+
+
+def test_v10_is_asked_for_by_name_and_changes_the_gown_alone() -> None:
+    """v10 draws the gown's sleeve up beside the upper arm on a smoother cloth; its shorts,
+    offsets and path deviations are v9's."""
+    from dresslog.sim.garments import garment_for
+    from dresslog.spec import oldest_first, simulator_fields, simulator_of
+
+    assert simulator_fields("v10") == {"simulator": 10}
+    assert simulator_of(simulator_fields("v10")) == "v10"
+    assert sorted(["v10", "v7", "v9", "v8"], key=oldest_first) == ["v7", "v8", "v9", "v10"]
+    v9, v10 = {"simulator": 9}, {"simulator": 10}
+    gown9, gown10 = (random_spec(Task.GOWN, 3, sim=s) for s in (v9, v10))
+    assert gown9.limb_offset == gown10.limb_offset and gown9.speed == gown10.speed
+    # the path leaves the forearm's plane for the upper arm's side, and ends behind it
+    assert max(p[1] for p in gown10.control_points) > 0.08 > max(p[1] for p in gown9.control_points)
+    assert gown10.control_points[-1][0] < 0 < gown9.control_points[-1][0]
+    assert (garment_for(Task.GOWN, 10).friction, garment_for(Task.GOWN, 9).friction) == (0.3, 0.5)
+    shorts9, shorts10 = (random_spec(Task.SHORTS, 3, sim=s) for s in (v9, v10))
+    assert shorts9.model_copy(update={"sim": shorts10.sim}) == shorts10
+    a, b = garment_for(Task.SHORTS, 10), garment_for(Task.SHORTS, 9)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.gripped, b.gripped)
+    assert (a.friction, a.elastic_stiffness) == (b.friction, b.elastic_stiffness)
+
+
+def test_a_v10_gown_trial_slides_its_sleeve_up_the_upper_arm(tmp_path: Path) -> None:
+    """Seed 5005 (a trial of the 120 in docs/simulator.md): v9's sleeve hooks under the
+    forearm and never touches the upper arm; v10's is drawn up it and caught on the
+    elbow, and its cloth slides at v10's friction, which a spec may still set."""
+    shares = {}
+    for name, sim in (("v9", {"simulator": 9}), ("v10", {"simulator": 10})):
+        record_trial(random_spec(Task.GOWN, 5005, sim=sim, duration=5.0), tmp_path / f"{name}.mcap")
+        with TrialReader(tmp_path / f"{name}.mcap") as trial:
+            forces, points = trial.force_map.forces, trial.limb_points
+            upper = points.segment == points.segment_names.index("upper_arm")
+            shares[name] = float(forces[:, upper].sum() / forces.sum())
+    assert shares["v9"] < 0.01 and shares["v10"] > 0.05, shares
+    rough = random_spec(Task.GOWN, 5005, sim={"simulator": 10, "friction": 0.5})
+    assert rough.sim.friction == 0.5 and random_spec(Task.GOWN, 1).sim.friction is None
