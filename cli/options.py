@@ -78,8 +78,8 @@ simulator_option = click.option(
     type=click.Choice(SIMULATORS),
     default=SIMULATOR_NAME,
     show_default=True,
-    help="Simulator version: v9 drapes its garments and draws them round the elbow and "
-    "up the leg, as the bundled models were trained; v10 draws the gown's sleeve up "
+    help="Simulator version: v9 drapes its garments and draws them up the arm and the "
+    "leg, as the bundled models were trained; v10 draws the gown's sleeve up "
     "beside the upper arm on a smoother cloth (its shorts are v9's); v8 and v7 (its "
     "wrench from the gripper's constraint) stay for old data (docs/simulator.md).",
 )

@@ -64,7 +64,7 @@ class Task(StrEnum):
 SPEED_RANGE = {Task.GOWN: (0.10, 0.15), Task.SHORTS: (0.15, 0.20)}
 
 #: The simulator version every command and the library record with when not told:
-#: v9's garments drape, are held by a pinch, and are drawn round the elbow or up the leg
+#: v9's garments drape, are held by a pinch, and are drawn up the arm or the leg
 #: (docs/simulator.md). v8 (and v7, v8 with the constraint's wrench) stay reachable by
 #: name for old data: `SimParams(simulator=8)`.
 SIMULATOR: Final[Literal[8, 9]] = 9

@@ -21,7 +21,8 @@ from dresslog.spec import SIMULATOR, Task
 #: round the elbow and up the upper arm, where v9's path, straight up in front of the
 #: upper arm, hooked it under the forearm.
 #: v9, gown: above the forearm, whose armhole hangs from the pinch, to the elbow, then
-#: up the upper arm and back over the shoulder, drawing the sleeve round the elbow.
+#: up in front of the upper arm and back over the shoulder (which hooks the armhole's
+#: rim under the forearm more often than it draws it round the elbow).
 #: Shorts: over the foot, whose waist hangs from the pinch, then down to the leg and
 #: along the shin to the thigh.
 #: v8: along the forearm 0.1 m above its axis until the armhole nears the upper arm;
