@@ -149,16 +149,16 @@ def test_a_v10_gown_trial_slides_its_sleeve_up_the_upper_arm(tmp_path: Path) -> 
     with its force on the forearm, v10 draws the sleeve round the elbow, where it is
     caught, and up the upper arm. v10's cloth slides at its own friction, which a spec
     may still set."""
+    from dresslog.dataset.fidelity import trial_figures
+    from dresslog.spec import simulator_fields
+
     shares, outcomes = {}, {}
     for name in ("v9", "v10"):
-        spec = random_spec(Task.GOWN, FRESH_49, sim={"simulator": int(name[1:])})
+        spec = random_spec(Task.GOWN, FRESH_49, sim=simulator_fields(name))
         result = record_trial(spec, tmp_path / f"{name}.mcap")
         outcomes[name] = (result.outcome.value, result.caught_on)
-        with TrialReader(tmp_path / f"{name}.mcap") as trial:
-            forces, points = trial.force_map.forces, trial.limb_points
-            upper = np.isin(points.segment, [points.segment_names.index("upper_arm"),
-                                             points.segment_names.index("elbow")])  # fmt: skip
-            shares[name] = float(forces[:, upper].sum() / forces.sum())
+        parts = trial_figures(tmp_path / f"{name}.mcap").region_impulse  # what `info` sums
+        shares[name] = (parts["upper_arm"] + parts["elbow"]) / sum(parts.values())
     assert outcomes == {"v9": ("dressed", None), "v10": ("caught", "elbow")}
     assert shares["v9"] < 0.01 and shares["v10"] > 0.4, shares
     rough = random_spec(Task.GOWN, FRESH_49, sim={"simulator": 10, "friction": 0.5})
