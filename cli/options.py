@@ -80,7 +80,8 @@ simulator_option = click.option(
     show_default=True,
     help="Simulator version: v9 drapes its garments and draws them up the arm and the "
     "leg, as the bundled models were trained; v10 draws the gown's sleeve up "
-    "beside the upper arm on a smoother cloth (its shorts are v9's); v8 and v7 (its "
+    "beside the upper arm on a smoother cloth and the shorts' waist higher over the foot "
+    "into slimmer legs; v8 and v7 (its "
     "wrench from the gripper's constraint) stay for old data (docs/simulator.md).",
 )
 

@@ -78,7 +78,7 @@ OFFSET_RANGES = {
     8: {Task.GOWN: (0.05, 0.20, 0.10), Task.SHORTS: (0.05, 0.075, 0.05)},
     9: {Task.GOWN: (0.05, 0.10, 0.20), Task.SHORTS: (0.05, 0.05, 0.075)},
 }
-OFFSET_RANGES[10] = OFFSET_RANGES[9]  # v10 changed the gown's path and cloth, not the limb
+OFFSET_RANGES[10] = OFFSET_RANGES[9]  # v10 changed the paths and garments, not the limb
 #: The current simulator's offsets, what `generate`'s folders draw.
 OFFSET_RANGE = OFFSET_RANGES[SIMULATOR]
 
@@ -166,7 +166,8 @@ class SimParams(BaseModel):
     simulator: Literal[8, 9, 10] = Field(
         SIMULATOR,
         description="the garments, the grip and the paths: 9 drapes and is held by a pinch; "
-        "10 draws the gown's sleeve up beside the upper arm; 8 is simulator v8 and before "
+        "10 draws the gown's sleeve up beside the upper arm and the shorts' waist higher "
+        "over the foot; 8 is simulator v8 and before "
         "(v7: 8 with the constraint's wrench)",
     )
     physics_hz: int = Field(300, gt=0, description="physics steps per second")
@@ -273,7 +274,8 @@ V8_DEFAULTS: Final = {
 #: The simulator versions a spec can ask for, by name, newest first: what `--simulator`
 #: takes. v7 is v8's garments and paths with the wrench read from the gripper's
 #: constraint. v10 (the gown's sleeve drawn up beside the upper arm, on a smoother
-#: cloth) is asked for by name until the bundled gown model is trained on it.
+#: cloth; the shorts' waist drawn higher over the foot, into slimmer legs) is asked for
+#: by name until the bundled models are trained on it.
 SIMULATORS: Final = ("v10", "v9", "v8", "v7")
 #: The name of `SIMULATOR`, what `--simulator` and a folder that does not say default to.
 SIMULATOR_NAME: Final = f"v{SIMULATOR}"

@@ -117,9 +117,10 @@ def test_a_caught_shorts_trial_names_the_foot_and_info_states_the_folders_fideli
     assert listed["fidelity"]["paper_zero_rmse"] == 0.102
 
 
-def test_v10_is_asked_for_by_name_and_changes_the_gown_alone() -> None:
-    """v10 draws the gown's sleeve up beside the upper arm on a smoother cloth; its shorts,
-    offsets and path deviations are v9's."""
+def test_v10_is_asked_for_by_name_and_changes_both_paths() -> None:
+    """v10 draws the gown's sleeve up beside the upper arm on a smoother cloth, and the
+    shorts' waist higher over the foot into slimmer legs; its offsets and path
+    deviations are v9's."""
     from dresslog.sim.garments import garment_for
     from dresslog.spec import oldest_first, simulator_fields, simulator_of
 
@@ -134,9 +135,13 @@ def test_v10_is_asked_for_by_name_and_changes_the_gown_alone() -> None:
     assert gown10.control_points[-1][0] < 0 < gown9.control_points[-1][0]
     assert (garment_for(Task.GOWN, 10).friction, garment_for(Task.GOWN, 9).friction) == (0.3, 0.5)
     shorts9, shorts10 = (random_spec(Task.SHORTS, 3, sim=s) for s in (v9, v10))
-    assert shorts9.model_copy(update={"sim": shorts10.sim}) == shorts10
+    assert shorts9.limb_offset == shorts10.limb_offset and shorts9.speed == shorts10.speed
+    # over the foot 4 cm higher, then the same along the leg
+    rise = np.array(shorts10.control_points)[:2, 2] - np.array(shorts9.control_points)[:2, 2]
+    assert np.allclose(rise, 0.04), rise
     a, b = garment_for(Task.SHORTS, 10), garment_for(Task.SHORTS, 9)
-    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.gripped, b.gripped)
+    leg_width = [np.ptp(g.vertices[g.exit_rim, 1]) for g in (a, b)]
+    assert np.allclose(leg_width, [0.16, 0.18], atol=0.005), leg_width
     assert (a.friction, a.elastic_stiffness) == (b.friction, b.elastic_stiffness)
 
 
