@@ -229,8 +229,9 @@ _V8: dict[Task, dict[str, Any]] = {
 #: armhole's rim, pulled up beside the upper arm, slides round the elbow instead of
 #: hooking under the forearm (docs/simulator.md, "v10").
 V10_GOWN_FRICTION = 0.3
-#: v10's shorts: leg openings 50 cm round (v9: 57 cm), as a slimmer pair's, which the
-#: heel and the top of the foot catch as often as the paper says they do.
+#: v10's garments: the shorts' leg openings 50 cm round (v9: 57 cm), a slimmer pair's,
+#: so that with v10's higher path the waist catches on the foot in a quarter of trials,
+#: as the paper's often do (docs/simulator.md, "v10").
 _V10: dict[Task, dict[str, Any]] = {Task.GOWN: {}, Task.SHORTS: {"leg_radius": 0.08}}
 
 
