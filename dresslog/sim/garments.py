@@ -215,13 +215,20 @@ def shorts(
     )
 
 
-#: Each simulator version's garments (docs/simulator.md gives v9's sizes and sources).
-_V8: dict[Task, dict[str, Any]] = {
-    Task.GOWN: {"armhole": 0.10, "cuff": 0.10, "length": 0.27, "rows": 10, "pinch": None,
-                "grip_nodes": 3},
-    Task.SHORTS: {"waist_radius": 0.17, "leg_radius": 0.10, "leg_spacing": 0.07,
-                  "waist_length": 0.08, "leg_length": 0.25, "pinch": False,
-                  "elastic_stiffness": 40.0},
+#: Each simulator version's garments where they differ from the constructors' defaults,
+#: which are v9's (docs/simulator.md gives v9's sizes and sources). v10's shorts have
+#: leg openings 50 cm round (v9: 57 cm), a slimmer pair's, so that with v10's higher
+#: path the waist catches on the foot in a quarter of trials, as the paper's often do
+#: (docs/simulator.md, "v10").
+_SIZES: dict[int, dict[Task, dict[str, Any]]] = {
+    8: {
+        Task.GOWN: {"armhole": 0.10, "cuff": 0.10, "length": 0.27, "rows": 10, "pinch": None,
+                    "grip_nodes": 3},
+        Task.SHORTS: {"waist_radius": 0.17, "leg_radius": 0.10, "leg_spacing": 0.07,
+                      "waist_length": 0.08, "leg_length": 0.25, "pinch": False,
+                      "elastic_stiffness": 40.0},
+    },
+    10: {Task.SHORTS: {"leg_radius": 0.08}},
 }  # fmt: skip
 
 
@@ -229,16 +236,12 @@ _V8: dict[Task, dict[str, Any]] = {
 #: armhole's rim, pulled up beside the upper arm, slides round the elbow instead of
 #: hooking under the forearm (docs/simulator.md, "v10").
 V10_GOWN_FRICTION = 0.3
-#: v10's garments: the shorts' leg openings 50 cm round (v9: 57 cm), a slimmer pair's,
-#: so that with v10's higher path the waist catches on the foot in a quarter of trials,
-#: as the paper's often do (docs/simulator.md, "v10").
-_V10: dict[Task, dict[str, Any]] = {Task.GOWN: {}, Task.SHORTS: {"leg_radius": 0.08}}
 
 
 def garment_for(task: Task | str, simulator: int = SIMULATOR) -> Garment:
     """The task's garment as simulator version `simulator` makes it."""
     task = task_of(task, SimulationError)
-    sizes = _V8[task] if simulator == 8 else _V10[task] if simulator >= 10 else {}
+    sizes = _SIZES.get(simulator, {}).get(task, {})
     garment = gown(**sizes) if task is Task.GOWN else shorts(**sizes)
     if simulator >= 10 and task is Task.GOWN:
         garment = replace(garment, friction=V10_GOWN_FRICTION)
